@@ -1,0 +1,86 @@
+#include "cli/commands.h"
+
+#include <sys/resource.h>
+
+#include <fstream>
+
+#include "isoloft/core/error.h"
+#include "isoloft/io/atomic_file.h"
+
+namespace isoloft::cli {
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  AtomicFile f(path);
+  {
+    std::ofstream out(f.temp_path(), std::ios::binary);
+    out << text;
+    if (!out) throw InputError(path, "cannot write file");
+  }
+  f.commit();
+}
+
+double peak_memory_mib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+Commands::Commands(CLI::App& app, int argc, char** argv) {
+  for (int i = 0; i < argc; ++i) command_line_ += (i ? " " : "") + std::string(argv[i]);
+
+  reconstruct_ = app.add_subcommand("reconstruct", "Reconstruct closed surfaces from a slice stack");
+  auto* R = reconstruct_;
+  R->add_option("inputs", r_.inputs, "PNG slices in stack order, one directory of PNGs, or one polyline text file");
+  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl or .off; with labels also one file per label");
+  R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
+      ->check(CLI::IsMember({"contours", "masks", "labels"}));
+  R->add_option("--method", r_.method, "marker2006 (the paper) or levin (per-slice exact EDT baseline)")
+      ->check(CLI::IsMember({"marker2006", "levin"}));
+  R->add_option("--spline", r_.spline, "z interpolation: monotone (default), catmull-rom, natural, linear")
+      ->check(CLI::IsMember({"monotone", "catmull-rom", "natural", "linear"}));
+  r_.z_spacing_opt = R->add_option("--z-spacing", r_.z_spacing, "Slice spacing in pixel units (default 1)")->check(CLI::PositiveNumber);
+  r_.slice_z_opt = R->add_option("--slice-z", r_.slice_z, "Comma-separated z of every slice, pixel units (non-uniform spacing)");
+  r_.pixel_size_opt = R->add_option("--pixel-size", r_.pixel_size, "Physical size of a pixel; scales x, y and z of the outputs")->check(CLI::PositiveNumber);
+  R->add_option("--volume", r_.volume, "Write the interpolated signed distance volume (.nrrd, float, positive inside)");
+  R->add_option("--decimate-error", r_.decimate_error, "Quadric decimation to this geometric error in pixels (0 = off)")->check(CLI::NonNegativeNumber);
+  R->add_option("--labels", r_.labels, "With --input labels: comma-separated labels to reconstruct (default all)");
+  R->add_option("--open-contours", r_.open_contours, "Open contours: repair (close gaps <= --max-gap, warn), error, ignore")
+      ->check(CLI::IsMember({"repair", "error", "ignore"}));
+  R->add_option("--max-gap", r_.max_gap, "Largest gap (pixels) closed in an open contour")->check(CLI::NonNegativeNumber);
+  R->add_flag("--no-filter", r_.no_filter, "marker2006: skip the distance-dependent filter (paper 2.3)");
+  R->add_option("--n-min", r_.n_min, "marker2006: MPU N_min, points per local fit (paper: 100-300)")->check(CLI::PositiveNumber);
+  R->add_option("--tol", r_.tol, "marker2006: MPU error bound in pixels (max Taubin distance of a cell's points)")->check(CLI::PositiveNumber);
+  R->add_option("--extend", r_.extend, "marker2006: distance extension: mcc (marching with a correctness criterion), fast-marching, fast-sweeping")
+      ->check(CLI::IsMember({"mcc", "fast-marching", "fast-sweeping"}));
+  R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
+  R->add_flag("--binarize", r_.binarize, "Threshold non-binary contour/mask images at half range instead of rejecting them");
+  R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
+  R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON and exit");
+  R->add_option("--report", r_.report, "Write a JSON report: per-stage wall times, counts, parameters, version");
+  R->add_option("--threads", r_.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
+  R->add_flag("--ascii", r_.ascii, "ASCII instead of binary PLY/STL");
+  R->add_flag("-q,--quiet", r_.quiet, "No progress display and no warnings on stderr");
+
+  synth_ = app.add_subcommand("synth", "Write an analytic test stack (contour PNGs + truth JSON)");
+  synth_->add_option("shape", s_.shape, "sphere, ellipsoid, torus, tilted-torus, branching-cylinders, two-blobs");
+  synth_->add_option("--out", s_.out, "Output directory (slice_000.png ... and shape.json)");
+  synth_->add_option("--size", s_.size, "Image width and height in pixels")->check(CLI::Range(8, 20000));
+  synth_->add_option("--z-spacing", s_.z_spacing, "Slice spacing in pixels (the z ratio)")->check(CLI::PositiveNumber);
+  synth_->add_option("--kind", s_.kind, "contours or masks")->check(CLI::IsMember({"contours", "masks"}));
+  synth_->add_flag("--list", s_.list, "List the shapes and exit");
+
+  eval_ = app.add_subcommand("eval", "Compare a mesh with an analytic truth (from isoloft synth)");
+  eval_->add_option("--mesh", e_.mesh, "Mesh to evaluate")->required();
+  eval_->add_option("--truth", e_.truth, "shape.json written by isoloft synth")->required();
+  eval_->add_option("--pixel-size", e_.pixel_size, "Pixel size the mesh was written with")->check(CLI::PositiveNumber);
+  eval_->add_option("--report", e_.report, "Write the metrics as JSON");
+}
+
+int Commands::run() {
+  if (reconstruct_->parsed()) return reconstruct();
+  if (synth_->parsed()) return synth();
+  if (eval_->parsed()) return eval();
+  return 2;
+}
+
+}  // namespace isoloft::cli

@@ -1,0 +1,271 @@
+#include "isoloft/field/marching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <queue>
+#include <string>
+#include <utility>
+
+#include "isoloft/core/error.h"
+#include "isoloft/field/edt.h"
+#include "isoloft/field/fast_sweeping.h"
+
+namespace isoloft {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kDx8[8] = {-1, 1, 0, 0, -1, 1, -1, 1};
+constexpr int kDy8[8] = {0, 0, -1, 1, -1, -1, 1, 1};
+
+using detail::kFar;
+using detail::kKnown;
+using detail::kTrial;
+
+// Offer the value of the just-known pixel i to its 8 neighbours that are not
+// known; `touched(q)` is called for every neighbour whose value dropped.
+// ClosestPoint: q takes segment(i) if it is nearer than q's current one.
+// Eikonal: q is recomputed from its known neighbours.
+template <class Touched>
+void offer(detail::ExtendState& s, const std::vector<std::uint8_t>& status, int i, ExtendUpdate update,
+           Touched&& touched) {
+  const int x = i % s.width, y = i / s.width;
+  for (int k = 0; k < 8; ++k) {
+    const int qx = x + kDx8[k], qy = y + kDy8[k];
+    if (qx < 0 || qy < 0 || qx >= s.width || qy >= s.height) continue;
+    const int q = qy * s.width + qx;
+    if (status[q] == kKnown) continue;
+    if (update == ExtendUpdate::ClosestPoint) {
+      if (s.seg[q] == s.seg[i]) continue;
+      const double c2 = detail::segment_distance2(s, qx, qy, s.seg[i]);
+      if (c2 < s.value[q]) {
+        s.value[q] = c2;
+        s.seg[q] = s.seg[i];
+        touched(q);
+      }
+    } else {
+      const double u = detail::eikonal_update(s, qx, qy, status.data());
+      if (u < s.value[q]) {
+        s.value[q] = u;
+        touched(q);
+      }
+    }
+  }
+}
+
+// A pixel becomes known: ClosestPoint refines its segment by walking along
+// the curve (once per pixel, not on every tentative update).
+void settle(detail::ExtendState& s, int i, ExtendUpdate update) {
+  if (update != ExtendUpdate::ClosestPoint) return;
+  s.seg[i] = detail::descend_along_curve(s, i % s.width, i / s.width, s.seg[i], s.value[i]);
+}
+
+std::vector<std::uint8_t> initial_status(const detail::ExtendState& s) {
+  std::vector<std::uint8_t> status(s.value.size(), kFar);
+  for (std::size_t i = 0; i < status.size(); ++i)
+    if (s.fixed[i]) status[i] = kKnown;
+  return status;
+}
+
+}  // namespace
+
+namespace detail {
+
+ExtendState init_extend_state(const NarrowBandResult& band, ExtendUpdate update) {
+  const int w = band.distance.width, h = band.distance.height;
+  auto same = [&](int gw, int gh) { return gw == w && gh == h; };
+  if (!same(band.known.width, band.known.height) || !same(band.inside.width, band.inside.height) ||
+      !same(band.nearest_segment.width, band.nearest_segment.height))
+    throw ParamError("distance extension: narrow-band grids differ in size (distance " + std::to_string(w) + "x" +
+                     std::to_string(h) + ")");
+  ExtendState s;
+  s.width = w;
+  s.height = h;
+  s.value.assign(band.distance.size(), kInf);
+  s.fixed.assign(band.distance.size(), 0);
+  if (update == ExtendUpdate::ClosestPoint) {
+    s.geom.reserve(band.segments.size());
+    for (const Segment2d& sg : band.segments) {
+      const Vec2d d = sg[1] - sg[0];
+      const double len2 = d.squaredNorm();
+      s.geom.push_back({sg[0].x(), sg[0].y(), d.x(), d.y(), len2 > 0.0 ? 1.0 / len2 : 0.0});
+    }
+  }
+  s.links = &band.links;
+  if (band.links.size() != band.segments.size())
+    throw ParamError("distance extension: " + std::to_string(band.links.size()) + " segment links for " +
+                     std::to_string(band.segments.size()) + " segments");
+  if (update == ExtendUpdate::ClosestPoint) s.seg.assign(band.distance.size(), -1);
+  for (std::size_t i = 0; i < s.value.size(); ++i) {
+    if (!band.known.data[i]) continue;
+    s.fixed[i] = 1;
+    if (update == ExtendUpdate::ClosestPoint) {
+      const std::int32_t k = band.nearest_segment.data[i];
+      if (k < 0 || std::size_t(k) >= band.segments.size())
+        throw ParamError("distance extension: known band pixel " + std::to_string(i) + " has no valid segment");
+      const int x = int(i % std::size_t(w)), y = int(i / std::size_t(w));
+      s.seg[i] = k;
+      s.value[i] = segment_distance2(s, x, y, k);
+    } else {
+      s.value[i] = std::abs(double(band.distance.data[i]));
+    }
+  }
+  return s;
+}
+
+std::int32_t descend_along_curve(const ExtendState& s, int x, int y, std::int32_t k, double& d2) {
+  // Follow the curve both ways from k, up to kWalkSteps segments each, while
+  // the distance stays within kWalkSlack of the best so far: the chord
+  // polyline's distance wiggles (by <= L^2 / (8 R), 0.008 px at R = 3) and has
+  // flat spots (zero-length pieces where the curve passes through a pixel
+  // centre), which would stop a strict descent.
+  constexpr double kWalkSlack = 0.01;  // px
+  constexpr int kWalkSteps = 32;       // segments each way
+  std::int32_t best = k;
+  double bd = d2;
+  double limit = (std::sqrt(bd) + kWalkSlack) * (std::sqrt(bd) + kWalkSlack);
+  const auto& links = *s.links;
+  for (int e = 0; e < 2; ++e) {
+    std::int32_t prev = k, cur = links[std::size_t(k)][e];
+    for (int step = 0; cur >= 0 && cur != k && step < kWalkSteps; ++step) {
+      const double dc = segment_distance2(s, x, y, cur);
+      if (dc > limit) break;
+      if (dc < bd) {
+        bd = dc;
+        best = cur;
+        limit = (std::sqrt(bd) + kWalkSlack) * (std::sqrt(bd) + kWalkSlack);
+      }
+      const auto& l = links[std::size_t(cur)];
+      const std::int32_t next = l[0] == prev ? l[1] : l[0];
+      prev = cur;
+      cur = next;
+    }
+  }
+  d2 = bd;
+  return best;
+}
+
+double eikonal_update(const ExtendState& s, int x, int y, const std::uint8_t* status) {
+  constexpr double kSqrt2 = 1.41421356237309504880;
+  auto v = [&](int qx, int qy) {
+    if (qx < 0 || qy < 0 || qx >= s.width || qy >= s.height) return kInf;
+    const std::size_t q = std::size_t(qy) * s.width + qx;
+    if (status && status[q] != kKnown) return kInf;
+    return s.value[q];
+  };
+  const double ax[2] = {v(x - 1, y), v(x + 1, y)};  // adjacent, x side
+  const double ay[2] = {v(x, y - 1), v(x, y + 1)};  // adjacent, y side
+  double u = std::min({ax[0], ax[1], ay[0], ay[1]}) + 1.0;
+  // Triangle (adjacent a, diagonal c): the path enters through the edge a-c at
+  // t in [0, 1] from a; interior optimum when 0 < a - c < 1/sqrt(2).
+  auto tri = [&](double a, double c) {
+    const double sd = a - c;
+    if (sd > 0.0 && sd < detail::kCorrectnessDelta) u = std::min(u, a + std::sqrt(1.0 - sd * sd));
+  };
+  for (int sy = 0; sy < 2; ++sy) {
+    for (int sx = 0; sx < 2; ++sx) {
+      const double c = v(x + (sx ? 1 : -1), y + (sy ? 1 : -1));
+      if (c == kInf) continue;
+      u = std::min(u, c + kSqrt2);
+      if (ax[sx] != kInf) tri(ax[sx], c);
+      if (ay[sy] != kInf) tri(ay[sy], c);
+    }
+  }
+  return u;
+}
+
+Grid2f finish_extend(const NarrowBandResult& band, const ExtendState& s, ExtendUpdate update) {
+  Grid2f out(s.width, s.height);
+  const bool any = std::any_of(s.fixed.begin(), s.fixed.end(), [](std::uint8_t f) { return f != 0; });
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const float sign = band.inside.data[i] ? 1.0f : -1.0f;
+    if (s.fixed[i]) {
+      out.data[i] = band.distance.data[i];
+    } else if (!any || !std::isfinite(s.value[i])) {
+      out.data[i] = sign * kNoSurfaceDistance;
+    } else {
+      const double d = update == ExtendUpdate::ClosestPoint ? std::sqrt(s.value[i]) : s.value[i];
+      out.data[i] = sign * float(d);
+    }
+  }
+  return out;
+}
+
+}  // namespace detail
+
+Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update) {
+  detail::ExtendState s = detail::init_extend_state(band, update);
+  std::vector<std::uint8_t> status = initial_status(s);
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+  // Lazy deletion: a pixel is pushed each time its value drops; stale entries
+  // (value no longer matching, or already known) are skipped when popped.
+  auto push = [&](int q) {
+    status[q] = kTrial;
+    heap.emplace(s.value[q], q);
+  };
+  for (int i = 0; i < int(status.size()); ++i)
+    if (status[i] == kKnown) offer(s, status, i, update, push);
+  while (!heap.empty()) {
+    const auto [v, i] = heap.top();
+    heap.pop();
+    if (status[i] == kKnown || v != s.value[i]) continue;
+    status[i] = kKnown;
+    settle(s, i, update);
+    offer(s, status, i, update, push);
+  }
+  return detail::finish_extend(band, s, update);
+}
+
+Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update) {
+  detail::ExtendState s = detail::init_extend_state(band, update);
+  std::vector<std::uint8_t> status = initial_status(s);
+  std::vector<int> trial, newly;
+  auto add = [&](int q) {
+    if (status[q] == kFar) {
+      status[q] = kTrial;
+      trial.push_back(q);
+    }
+  };
+  for (int i = 0; i < int(status.size()); ++i)
+    if (status[i] == kKnown) offer(s, status, i, update, add);
+  const bool squared = update == ExtendUpdate::ClosestPoint;
+  while (!trial.empty()) {
+    double m = kInf;
+    for (int i : trial) m = std::min(m, s.value[i]);
+    // Every trial value <= min + delta is final: any later update comes from a
+    // pixel known with value >= min and adds at least delta.
+    const double threshold =
+        squared ? (std::sqrt(m) + detail::kCorrectnessDelta) * (std::sqrt(m) + detail::kCorrectnessDelta)
+                : m + detail::kCorrectnessDelta;
+    newly.clear();
+    std::size_t keep = 0;
+    for (int i : trial) {
+      if (s.value[i] <= threshold) {
+        newly.push_back(i);
+        status[i] = kKnown;
+      } else {
+        trial[keep++] = i;
+      }
+    }
+    trial.resize(keep);
+    for (int i : newly) settle(s, i, update);
+    for (int i : newly) offer(s, status, i, update, add);
+  }
+  return detail::finish_extend(band, s, update);
+}
+
+Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params) {
+  if (params.max_sweep_cycles < 1)
+    throw ParamError("distance extension: max_sweep_cycles " + std::to_string(params.max_sweep_cycles) +
+                     " must be >= 1");
+  switch (params.method) {
+    case ExtendMethod::FastMarching: return extend_fast_marching(band, params.update);
+    case ExtendMethod::MarchingCorrectness: return extend_marching_cc(band, params.update);
+    case ExtendMethod::FastSweeping: return extend_fast_sweeping(band, params.update, params.max_sweep_cycles);
+  }
+  throw ParamError("distance extension: unknown method");
+}
+
+}  // namespace isoloft

@@ -1,0 +1,264 @@
+#include "isoloft/field/narrow_band.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "isoloft/core/error.h"
+#include "isoloft/field/edt.h"
+
+namespace isoloft {
+namespace {
+
+constexpr double kSqrt2 = 1.41421356237309504880;
+
+Vec2d lerp(const Vec2d& a, const Vec2d& b, double t) { return a + t * (b - a); }
+
+// Newton projection of p onto f = 0 along the gradient (central differences).
+// A step is taken only if it lowers |f| and stays within kMaxMove of the start,
+// so a bad gradient never drags a point off its cell.
+Vec2d project_to_zero(const ImplicitFn& f, Vec2d p, int iterations) {
+  constexpr double kStep = 1e-4;    // px; central-difference step
+  constexpr double kMaxMove = 0.5;  // px; a chord is at most sqrt(2)/4 px from the curve for R >= 1
+  const Vec2d start = p;
+  double fp = f(p);
+  for (int it = 0; it < iterations && fp != 0.0; ++it) {
+    const Vec2d dx(kStep, 0.0), dy(0.0, kStep);
+    const Vec2d g((f(p + dx) - f(p - dx)) / (2.0 * kStep), (f(p + dy) - f(p - dy)) / (2.0 * kStep));
+    const double g2 = g.squaredNorm();
+    if (!(g2 > 0.0) || !std::isfinite(g2)) break;
+    const Vec2d q = p - (fp / g2) * g;
+    const double fq = f(q);
+    if (!(std::abs(fq) < std::abs(fp)) || (q - start).norm() > kMaxMove) break;
+    const double moved = (q - p).norm();
+    p = q;
+    fp = fq;
+    if (moved < 1e-12) break;
+  }
+  return p;
+}
+
+}  // namespace
+
+namespace detail {
+
+Vec2d closest_point_on_segment(const Vec2d& p, const Vec2d& a, const Vec2d& b) {
+  const Vec2d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  if (len2 <= 0.0) return a;
+  const double t = std::clamp((p - a).dot(ab) / len2, 0.0, 1.0);
+  return a + t * ab;
+}
+
+Vec2d edge_zero(const Vec2d& pa, double fa, const Vec2d& pb, double fb, const ImplicitFn& f, int iterations) {
+  // Samples of opposite classification: fa - fb != 0, t in [0, 1].
+  const double t_lin = fa / (fa - fb);
+  const Vec2d linear = lerp(pa, pb, t_lin);
+  if (!f || iterations <= 0) return linear;
+  double ga = f(pa), gb = f(pb);
+  if ((ga > 0.0) == (gb > 0.0) || !std::isfinite(ga) || !std::isfinite(gb)) return linear;
+  if (ga == 0.0) return pa;
+  if (gb == 0.0) return pb;
+  // Illinois: regula falsi that halves the stale end's value when the same end
+  // moves twice, so convergence stays superlinear (Dowell & Jarratt 1971).
+  double lo = 0.0, hi = 1.0;
+  int last = 0;  // -1: lo moved last, +1: hi moved last
+  double t = ga / (ga - gb);
+  for (int it = 0; it < iterations; ++it) {
+    const double gt = f(lerp(pa, pb, t));
+    if (gt == 0.0 || !std::isfinite(gt)) break;
+    if ((gt > 0.0) == (ga > 0.0)) {
+      lo = t;
+      ga = gt;
+      if (last == -1) gb *= 0.5;
+      last = -1;
+    } else {
+      hi = t;
+      gb = gt;
+      if (last == +1) ga *= 0.5;
+      last = +1;
+    }
+    if (hi - lo < 1e-13) break;
+    t = lo + (hi - lo) * ga / (ga - gb);
+  }
+  return lerp(pa, pb, t);
+}
+
+ZeroSet marching_squares(const Grid2f& s, const ImplicitFn& f, int refine_iterations, int segment_splits) {
+  ZeroSet zs;
+  std::vector<Segment2d>& segments = zs.segments;
+  std::vector<std::array<std::int32_t, 2>> ends;  // vertex ids of each segment's end points
+  const int w = s.width, h = s.height;
+  if (w < 2 || h < 2) return zs;
+  auto in = [&](int x, int y) { return s(x, y) > 0.0f; };
+  // Each edge vertex is computed once and shared by both cells: the polyline
+  // is watertight and f is evaluated once per crossed edge.
+  std::vector<std::int32_t> hidx(std::size_t(w - 1) * h, -1), vidx(std::size_t(w) * (h - 1), -1);
+  std::vector<Vec2d> verts;
+  auto hvert = [&](int x, int y) {  // edge (x, y) - (x + 1, y); returns the vertex id
+    std::int32_t& id = hidx[std::size_t(y) * (w - 1) + x];
+    if (id < 0) {
+      id = std::int32_t(verts.size());
+      verts.push_back(edge_zero(Vec2d(x, y), s(x, y), Vec2d(x + 1, y), s(x + 1, y), f, refine_iterations));
+    }
+    return id;
+  };
+  auto vvert = [&](int x, int y) {  // edge (x, y) - (x, y + 1)
+    std::int32_t& id = vidx[std::size_t(y) * w + x];
+    if (id < 0) {
+      id = std::int32_t(verts.size());
+      verts.push_back(edge_zero(Vec2d(x, y), s(x, y), Vec2d(x, y + 1), s(x, y + 1), f, refine_iterations));
+    }
+    return id;
+  };
+  auto emit = [&](std::int32_t ia, std::int32_t ib) {
+    std::int32_t prev = ia;
+    if (segment_splits > 1 && f) {
+      const Vec2d a = verts[ia], b = verts[ib];
+      for (int k = 1; k < segment_splits; ++k) {
+        const auto id = std::int32_t(verts.size());
+        verts.push_back(project_to_zero(f, lerp(a, b, double(k) / segment_splits), std::max(refine_iterations, 1)));
+        ends.push_back({prev, id});
+        prev = id;
+      }
+    }
+    ends.push_back({prev, ib});
+  };
+  for (int y = 0; y + 1 < h; ++y) {
+    for (int x = 0; x + 1 < w; ++x) {
+      // Corners v0 (x,y), v1 (x+1,y), v2 (x+1,y+1), v3 (x,y+1);
+      // edges e0 = v0v1, e1 = v1v2, e2 = v3v2, e3 = v0v3.
+      const int c = int(in(x, y)) | int(in(x + 1, y)) << 1 | int(in(x + 1, y + 1)) << 2 | int(in(x, y + 1)) << 3;
+      if (c == 0 || c == 15) continue;
+      auto e = [&](int k) {
+        switch (k) {
+          case 0: return hvert(x, y);
+          case 1: return vvert(x + 1, y);
+          case 2: return hvert(x, y + 1);
+          default: return vvert(x, y);
+        }
+      };
+      // Edges whose corners differ, in order e0..e3.
+      const bool crossed[4] = {bool((c ^ (c >> 1)) & 1), bool(((c >> 1) ^ (c >> 2)) & 1),
+                               bool(((c >> 2) ^ (c >> 3)) & 1), bool(((c >> 3) ^ c) & 1)};
+      if (c == 5 || c == 10) {
+        // Saddle: decide by f at the cell centre (bilinear mean without f).
+        const double centre = f ? f(Vec2d(x + 0.5, y + 0.5))
+                                : 0.25 * (double(s(x, y)) + s(x + 1, y) + s(x + 1, y + 1) + s(x, y + 1));
+        const bool centre_in = centre > 0.0;
+        // Segment (e0,e1) cuts off v1, (e2,e3) cuts off v3; (e3,e0) v0, (e1,e2) v2.
+        // Cut off the two corners whose class differs from the centre's.
+        const bool cut_odd = (c == 5) == centre_in;  // v1, v3 differ from the centre
+        if (cut_odd) {
+          emit(e(0), e(1));
+          emit(e(2), e(3));
+        } else {
+          emit(e(3), e(0));
+          emit(e(1), e(2));
+        }
+        continue;
+      }
+      int k0 = -1, k1 = -1;
+      for (int k = 0; k < 4; ++k) {
+        if (!crossed[k]) continue;
+        (k0 < 0 ? k0 : k1) = k;
+      }
+      emit(e(k0), e(k1));
+    }
+  }
+  // Each vertex lies on one cell edge, used by one segment in each of the (at
+  // most two) cells sharing that edge, so it touches at most two segments.
+  std::vector<std::array<std::int32_t, 2>> at(verts.size(), {-1, -1});
+  segments.reserve(ends.size());
+  for (std::size_t k = 0; k < ends.size(); ++k) {
+    segments.push_back({verts[ends[k][0]], verts[ends[k][1]]});
+    for (std::int32_t v : ends[k]) (at[v][0] < 0 ? at[v][0] : at[v][1]) = std::int32_t(k);
+  }
+  zs.links.resize(ends.size());
+  for (std::size_t k = 0; k < ends.size(); ++k)
+    for (int e = 0; e < 2; ++e) {
+      const auto& a = at[ends[k][e]];
+      zs.links[k][e] = a[0] == std::int32_t(k) ? a[1] : a[0];
+    }
+  return zs;
+}
+
+Grid2d distance_to_segments_brute(const std::vector<Segment2d>& segments, int width, int height) {
+  Grid2d out(width, height, std::numeric_limits<double>::infinity());
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Vec2d p(x, y);
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto& sg : segments) best = std::min(best, (p - closest_point_on_segment(p, sg[0], sg[1])).squaredNorm());
+      out(x, y) = std::sqrt(best);
+    }
+  }
+  return out;
+}
+
+}  // namespace detail
+
+NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn& f, const NarrowBandParams& params) {
+  if (!(params.band_width >= kSqrt2) || !std::isfinite(params.band_width))
+    throw ParamError("narrow band: band_width " + std::to_string(params.band_width) + " must be finite and >= sqrt(2) px");
+  if (params.refine_iterations < 0)
+    throw ParamError("narrow band: refine_iterations " + std::to_string(params.refine_iterations) + " must be >= 0");
+  if (params.segment_splits < 1)
+    throw ParamError("narrow band: segment_splits " + std::to_string(params.segment_splits) + " must be >= 1");
+  if (f_samples.empty()) throw InputError("implicit samples", "grid is empty");
+  const int w = f_samples.width, h = f_samples.height;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (std::isnan(f_samples(x, y)))
+        throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+
+  NarrowBandResult r;
+  detail::ZeroSet zs = detail::marching_squares(f_samples, f, params.refine_iterations, params.segment_splits);
+  r.segments = std::move(zs.segments);
+  r.links = std::move(zs.links);
+  r.inside = Grid2u8(w, h, 0);
+  for (std::size_t i = 0; i < f_samples.size(); ++i) r.inside.data[i] = f_samples.data[i] > 0.0f ? 1 : 0;
+  r.known = Grid2u8(w, h, 0);
+  r.nearest_segment = Grid2i(w, h, -1);
+
+  // Exact distance to the nearest segment for every pixel within the band:
+  // each segment visits the pixels of its bounding box grown by band_width.
+  // Work is O(#segments * band_width^2), i.e. proportional to the curve length.
+  const double bw = params.band_width;
+  std::vector<double> best(f_samples.size(), std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < r.segments.size(); ++k) {
+    const Segment2d& sg = r.segments[k];
+    const int x0 = std::max(0, int(std::ceil(std::min(sg[0].x(), sg[1].x()) - bw)));
+    const int x1 = std::min(w - 1, int(std::floor(std::max(sg[0].x(), sg[1].x()) + bw)));
+    const int y0 = std::max(0, int(std::ceil(std::min(sg[0].y(), sg[1].y()) - bw)));
+    const int y1 = std::min(h - 1, int(std::floor(std::max(sg[0].y(), sg[1].y()) + bw)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        const Vec2d p(x, y);
+        const double d2 = (p - detail::closest_point_on_segment(p, sg[0], sg[1])).squaredNorm();
+        const std::size_t i = r.nearest_segment.index(x, y);
+        if (d2 < best[i]) {
+          best[i] = d2;
+          r.nearest_segment.data[i] = std::int32_t(k);
+        }
+      }
+    }
+  }
+  r.distance = Grid2f(w, h);
+  for (std::size_t i = 0; i < best.size(); ++i) {
+    const float sign = r.inside.data[i] ? 1.0f : -1.0f;
+    if (best[i] <= bw * bw) {
+      r.known.data[i] = 1;
+      r.distance.data[i] = sign * float(std::sqrt(best[i]));
+    } else {
+      r.distance.data[i] = sign * kNoSurfaceDistance;
+      r.nearest_segment.data[i] = -1;
+    }
+  }
+  return r;
+}
+
+}  // namespace isoloft

@@ -1,0 +1,547 @@
+#include "isoloft/fit/mpu.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "isoloft/core/error.h"
+
+namespace isoloft {
+
+using detail::bspline2;
+using detail::bspline2_derivative;
+using detail::LocalFn;
+
+// ---------------------------------------------------------------- evaluation
+
+Eigen::AlignedBox2d MpuCurve::root_box() const {
+  const Vec2d h(root_half_, root_half_);
+  return {root_centre_ - h, root_centre_ + h};
+}
+
+void MpuCurve::accumulate(const Vec2d& p, double& num, double& den, Vec2d* dnum, Vec2d* dden) const {
+  num = den = 0.0;
+  if (dnum) dnum->setZero();
+  if (dden) dden->setZero();
+  if (nodes_.empty()) return;
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (!node.box.contains(p)) continue;
+    if (node.first_child >= 0) {
+      for (int k = 0; k < 4; ++k) stack[top++] = node.first_child + k;
+      continue;
+    }
+    const Leaf& leaf = leaves_[node.leaf];
+    const Vec2d d = p - leaf.centre;
+    const double r = d.norm();
+    const double t = 1.5 * r / leaf.radius;
+    if (t >= 1.5) continue;
+    const double w = bspline2(t);
+    double q;
+    Vec2d gq;
+    leaf.fn.eval(p, q, gq);
+    num += w * q;
+    den += w;
+    if (dnum) {
+      const Vec2d gw = r > 0.0 ? Vec2d(bspline2_derivative(t) * 1.5 / leaf.radius * d / r) : Vec2d(0.0, 0.0);
+      *dnum += gw * q + w * gq;
+      *dden += gw;
+    }
+  }
+}
+
+void MpuCurve::fallback_eval(const Vec2d& p, double& value, Vec2d& grad) const {
+  std::vector<std::pair<double, int>> nn;
+  grid_.nearest(p, 1, nn);
+  const Vec2d& q = grid_.points()[nn[0].second];
+  const Vec2d d = p - q;
+  const double dist = nn[0].first;
+  const double s = (q - p).dot(normals_[nn[0].second]) > 0.0 ? 1.0 : -1.0;
+  value = s * dist;
+  grad = dist > 0.0 ? Vec2d(s * d / dist) : Vec2d(-normals_[nn[0].second]);
+}
+
+double MpuCurve::fallback(const Vec2d& p) const {
+  double v;
+  Vec2d g;
+  fallback_eval(p, v, g);
+  return v;
+}
+
+void MpuCurve::value_and_gradient(const Vec2d& p, double& value, Vec2d& gradient) const {
+  double num, den;
+  Vec2d dnum, dden;
+  accumulate(p, num, den, &dnum, &dden);
+  if (den >= w_floor_) {
+    value = num / den;
+    gradient = (dnum * den - num * dden) / (den * den);
+    return;
+  }
+  double f;
+  Vec2d gf;
+  fallback_eval(p, f, gf);
+  const double w0 = w_floor_ - den;  // total weight is w_floor_
+  value = (num + w0 * f) / w_floor_;
+  gradient = (dnum - dden * f + w0 * gf) / w_floor_;
+}
+
+double MpuCurve::value(const Vec2d& p) const {
+  double num, den;
+  accumulate(p, num, den, nullptr, nullptr);
+  if (den >= w_floor_) return num / den;
+  return (num + (w_floor_ - den) * fallback(p)) / w_floor_;
+}
+
+Vec2d MpuCurve::gradient(const Vec2d& p) const {
+  double v;
+  Vec2d g;
+  value_and_gradient(p, v, g);
+  return g;
+}
+
+std::vector<std::pair<int, double>> MpuCurve::weights(const Vec2d& p) const {
+  std::vector<std::pair<int, double>> out;
+  double den = 0.0;
+  for (std::size_t i = 0; i < leaves_.size(); ++i) {
+    const double t = 1.5 * (p - leaves_[i].centre).norm() / leaves_[i].radius;
+    if (t >= 1.5) continue;
+    out.emplace_back(static_cast<int>(i), bspline2(t));
+    den += out.back().second;
+  }
+  double total = den;
+  if (den < w_floor_) {
+    out.emplace_back(-1, w_floor_ - den);
+    total = w_floor_;
+  }
+  for (auto& e : out) e.second /= total;
+  return out;
+}
+
+Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0, double y0, double step) {
+  if (width < 0 || height < 0)
+    throw ParamError("evaluate MPU on grid: size " + std::to_string(width) + "x" + std::to_string(height) +
+                     " is negative");
+  if (!(step > 0.0) || !std::isfinite(step))
+    throw ParamError("evaluate MPU on grid: step must be a finite number > 0 (got " + std::to_string(step) + ")");
+  Grid2f out(width, height);
+  if (width == 0 || height == 0 || curve.nodes_.empty()) return out;
+  const double xmax = x0 + (width - 1) * step;
+  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<double> num(width), den(width);
+    std::vector<int> stack;
+    for (int j = rows.begin(); j < rows.end(); ++j) {
+      const double y = y0 + j * step;
+      std::fill(num.begin(), num.end(), 0.0);
+      std::fill(den.begin(), den.end(), 0.0);
+      // Leaves whose support circle meets this row, each added over its span.
+      stack.assign(1, 0);
+      while (!stack.empty()) {
+        const MpuCurve::Node& node = curve.nodes_[stack.back()];
+        stack.pop_back();
+        if (y < node.box.min().y() || y > node.box.max().y() || node.box.max().x() < x0 ||
+            node.box.min().x() > xmax)
+          continue;
+        if (node.first_child >= 0) {
+          for (int k = 0; k < 4; ++k) stack.push_back(node.first_child + k);
+          continue;
+        }
+        const MpuCurve::Leaf& leaf = curve.leaves_[node.leaf];
+        const double dy = y - leaf.centre.y();
+        const double R = leaf.radius;
+        if (std::abs(dy) >= R) continue;
+        const double hw = std::sqrt(R * R - dy * dy);
+        const int i0 = std::max(0, static_cast<int>(std::ceil((leaf.centre.x() - hw - x0) / step)));
+        const int i1 = std::min(width - 1, static_cast<int>(std::floor((leaf.centre.x() + hw - x0) / step)));
+        for (int i = i0; i <= i1; ++i) {
+          const Vec2d p(x0 + i * step, y);
+          const double t = 1.5 * (p - leaf.centre).norm() / R;
+          if (t >= 1.5) continue;
+          const double w = bspline2(t);
+          num[i] += w * leaf.fn.value(p);
+          den[i] += w;
+        }
+      }
+      for (int i = 0; i < width; ++i) {
+        double v;
+        if (den[i] >= curve.w_floor_) {
+          v = num[i] / den[i];
+        } else {
+          const Vec2d p(x0 + i * step, y);
+          v = (num[i] + (curve.w_floor_ - den[i]) * curve.fallback(p)) / curve.w_floor_;
+        }
+        out(i, j) = static_cast<float>(v);
+      }
+    }
+  });
+  return out;
+}
+
+// ---------------------------------------------------------------- fitting
+
+namespace {
+
+struct Scratch {
+  std::vector<int> idx;
+  std::vector<double> w;
+  std::vector<std::pair<double, int>> nn;
+  std::vector<int> comp_count;
+  std::vector<int> touched;
+  std::vector<int> first, second;
+  std::vector<detail::AuxPoint> aux;
+};
+
+struct Cell {
+  Vec2d centre;
+  double half = 0.0;
+  int depth = 0;
+  double parent_radius = std::numeric_limits<double>::infinity();
+};
+
+/// Union-find over points linked closer than `link`.
+std::vector<int> point_components(const detail::PointGrid& grid, double link, int& count) {
+  const int n = static_cast<int>(grid.size());
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  std::vector<int> near;
+  for (int i = 0; i < n; ++i) {
+    grid.in_ball(grid.points()[i], link, near);
+    for (int j : near) {
+      const int a = find(i), b = find(j);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  std::vector<int> label(n, -1), comp(n);
+  count = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = find(i);
+    if (label[r] < 0) label[r] = count++;
+    comp[i] = label[r];
+  }
+  return comp;
+}
+
+}  // namespace
+
+class MpuBuilder {
+ public:
+  MpuBuilder(const OrientedPoints& in, const MpuParams& prm) : p_(prm), normals_(in.normals) {
+    grid_ = detail::PointGrid(in.points);
+    n_eff_ = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(prm.n_min), in.points.size()));
+    // Median nearest-neighbour spacing sets the link length of the pieces.
+    std::vector<double> spacing;
+    std::vector<std::pair<double, int>> nn;
+    const std::size_t n = in.points.size();
+    const std::size_t stride = std::max<std::size_t>(1, n / 2000);
+    for (std::size_t i = 0; i < n; i += stride) {
+      grid_.nearest(in.points[i], 2, nn);
+      if (nn.size() == 2) spacing.push_back(nn[1].first);
+    }
+    double med = 0.0;
+    if (!spacing.empty()) {
+      std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
+                       spacing.end());
+      med = spacing[spacing.size() / 2];
+    }
+    comp_ = point_components(grid_, p_.component_link * med, ncomp_);
+    comp_size_.assign(ncomp_, 0);
+    for (int c : comp_) ++comp_size_[c];
+  }
+
+  MpuResult build() {
+    const std::vector<Vec2d>& pts = grid_.points();
+    Eigen::AlignedBox2d box;
+    for (const Vec2d& q : pts) box.extend(q);
+    if (!p_.domain.isEmpty()) box.extend(p_.domain);
+    MpuResult res;
+    MpuCurve& curve = res.curve;
+    curve.root_centre_ = box.center();
+    curve.root_half_ = 0.5 * box.sizes().maxCoeff() * 1.02 + 0.5;  // points strictly inside
+    curve.w_floor_ = 0.5 * bspline2(0.75 / p_.alpha);
+
+    std::vector<Cell> cells{Cell{curve.root_centre_, curve.root_half_, 0}};
+    std::vector<MpuCurve::Node> nodes(1);
+    std::vector<int> level{0};
+    tbb::enumerable_thread_specific<Scratch> scratch;
+    while (!level.empty()) {
+      std::vector<MpuCurve::Leaf> fits(level.size());
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+        Scratch& s = scratch.local();
+        for (std::size_t k = r.begin(); k < r.end(); ++k) fits[k] = fit_cell(cells[level[k]], s);
+      });
+      std::vector<int> next;
+      for (std::size_t k = 0; k < level.size(); ++k) {
+        const int id = level[k];
+        const Cell cell = cells[id];
+        ++res.cells;
+        res.max_depth_reached = std::max(res.max_depth_reached, cell.depth);
+        // A cell whose support had to grow to more than kSupportShrink of its
+        // parent's radius is not subdivided: its children would grow back to
+        // about the same points (file comment).
+        const bool stalled = fits[k].grown && fits[k].radius > detail::kSupportShrink * cell.parent_radius;
+        if ((fits[k].error > p_.tol || !fits[k].sign_ok) && cell.depth < p_.max_depth && !stalled) {
+          nodes[id].first_child = static_cast<int>(nodes.size());
+          const double h = 0.5 * cell.half;
+          for (int c = 0; c < 4; ++c) {
+            const Vec2d off((c & 1) ? h : -h, (c & 2) ? h : -h);
+            cells.push_back(Cell{cell.centre + off, h, cell.depth + 1, fits[k].radius});
+            nodes.emplace_back();
+            next.push_back(static_cast<int>(nodes.size()) - 1);
+          }
+          continue;
+        }
+        MpuCurve::Leaf& leaf = fits[k];
+        nodes[id].leaf = static_cast<int>(curve.leaves_.size());
+        const Vec2d rr(leaf.radius, leaf.radius);
+        nodes[id].box = Eigen::AlignedBox2d(leaf.centre - rr, leaf.centre + rr);
+        ++res.leaves;
+        res.max_local_error = std::max(res.max_local_error, leaf.error);
+        if (leaf.error > p_.tol) {
+          ++res.leaves_over_tol;
+          res.leaves_over_tol_at_max_depth += cell.depth == p_.max_depth ? 1 : 0;
+        }
+        res.sign_check_failures += leaf.sign_ok ? 0 : 1;
+        res.grown_leaves += leaf.grown ? 1 : 0;
+        switch (leaf.fn.kind) {
+          case LocalFn::Kind::Quadric: ++res.quadric_leaves; break;
+          case LocalFn::Kind::Height: ++res.height_leaves; break;
+          case LocalFn::Kind::Corner: ++res.corner_leaves; break;
+          case LocalFn::Kind::TwoCurves: ++res.two_curve_leaves; break;
+        }
+        curve.leaves_.push_back(std::move(leaf));
+      }
+      level.swap(next);
+    }
+    // Children follow their parents: one backward pass collects the bounds.
+    for (int i = static_cast<int>(nodes.size()) - 1; i >= 0; --i)
+      if (nodes[i].first_child >= 0)
+        for (int c = 0; c < 4; ++c) nodes[i].box.extend(nodes[nodes[i].first_child + c].box);
+    curve.nodes_ = std::move(nodes);
+    curve.normals_ = normals_;
+    curve.grid_ = grid_;
+    res.components = ncomp_;
+    return res;
+  }
+
+ private:
+  /// Support radius (MPU growth + component rule) of a cell with radius r0.
+  /// exact: grow to the distance of the next point instead of in (1 + lambda) steps.
+  double support_radius(const Vec2d& c, double r0, int n_target, bool exact, Scratch& s, bool& grown) const {
+    grown = false;
+    if (grid_.count_in_ball(c, r0) >= static_cast<std::size_t>(n_target)) return r0;
+    grid_.nearest(c, n_target, s.nn);
+    if (s.comp_count.size() != comp_size_.size()) s.comp_count.assign(comp_size_.size(), 0);
+    s.touched.clear();
+    std::size_t pos = 0;
+    int incomplete = 0;
+    double r = r0;
+    for (int m = 0;; ++m) {
+      while (pos < s.nn.size() && s.nn[pos].first <= r) {
+        const int comp = comp_[s.nn[pos].second];
+        if (s.comp_count[comp]++ == 0) {
+          s.touched.push_back(comp);
+          ++incomplete;
+        }
+        if (s.comp_count[comp] == comp_size_[comp]) --incomplete;
+        ++pos;
+      }
+      if (pos >= static_cast<std::size_t>(n_target) || (pos >= 1 && incomplete == 0) || pos >= s.nn.size()) break;
+      r = exact ? s.nn[pos].first : r * (1.0 + p_.lambda);
+      grown = true;
+    }
+    for (int comp : s.touched) s.comp_count[comp] = 0;
+    return r;
+  }
+
+  /// The cell's local fit with N_min points, or, while a grown support misses
+  /// tol, with n_min halved down to n_floor (file comment).
+  MpuCurve::Leaf fit_cell(const Cell& cell, Scratch& s) const {
+    const double r0 = p_.alpha * 2.0 * std::sqrt(2.0) * cell.half;
+    bool grown = false;
+    int n = n_eff_;
+    double radius = support_radius(cell.centre, r0, n, false, s, grown);
+    MpuCurve::Leaf best = fit_support(cell, radius, grown, n, s);
+    const int floor = std::min(n_eff_, p_.n_floor);
+    while ((best.error > p_.tol || !best.sign_ok) && best.grown && n > floor) {
+      n = std::max(floor, n / 2);
+      radius = support_radius(cell.centre, r0, n, true, s, grown);
+      if (radius >= best.radius) continue;  // same support, same fit
+      MpuCurve::Leaf leaf = fit_support(cell, radius, grown, n, s);
+      if ((leaf.sign_ok && !best.sign_ok) || (leaf.sign_ok == best.sign_ok && leaf.error < best.error))
+        best = std::move(leaf);
+    }
+    return best;
+  }
+
+  MpuCurve::Leaf fit_support(const Cell& cell, double R, bool grown, int n_target, Scratch& s) const {
+    const std::vector<Vec2d>& pts = grid_.points();
+    MpuCurve::Leaf leaf;
+    leaf.centre = cell.centre;
+    leaf.half_size = cell.half;
+    leaf.depth = cell.depth;
+    leaf.radius = R;
+    leaf.grown = grown;
+    leaf.n_target = n_target;
+    grid_.in_ball(cell.centre, R, s.idx);
+    leaf.support = static_cast<int>(s.idx.size());
+    const detail::FitInput in{pts, normals_, cell.centre, R, p_.corner_angle * M_PI / 180.0};
+
+    // MPU's choice: mean normal of the weighted support; a height function if
+    // every normal is within 90 degrees of it and N <= 2 N_min, else a conic.
+    s.w.resize(s.idx.size());
+    Vec2d nsum(0.0, 0.0);
+    for (std::size_t k = 0; k < s.idx.size(); ++k) {
+      s.w[k] = in.weight(pts[s.idx[k]]);
+      nsum += s.w[k] * normals_[s.idx[k]];
+    }
+    const double nlen = nsum.norm();
+    const Vec2d nbar = nlen > 0.0 ? Vec2d(nsum / nlen) : Vec2d(0.0, 1.0);
+    bool agree = nlen > 0.0 && s.idx.size() >= 3;
+    for (int i : s.idx) agree = agree && normals_[i].dot(nbar) > 0.0;
+    const bool many = static_cast<int>(s.idx.size()) > 2 * n_target;
+
+    // Candidates are ranked by (passes the sign checks, error): a model that
+    // contradicts the sign the nearest points give at a check point is kept
+    // only if every candidate does.
+    sign_checks(cell, s);
+    leaf.error = std::numeric_limits<double>::infinity();
+    bool leaf_checked = false;
+    auto consider = [&](const LocalFn& fn) {
+      const double e = detail::taubin_error(fn, pts, s.idx);
+      bool ok = true;
+      for (const detail::AuxPoint& q : s.aux) ok = ok && (fn.value(q.q) > 0.0) == (q.d > 0.0);
+      if ((ok && !leaf_checked) || (ok == leaf_checked && e < leaf.error)) {
+        leaf.fn = fn;
+        leaf.error = e;
+        leaf_checked = ok;
+      }
+    };
+    auto good = [&] { return leaf_checked && leaf.error <= p_.tol; };
+    auto height = [&] {
+      LocalFn fn;
+      fn.kind = LocalFn::Kind::Height;
+      fn.group[0].piece[0].h = detail::fit_height(pts, s.idx, s.w, cell.centre, nbar, R);
+      return fn;
+    };
+    auto conic = [&] {
+      LocalFn fn;
+      fn.kind = LocalFn::Kind::Quadric;
+      fn.group[0].piece[0] = detail::fit_conic(pts, normals_, s.idx, s.w, cell.centre, R);
+      return fn;
+    };
+    const bool height_first = agree && !many;
+    consider(height_first ? height() : conic());
+    // Past MPU: if the chosen model misses tol or a sign check, the other
+    // single model, then a two-part model are tried too (file comment).
+    if (!good()) {
+      if (height_first)
+        consider(conic());
+      else if (agree)
+        consider(height());
+    }
+    if (!good()) {
+      split_components(s);
+      if (!s.second.empty()) {
+        consider(detail::fit_two_curves(in, s.first, s.second));
+      } else {
+        LocalFn corner;
+        corner.kind = LocalFn::Kind::Corner;
+        if (detail::fit_corner(in, s.idx, corner.group[0])) consider(corner);
+      }
+    }
+    leaf.sign_ok = leaf_checked;
+    return leaf;
+  }
+
+  /// The support's points of its two largest connected pieces (s.first,
+  /// s.second; s.second empty if the support touches one piece).
+  void split_components(Scratch& s) const {
+    s.first.clear();
+    s.second.clear();
+    if (s.comp_count.size() != comp_size_.size()) s.comp_count.assign(comp_size_.size(), 0);
+    s.touched.clear();
+    for (int i : s.idx)
+      if (s.comp_count[comp_[i]]++ == 0) s.touched.push_back(comp_[i]);
+    if (s.touched.size() >= 2) {
+      std::partial_sort(s.touched.begin(), s.touched.begin() + 2, s.touched.end(),
+                        [&](int a, int b) { return s.comp_count[a] > s.comp_count[b] || (s.comp_count[a] == s.comp_count[b] && a < b); });
+      for (int i : s.idx) {
+        if (comp_[i] == s.touched[0]) s.first.push_back(i);
+        if (comp_[i] == s.touched[1]) s.second.push_back(i);
+      }
+    }
+    for (int c : s.touched) s.comp_count[c] = 0;
+  }
+
+  /// MPU's auxiliary points (cell corners and centre, here also the edge
+  /// midpoints) as sign checks: d = mean of (p_k - q) . n_k over the 6 nearest
+  /// points, kept if all 6 agree in sign and |d| >= kSignCheckMargin.
+  void sign_checks(const Cell& cell, Scratch& s) const {
+    s.aux.clear();
+    const std::vector<Vec2d>& pts = grid_.points();
+    for (int a = -1; a <= 1; ++a)
+      for (int b = -1; b <= 1; ++b) {
+        const Vec2d q = cell.centre + cell.half * Vec2d(a, b);
+        grid_.nearest(q, 6, s.nn);
+        double sum = 0.0;
+        int pos = 0, neg = 0;
+        for (const auto& e : s.nn) {
+          const double d = (pts[e.second] - q).dot(normals_[e.second]);  // > 0: q is behind = inside
+          sum += d;
+          pos += d > 0.0 ? 1 : 0;
+          neg += d < 0.0 ? 1 : 0;
+        }
+        const int n = static_cast<int>(s.nn.size());
+        if (n > 0 && (pos == n || neg == n) && std::abs(sum / n) >= detail::kSignCheckMargin)
+          s.aux.push_back({q, sum / n});
+      }
+  }
+
+  MpuParams p_;
+  detail::PointGrid grid_;
+  std::vector<Vec2d> normals_;
+  int n_eff_ = 0;
+  std::vector<int> comp_, comp_size_;
+  int ncomp_ = 0;
+};
+
+MpuResult fit_mpu(const OrientedPoints& in, const MpuParams& p) {
+  auto bad = [](const std::string& what) { throw ParamError("MPU fit: " + what); };
+  if (p.n_min < 1) bad("n_min must be >= 1 (got " + std::to_string(p.n_min) + ")");
+  if (p.n_floor < 1) bad("n_floor must be >= 1 (got " + std::to_string(p.n_floor) + ")");
+  if (!(p.tol > 0.0) || !std::isfinite(p.tol)) bad("tol must be a finite number > 0 (got " + std::to_string(p.tol) + ")");
+  if (!(p.alpha > 0.5) || !std::isfinite(p.alpha))
+    bad("alpha must be a finite number > 0.5 (got " + std::to_string(p.alpha) + ")");
+  if (!(p.lambda > 0.0) || !std::isfinite(p.lambda))
+    bad("lambda must be a finite number > 0 (got " + std::to_string(p.lambda) + ")");
+  if (p.max_depth < 0 || p.max_depth > 24) bad("max_depth must be in [0, 24] (got " + std::to_string(p.max_depth) + ")");
+  if (!(p.corner_angle > 0.0 && p.corner_angle < 180.0))
+    bad("corner_angle must be in (0, 180) degrees (got " + std::to_string(p.corner_angle) + ")");
+  if (!(p.component_link >= 0.0) || !std::isfinite(p.component_link))
+    bad("component_link must be a finite number >= 0 (got " + std::to_string(p.component_link) + ")");
+  if (!p.domain.isEmpty() && !(p.domain.min().allFinite() && p.domain.max().allFinite())) bad("domain is not finite");
+  if (in.points.empty()) throw InputError("", "MPU fit: no contour points");
+  if (in.points.size() != in.normals.size())
+    throw InputError("", "MPU fit: " + std::to_string(in.points.size()) + " points but " +
+                             std::to_string(in.normals.size()) + " normals");
+  for (std::size_t i = 0; i < in.points.size(); ++i) {
+    if (!in.points[i].allFinite()) throw InputError("", "MPU fit: point " + std::to_string(i) + " is not finite");
+    if (!in.normals[i].allFinite() || std::abs(in.normals[i].norm() - 1.0) > 1e-3)
+      throw InputError("", "MPU fit: normal " + std::to_string(i) + " is not a finite unit vector");
+  }
+  return MpuBuilder(in, p).build();
+}
+
+}  // namespace isoloft

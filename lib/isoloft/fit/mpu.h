@@ -1,0 +1,237 @@
+// Stage 2 (Marker, Braude, Museth, Breen 2006, paper 2.1): an implicit curve
+// through the oriented contour points, by a 2D version of Multi-level
+// Partition of Unity implicits (Y. Ohtake, A. Belyaev, M. Alexa, G. Turk,
+// H.-P. Seidel, "Multi-level Partition of Unity Implicits", SIGGRAPH 2003;
+// "MPU" below, section numbers are MPU's). f > 0 inside, f < 0 outside
+// (normals point outward, so f decreases along them); near the data f is close
+// to the signed distance in pixels.
+//
+// What is implemented, and how it maps to MPU:
+// - Quadtree (MPU's octree). Root: the square around the points' bounding box
+//   and MpuParams::domain. Every cell gets a support circle centred at the cell
+//   centre c, radius R = alpha * (cell diagonal) (MPU 2: alpha = 0.75). If it
+//   holds fewer than N_min points, R grows by R <- (1 + lambda) R (lambda =
+//   0.1) until it does, so a cell far from all data still gets a local
+//   function and every point of the root square is covered (a point of leaf
+//   cell i has weight >= b(0.75 / alpha) > 0 from cell i). N_min is capped at
+//   the number of points.
+// - Local function (MPU 3), weights w(p) = b(3 |p - c| / (2 R)) on the support
+//   points, n = their weighted mean normal. MPU's rule picks the model:
+//   * a height function w = h(u), h quadratic, over the axis n through c,
+//     Q = h(u) - w, weighted least squares (MPU's "bivariate quadratic
+//     polynomial in local coordinates"; the common case) if every normal is
+//     within 90 degrees of n and N <= 2 N_min;
+//   * else a general conic a x^2 + b xy + c y^2 + d x + e y + f (MPU's "general
+//     3D quadric") by weighted least squares on the points plus auxiliary
+//     off-surface points p -/+ 1 px n with values +/- 1 px
+//     (detail::kOffSurfaceDelta), which fix orientation and scale;
+//   * sharp features (MPU's "edge" in 3D is a corner in 2D): the normals are
+//     split into two clusters (largest angular gap, then optimal 1D 2-means;
+//     means >= corner_angle apart), one piece per cluster, Q = min(Q1, Q2) at
+//     a convex corner (each cluster lies behind the other's mean normal),
+//     max(Q1, Q2) at a concave one.
+// - Error and subdivision (MPU 2): the error of a local function is the
+//   maximum over the support points of the Taubin distance |Q(p)| / |grad Q(p)|;
+//   cells are subdivided into 4 while it exceeds tol. Cells are fitted
+//   eagerly, level by level (in parallel), not lazily during evaluation as in
+//   MPU; the function is the same.
+// - Blend (MPU 2): f(x) = sum_i w_i(x) Q_i(x) / sum_i w_i(x) over the leaves,
+//   w_i(x) = b(3 |x - c_i| / (2 R_i)), b the quadratic B-spline; the
+//   normalised weights are a partition of unity.
+//
+// Departures from MPU, each for a failure measured on digitised contours with
+// N_min ~ 150 (a support is then an arc of >= 75 px, far longer than MPU's
+// 15-point patches):
+// - Model fallback: if MPU's pick misses tol or a sign check, the other single
+//   model is tried, then a two-part model: a corner (above) if the support
+//   holds one connected piece of data, else the two largest pieces, each its
+//   best of height function / conic / corner, combined by min if each lies
+//   inside the other's function (a hole in a region, a thin wall) else max
+//   (two regions across a gap). Pieces of data: points linked closer than
+//   component_link x the median point spacing. The candidate that passes the
+//   sign checks with the least error is kept. (A parabola cannot follow an
+//   arc of 60+ degrees, which a conic fits exactly; nor can one quadric fit
+//   both sides of a gap narrower than the support.)
+// - Sign checks instead of MPU's auxiliary values: MPU constrains the quadric
+//   at the cell corners and centre to d = mean (p_k - q) . n_k over the 6
+//   nearest points. Those values grow linearly with the distance, a conic
+//   quadratically, so with cell corners 50-100 px from the data they moved the
+//   zero set by up to 20 px. Here the same points (plus the edge midpoints)
+//   only check the sign of Q where all 6 agree and |d| >= 2 px.
+// - Component rule: support growth also stops once the circle holds a point
+//   and every connected piece it touches lies wholly inside it, so an island
+//   or hole with fewer than N_min points gets fits of its own.
+// - Support reduction: a cell whose support had to grow and still misses tol
+//   is refitted with N_min halved, down to n_floor, each support grown exactly
+//   to its n-th nearest point (no lambda steps); the best is kept. Features
+//   smaller than N_min points (petals, bar ends) are otherwise never resolved:
+//   subdividing a support-bound cell gives children with the same support.
+// - Stall rule: for the same reason a cell whose support grew to more than
+//   0.8 of its parent's radius (detail::kSupportShrink) is not subdivided;
+//   MPU would subdivide it down to max_depth without reducing the error.
+// - Outside the root square, where the leaf weights fade out, f blends into a
+//   fallback F(x) = s |x - p| with p the nearest data point and s the sign of
+//   (p - x) . n_p (behind the nearest point's normal = inside):
+//   f = (sum w_i Q_i + w0 F) / (sum w_i + w0), w0 = max(0, w_floor - sum w_i),
+//   w_floor = b(0.75 / alpha) / 2: f is continuous, and w0 = 0 (pure MPU) in
+//   the whole root square.
+//
+// What tol bounds: the Taubin distance (the first-order Euclidean distance)
+// from every input point in a leaf's support circle to that leaf's local zero
+// set, in pixels. f at a data point is a convex combination of local
+// functions that all vanish within tol of it and all have |grad| ~ 1 there,
+// so the zero set of f passes within ~tol of every input point. It bounds the
+// fit to the points, not to the unknown true curve (digitised contour points
+// lie up to 1 px inside it, see the tests). Leaves can exceed tol only when
+// stopped by max_depth or by the stall rule with n_floor points still too
+// many (e.g. three sides of a bar end within 20 points); MpuResult reports
+// them. Measured (tests/fit/test_mpu.cpp): circle, ellipse, annulus, two
+// circles, square with hole at tol = 1 fit with no leaf over tol.
+//
+// Units: pixels of the working grid, pixel-centre convention (core/grid.h).
+#pragma once
+
+#include <cstddef>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "isoloft/contour/normals.h"
+#include "isoloft/core/grid.h"
+#include "isoloft/core/mesh.h"
+#include "isoloft/fit/mpu_local.h"
+#include "isoloft/fit/point_grid.h"
+
+namespace isoloft {
+
+struct MpuParams {
+  /// Minimum number of points per local fit, N_min (paper 2.1: 100-300; MPU
+  /// used 15 for dense 3D scans; a 2D contour needs a longer arc per fit).
+  int n_min = 150;
+  /// Smallest N_min a support-bound cell falls back to when its fit with
+  /// n_min points misses tol (file comment; not in MPU or the paper). 20: a
+  /// conic has 6 coefficients, and 20 digitised points (~20 px of contour)
+  /// still average the pixel staircase.
+  int n_floor = 20;
+  /// Error bound epsilon_0 of MPU 2, pixels: maximum Taubin distance of a
+  /// leaf's support points from its local zero set (see the file comment).
+  /// 1 px: digitised contour points scatter by up to ~0.7 px about a smooth
+  /// curve; a tighter bound only forces smaller supports that follow the
+  /// pixel staircase (measured on a 100 px disk: zero set 0.8 px from the
+  /// true circle at tol 0.5, 0.5 px at tol 1).
+  double tol = 1.0;
+  /// Support radius over cell diagonal (MPU 2: 0.75). Must be > 0.5 so every
+  /// cell lies inside its own support circle.
+  double alpha = 0.75;
+  /// Relative growth step of a support radius short of N_min points (MPU 2: 0.1).
+  double lambda = 0.1;
+  /// Deepest quadtree level (root = 0). Not in MPU (its bound is tol alone);
+  /// a safety net: 10 levels take a 500 px root to 0.5 px cells, while the
+  /// stall rule stops digitised data at depth 6-8 (measured).
+  int max_depth = 10;
+  /// Least angle between the two normal clusters of a corner fit, degrees
+  /// (MPU 3 sharp features; the 25.8 degree threshold cos = 0.9 of Kobbelt et
+  /// al., "Feature sensitive surface extraction", SIGGRAPH 2001).
+  double corner_angle = 25.8;
+  /// Points closer than this many median nearest-neighbour spacings form one
+  /// connected piece (component rule in the file comment). 2: an 8-connected
+  /// contour (spacing 1, diagonal steps 1.41) stays one piece.
+  double component_link = 2.0;
+  /// Region the curve will be evaluated on, pixels (e.g. [-0.5, w - 0.5] x
+  /// [-0.5, h - 0.5] for a w x h grid); the root square covers it and the
+  /// points. Empty: the points' bounding box alone.
+  Eigen::AlignedBox2d domain;
+};
+
+/// The fitted curve: an immutable function, safe to evaluate from many threads.
+class MpuCurve {
+ public:
+  /// One leaf of the quadtree: its local function and support circle.
+  struct Leaf {
+    detail::LocalFn fn;
+    Vec2d centre{0.0, 0.0};
+    double radius = 0.0;     ///< support radius R (after growth)
+    double half_size = 0.0;  ///< half the cell side
+    double error = 0.0;      ///< Taubin error over the support points
+    int depth = 0;
+    int support = 0;  ///< points in the support circle
+    int n_target = 0;  ///< N_min used (n_min, or less after support reduction)
+    bool grown = false;
+    bool sign_ok = true;  ///< fn agrees with every sign check of the cell
+  };
+
+  /// f(p), positive inside, ~ signed distance in pixels near the curve.
+  [[nodiscard]] double value(const Vec2d& p) const;
+  /// grad f(p) (analytic; at the kinks of a corner leaf, one side's).
+  [[nodiscard]] Vec2d gradient(const Vec2d& p) const;
+  void value_and_gradient(const Vec2d& p, double& value, Vec2d& gradient) const;
+
+  /// The normalised blending weights at p: (leaf index, weight), plus
+  /// (-1, weight) for the fallback when it takes part. They sum to 1.
+  [[nodiscard]] std::vector<std::pair<int, double>> weights(const Vec2d& p) const;
+
+  [[nodiscard]] const std::vector<Leaf>& leaves() const { return leaves_; }
+  /// Root square of the quadtree.
+  [[nodiscard]] Eigen::AlignedBox2d root_box() const;
+  /// Sum of leaf weights below which the fallback blends in.
+  [[nodiscard]] double weight_floor() const { return w_floor_; }
+  /// Fallback F(p) (file comment): signed distance to the nearest data point.
+  [[nodiscard]] double fallback(const Vec2d& p) const;
+
+ private:
+  friend class MpuBuilder;
+  friend Grid2f evaluate_on_grid(const MpuCurve&, int, int, double, double, double);
+
+  struct Node {
+    Eigen::AlignedBox2d box;  ///< bounds of the support circles of the leaves below
+    int first_child = -1;     ///< 4 consecutive nodes; -1 for a leaf
+    int leaf = -1;            ///< index into leaves_ for a leaf
+  };
+
+  /// Sums of w_i Q_i, w_i and their gradients over the leaves covering p.
+  void accumulate(const Vec2d& p, double& num, double& den, Vec2d* dnum, Vec2d* dden) const;
+  /// Nearest data point and its outward normal.
+  void fallback_eval(const Vec2d& p, double& value, Vec2d& grad) const;
+
+  std::vector<Node> nodes_;
+  std::vector<Leaf> leaves_;
+  Vec2d root_centre_{0.0, 0.0};
+  double root_half_ = 0.0;
+  double w_floor_ = 0.0;
+  detail::PointGrid grid_;  ///< the data points (fallback)
+  std::vector<Vec2d> normals_;
+};
+
+struct MpuResult {
+  MpuCurve curve;
+  int cells = 0;   ///< quadtree cells fitted (internal + leaves)
+  int leaves = 0;
+  int max_depth_reached = 0;
+  double max_local_error = 0.0;  ///< max leaf error (Taubin distance, px)
+  int leaves_over_tol = 0;       ///< leaves with error > tol: support-bound (grown) or at max_depth
+  int leaves_over_tol_at_max_depth = 0;  ///< of those, the ones stopped by max_depth
+  int quadric_leaves = 0, height_leaves = 0, corner_leaves = 0, two_curve_leaves = 0;
+  int grown_leaves = 0;  ///< leaves whose support radius had to grow
+  int sign_check_failures = 0;  ///< leaves whose best model failed a sign check
+  int components = 0;    ///< connected pieces of the point set (component rule)
+};
+
+/// Fits the 2D MPU curve to oriented points (paper 2.1; algorithm in the file comment).
+/// \pre points.size() == normals.size() >= 1; points finite; normals unit length.
+/// \throw InputError (empty file name; the caller prefixes the slice) if there
+///        are no points, the sizes differ, or a point or normal is not finite
+///        or a normal is not of unit length (+-1e-3).
+/// \throw ParamError if n_min < 1, tol <= 0, alpha <= 0.5, lambda <= 0,
+///        max_depth outside [0, 24], corner_angle outside (0, 180),
+///        component_link < 0, or a parameter is not finite.
+MpuResult fit_mpu(const OrientedPoints& points, const MpuParams& params = {});
+
+/// f at the points (x0 + i step, y0 + j step), i < width, j < height: pixel
+/// (i, j) of the result. Parallel over rows (TBB); equal to value() up to
+/// rounding (the same sums in another order).
+/// \throw ParamError if width or height < 0 or step <= 0.
+Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0 = 0.0, double y0 = 0.0,
+                        double step = 1.0);
+
+}  // namespace isoloft

@@ -1,0 +1,188 @@
+#include "isoloft/interp/spline.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "isoloft/core/error.h"
+
+namespace isoloft {
+
+std::string to_string(SplineKind k) {
+  switch (k) {
+    case SplineKind::Monotone: return "monotone";
+    case SplineKind::CatmullRom: return "catmull-rom";
+    case SplineKind::Natural: return "natural";
+    case SplineKind::Linear: return "linear";
+  }
+  return "?";
+}
+
+SplineKind spline_kind_from_string(const std::string& s) {
+  for (auto k : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear})
+    if (s == to_string(k)) return k;
+  throw ParamError("unknown spline '" + s + "' (expected monotone, catmull-rom, natural or linear)");
+}
+
+namespace {
+
+// Three-point (parabolic) derivative estimate at interior knot i; one-sided
+// three-point at the ends (exact for quadratics, any spacing).
+double parabolic_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+  const std::size_t n = z.size();
+  if (n == 2) return (f[1] - f[0]) / (z[1] - z[0]);
+  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
+  if (i == 0) {
+    const double h0 = z[1] - z[0], h1 = z[2] - z[1];
+    return ((2 * h0 + h1) * slope(0) - h0 * slope(1)) / (h0 + h1);
+  }
+  if (i == n - 1) {
+    const double h0 = z[n - 2] - z[n - 3], h1 = z[n - 1] - z[n - 2];
+    return ((2 * h1 + h0) * slope(n - 2) - h1 * slope(n - 3)) / (h0 + h1);
+  }
+  const double hl = z[i] - z[i - 1], hr = z[i + 1] - z[i];
+  return (hr * slope(i - 1) + hl * slope(i)) / (hl + hr);
+}
+
+// Hyman's filter: clamp m into the monotone region given the neighbouring secants.
+double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
+  if (!has_l) dl = dr;
+  if (!has_r) dr = dl;
+  if (dl * dr <= 0.0) return 0.0;  // local extremum (or flat): Hyman sets the tangent to zero
+  const double bound = 3.0 * std::min(std::abs(dl), std::abs(dr));
+  const double s = dl > 0 ? 1.0 : -1.0;
+  return s * std::clamp(s * m, 0.0, bound);
+}
+
+}  // namespace
+
+void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m) {
+  const std::size_t n = z.size();
+  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
+  switch (kind) {
+    case SplineKind::Linear:
+      for (std::size_t i = 0; i < n; ++i) m[i] = 0.0;
+      return;
+    case SplineKind::CatmullRom:
+      for (std::size_t i = 0; i < n; ++i) {
+        if (i == 0) m[i] = slope(0);
+        else if (i == n - 1) m[i] = slope(n - 2);
+        else m[i] = (f[i + 1] - f[i - 1]) / (z[i + 1] - z[i - 1]);
+      }
+      return;
+    case SplineKind::Monotone:
+      for (std::size_t i = 0; i < n; ++i) {
+        const bool has_l = i > 0, has_r = i + 1 < n;
+        m[i] = hyman_clamp(parabolic_tangent(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
+      }
+      return;
+    case SplineKind::Natural: {
+      // Second derivatives M with M_0 = M_{n-1} = 0 (Thomas algorithm), then
+      // Hermite tangents m_i = D_i - h_i (2 M_i + M_{i+1}) / 6.
+      std::vector<double> M(n, 0.0), c(n, 0.0), d(n, 0.0);
+      for (std::size_t i = 1; i + 1 < n; ++i) {
+        const double hl = z[i] - z[i - 1], hr = z[i + 1] - z[i];
+        const double a = hl / 6, b = (hl + hr) / 3, cc = hr / 6;
+        const double rhs = slope(i) - slope(i - 1);
+        const double denom = b - a * c[i - 1];
+        c[i] = cc / denom;
+        d[i] = (rhs - a * d[i - 1]) / denom;
+      }
+      for (std::size_t i = n - 1; i-- > 1;) M[i] = d[i] - c[i] * M[i + 1];
+      for (std::size_t i = 0; i + 1 < n; ++i) m[i] = slope(i) - (z[i + 1] - z[i]) * (2 * M[i] + M[i + 1]) / 6;
+      m[n - 1] = slope(n - 2) + (z[n - 1] - z[n - 2]) * (M[n - 2] + 2 * M[n - 1]) / 6;
+      return;
+    }
+  }
+}
+
+double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z) {
+  const double h = z1 - z0;
+  const double t = (z - z0) / h;
+  if (kind == SplineKind::Linear) return f0 + t * (f1 - f0);
+  const double t2 = t * t, t3 = t2 * t;
+  const double h00 = 2 * t3 - 3 * t2 + 1, h10 = t3 - 2 * t2 + t, h01 = -2 * t3 + 3 * t2, h11 = t3 - t2;
+  return h00 * f0 + h10 * h * m0 + h01 * f1 + h11 * h * m1;
+}
+
+namespace {
+std::size_t interval_of(const std::vector<double>& z, double q) {
+  auto it = std::upper_bound(z.begin(), z.end(), q);
+  std::size_t k = it == z.begin() ? 0 : std::size_t(it - z.begin()) - 1;
+  return std::min(k, z.size() - 2);
+}
+void check_knots(const std::vector<double>& z) {
+  if (z.size() < 2) throw ParamError("spline needs at least 2 knots");
+  for (std::size_t i = 1; i < z.size(); ++i)
+    if (!(z[i] > z[i - 1])) throw ParamError("spline knots must be strictly increasing (z[" + std::to_string(i) + "])");
+}
+}  // namespace
+
+Spline1D::Spline1D(std::vector<double> z, std::vector<double> f, SplineKind kind)
+    : z_(std::move(z)), f_(std::move(f)), m_(z_.size()), kind_(kind) {
+  check_knots(z_);
+  if (f_.size() != z_.size()) throw ParamError("spline: z and f differ in length");
+  spline_tangents(kind_, z_, f_, m_);
+}
+
+double Spline1D::operator()(double q) const {
+  if (q <= z_.front()) return f_.front();
+  if (q >= z_.back()) return f_.back();
+  const std::size_t k = interval_of(z_, q);
+  return hermite(kind_, z_[k], z_[k + 1], f_[k], f_[k + 1], m_[k], m_[k + 1], q);
+}
+
+ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind)
+    : slices_(std::move(slices)), z_(std::move(z)), kind_(kind) {
+  check_knots(z_);
+  if (slices_.size() != z_.size()) throw ParamError("interpolator: slice count differs from z count");
+  const int w = slices_.front().width, h = slices_.front().height;
+  for (const auto& s : slices_)
+    if (s.width != w || s.height != h) throw ParamError("interpolator: slices differ in size");
+  const std::size_t n = z_.size();
+  tangents_.assign(n, Grid2f(w, h, 0.0f));
+  if (kind_ == SplineKind::Linear) return;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
+    std::vector<double> f(n), m(n);
+    for (std::size_t p = r.begin(); p != r.end(); ++p) {
+      for (std::size_t k = 0; k < n; ++k) f[k] = slices_[k].data[p];
+      spline_tangents(kind_, z_, f, m);
+      for (std::size_t k = 0; k < n; ++k) tangents_[k].data[p] = float(m[k]);
+    }
+  });
+}
+
+void ZInterpolator::evaluate(double q, Grid2f& out) const {
+  const int w = width(), h = height();
+  if (out.width != w || out.height != h) out = Grid2f(w, h);
+  q = std::clamp(q, z_.front(), z_.back());
+  const std::size_t k = interval_of(z_, q);
+  const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
+  const double z0 = z_[k], z1 = z_[k + 1];
+  tbb::parallel_for(0, h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t p = f0.index(x, y);
+      out.data[p] = float(hermite(kind_, z0, z1, f0.data[p], f1.data[p], m0.data[p], m1.data[p], q));
+    }
+  });
+}
+
+void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const InterpParams& params) {
+  if (slices.size() < 2 || slices.size() != z.size()) throw ParamError("end caps need at least 2 slices");
+  auto cap = [&](const Grid2f& end) {
+    float top = 0.0f;
+    for (float v : end.data) top = std::max(top, v);
+    Grid2f c = end;
+    for (float& v : c.data) v -= top + float(params.cap_depth);
+    return c;
+  };
+  const double h0 = z[1] - z[0], hn = z[z.size() - 1] - z[z.size() - 2];
+  Grid2f first = cap(slices.front()), last = cap(slices.back());
+  slices.insert(slices.begin(), std::move(first));
+  z.insert(z.begin(), z.front() - params.cap_extent * h0);
+  slices.push_back(std::move(last));
+  z.push_back(z.back() + params.cap_extent * hn);
+}
+
+}  // namespace isoloft

@@ -1,0 +1,86 @@
+// z interpolation through the slices (paper 2.4): every pixel column is one
+// cubic Hermite spline through its slice values.
+//
+// Kinds:
+//  - Monotone: Fritsch-Carlson/Hyman monotone cubic Hermite. Three-point
+//    (parabolic) tangents, then Hyman's filter (Hyman 1983, "Accurate
+//    monotonicity preserving cubic interpolation", SIAM J. Sci. Stat. Comput.
+//    4(4)): m_i = 0 at a local extremum of the data, otherwise m_i keeps the
+//    sign of the data and |m_i| <= 3 min(|D_{i-1}|, |D_i|). The interpolant is
+//    then monotone on every interval where the data are, and never leaves the
+//    range of the two data values of an interval (paper 2.4, Fig. 8/9).
+//  - CatmullRom: m_i = (f_{i+1} - f_{i-1}) / (z_{i+1} - z_{i-1}) (may overshoot).
+//  - Natural: C2 natural cubic spline (f'' = 0 at the ends), via its tangents.
+//  - Linear: piecewise linear.
+// Non-uniform z works for every kind. Ends use one-sided estimates.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "isoloft/core/grid.h"
+
+namespace isoloft {
+
+enum class SplineKind { Monotone, CatmullRom, Natural, Linear };
+
+std::string to_string(SplineKind);
+/// \throw ParamError for an unknown name ("monotone", "catmull-rom", "natural", "linear").
+SplineKind spline_kind_from_string(const std::string&);
+
+struct InterpParams {
+  SplineKind spline = SplineKind::Monotone;  ///< paper 2.4: monotone (Hyman 1983)
+  /// End caps (not in the paper, which does not say how its surfaces close):
+  /// a virtual slice is placed `cap_extent` slice spacings beyond the first
+  /// and the last slice, holding the end slice's field lowered by its maximum
+  /// plus `cap_depth`, so it is negative everywhere. The spline runs through
+  /// it, so each end closes as a dome shaped by the end contour's distance
+  /// field, reaching cap_extent spacings beyond the deepest interior point.
+  double cap_extent = 0.5;  ///< slice spacings
+  double cap_depth = 1.0;   ///< pixels; keeps the virtual slice strictly outside
+  double z_step = 1.0;      ///< pixels; spacing of the sampled z planes (Marching Cubes grid)
+};
+
+/// Hermite tangents of one column: f at strictly increasing z, n >= 2.
+/// \pre z.size() == f.size() == m.size() >= 2
+void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m);
+
+/// Evaluate the Hermite piece on [z0, z1] (linear kind ignores m).
+double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z);
+
+/// A 1D spline through scalar data (figures, tests).
+class Spline1D {
+ public:
+  Spline1D(std::vector<double> z, std::vector<double> f, SplineKind kind);
+  [[nodiscard]] double operator()(double z) const;  ///< clamped to the end values outside [z0, zn]
+  [[nodiscard]] const std::vector<double>& tangents() const { return m_; }
+
+ private:
+  std::vector<double> z_, f_, m_;
+  SplineKind kind_;
+};
+
+/// Per-pixel splines through a stack of equally sized fields.
+class ZInterpolator {
+ public:
+  /// \pre slices.size() == z.size() >= 2, z strictly increasing, all slices the same size.
+  /// \throw ParamError otherwise.
+  ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind);
+  /// Field at height z (clamped to [z.front(), z.back()]); parallel over rows.
+  void evaluate(double z, Grid2f& out) const;
+  [[nodiscard]] const std::vector<double>& z() const { return z_; }
+  [[nodiscard]] int width() const { return slices_.front().width; }
+  [[nodiscard]] int height() const { return slices_.front().height; }
+
+ private:
+  std::vector<Grid2f> slices_, tangents_;
+  std::vector<double> z_;
+  SplineKind kind_;
+};
+
+/// Adds the end-cap virtual slices of InterpParams to (slices, z).
+/// \pre slices.size() == z.size() >= 2
+void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const InterpParams& params);
+
+}  // namespace isoloft

@@ -1,0 +1,168 @@
+#include "isoloft/io/metaimage.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <sstream>
+#include <vector>
+
+#include "isoloft/core/error.h"
+
+namespace isoloft {
+namespace {
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r\n");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<double> numbers(const std::string& path, const std::string& key, const std::string& val) {
+  std::vector<double> out;
+  std::istringstream in(val);
+  for (std::string w; in >> w;) {
+    double d;
+    const char* b = w.data() + (w[0] == '+' ? 1 : 0);
+    const auto r = std::from_chars(b, w.data() + w.size(), d);
+    if (r.ec != std::errc() || r.ptr != w.data() + w.size() || !std::isfinite(d))
+      throw InputError(path, key + ": bad number '" + w + "'");
+    out.push_back(d);
+  }
+  return out;
+}
+
+bool is_true(const std::string& v) {
+  std::string l = v;
+  std::transform(l.begin(), l.end(), l.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return l == "true" || l == "1";
+}
+
+}  // namespace
+
+Volume read_metaimage(const std::string& mhd) {
+  const std::vector<unsigned char> header = detail::read_file_bytes(mhd);
+  std::map<std::string, std::string> kv;
+  std::size_t pos = 0, local_offset = 0;
+  bool local = false;
+  while (pos < header.size()) {
+    const auto* nl = static_cast<const unsigned char*>(std::memchr(header.data() + pos, '\n', header.size() - pos));
+    const std::size_t e = nl ? std::size_t(nl - header.data()) : header.size();
+    const std::string line(reinterpret_cast<const char*>(header.data()) + pos, e - pos);
+    pos = e + 1;
+    const std::size_t eq = line.find('=');
+    if (trim(line).empty()) continue;
+    if (eq == std::string::npos) throw InputError(mhd, "bad MetaImage header line '" + trim(line) + "'");
+    const std::string key = trim(line.substr(0, eq));
+    const std::string val = trim(line.substr(eq + 1));
+    kv[key] = val;
+    if (key == "ElementDataFile") {  // always the last header field
+      local = val == "LOCAL";
+      local_offset = std::min(pos, header.size());
+      break;
+    }
+  }
+  auto get = [&](const std::string& k) -> const std::string* {
+    const auto it = kv.find(k);
+    return it == kv.end() ? nullptr : &it->second;
+  };
+  if (!get("ElementDataFile")) throw InputError(mhd, "MetaImage header lacks ElementDataFile");
+  if (!get("NDims") || !get("DimSize") || !get("ElementType"))
+    throw InputError(mhd, "MetaImage header lacks NDims, DimSize or ElementType");
+
+  const auto ndims_v = numbers(mhd, "NDims", *get("NDims"));
+  if (ndims_v.size() != 1 || (ndims_v[0] != 2 && ndims_v[0] != 3))
+    throw InputError(mhd, "NDims = " + *get("NDims") + " (need 2 or 3)");
+  const int ndims = int(ndims_v[0]);
+  const auto dims = numbers(mhd, "DimSize", *get("DimSize"));
+  if (int(dims.size()) != ndims) throw InputError(mhd, "DimSize needs " + std::to_string(ndims) + " values");
+  for (double d : dims)
+    if (d < 1 || d != std::floor(d) || d > double(1 << 30))
+      throw InputError(mhd, "bad DimSize '" + *get("DimSize") + "'");
+  if (const auto* c = get("ElementNumberOfChannels"); c && trim(*c) != "1")
+    throw InputError(mhd, "ElementNumberOfChannels = " + *c + " (only 1 is supported)");
+  if (const auto* t = get("TransformMatrix")) {
+    const auto m = numbers(mhd, "TransformMatrix", *t);
+    for (std::size_t i = 0; i < m.size(); ++i) {
+      const std::size_t n = std::size_t(ndims);
+      const double identity = (i / n == i % n) ? 1.0 : 0.0;
+      if (m[i] != identity) throw InputError(mhd, "TransformMatrix is not the identity (rotated volumes unsupported)");
+    }
+  }
+
+  using detail::ScalarType;
+  static const std::pair<const char*, ScalarType> types[] = {
+      {"MET_UCHAR", ScalarType::U8},  {"MET_CHAR", ScalarType::I8},   {"MET_USHORT", ScalarType::U16},
+      {"MET_SHORT", ScalarType::I16}, {"MET_UINT", ScalarType::U32},  {"MET_INT", ScalarType::I32},
+      {"MET_FLOAT", ScalarType::F32}, {"MET_DOUBLE", ScalarType::F64}};
+  const std::string& type_name = *get("ElementType");
+  const auto ti = std::find_if(std::begin(types), std::end(types), [&](const auto& t) { return type_name == t.first; });
+  if (ti == std::end(types)) throw InputError(mhd, "unsupported ElementType " + type_name);
+  const ScalarType type = ti->second;
+
+  Volume v;
+  v.nx = int(dims[0]);
+  v.ny = int(dims[1]);
+  v.nz = ndims == 3 ? int(dims[2]) : 1;
+  const std::string* sp = get("ElementSpacing") ? get("ElementSpacing") : get("ElementSize");
+  if (sp) {
+    const auto s = numbers(mhd, "ElementSpacing", *sp);
+    if (int(s.size()) != ndims) throw InputError(mhd, "ElementSpacing needs " + std::to_string(ndims) + " values");
+    for (int a = 0; a < ndims; ++a) {
+      if (!(s[std::size_t(a)] > 0)) throw InputError(mhd, "ElementSpacing must be > 0");
+      v.spacing[std::size_t(a)] = s[std::size_t(a)];
+    }
+  }
+  const std::string* off = get("Offset") ? get("Offset") : get("Position") ? get("Position") : get("Origin");
+  if (off) {
+    const auto o = numbers(mhd, "Offset", *off);
+    if (int(o.size()) != ndims) throw InputError(mhd, "Offset needs " + std::to_string(ndims) + " values");
+    for (int a = 0; a < ndims; ++a) v.origin[std::size_t(a)] = o[std::size_t(a)];
+  }
+  bool big = false;
+  if (const auto* b = get("BinaryDataByteOrderMSB")) big = is_true(*b);
+  if (const auto* b = get("ElementByteOrderMSB")) big = is_true(*b);
+  const bool compressed = get("CompressedData") && is_true(*get("CompressedData"));
+
+  const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, mhd);
+  const std::size_t nbytes = count * detail::scalar_size(type);
+  std::string data_name = mhd;
+  std::vector<unsigned char> file;
+  if (local) {
+    file.assign(header.begin() + std::ptrdiff_t(local_offset), header.end());
+  } else {
+    const std::string& df = *get("ElementDataFile");
+    if (df == "LIST" || df.find('%') != std::string::npos || df.find(' ') != std::string::npos)
+      throw InputError(mhd, "multi-file MetaImage data '" + df + "' is not supported");
+    std::filesystem::path dp(df);
+    if (dp.is_relative()) dp = std::filesystem::path(mhd).parent_path() / dp;
+    data_name = dp.string();
+    file = detail::read_file_bytes(data_name);
+  }
+  const unsigned char* data = file.data();
+  std::vector<unsigned char> inflated;
+  if (compressed) {
+    inflated = detail::inflate_exact(file.data(), file.size(), nbytes, data_name);
+    data = inflated.data();
+  } else {
+    long long skip = 0;
+    if (const auto* hs = get("HeaderSize")) {
+      const auto h = numbers(mhd, "HeaderSize", *hs);
+      if (h.size() != 1 || h[0] < -1 || h[0] != std::floor(h[0])) throw InputError(mhd, "bad HeaderSize");
+      skip = (long long)h[0];
+    }
+    if (skip == -1) skip = (long long)file.size() - (long long)nbytes;  // data at the end of the file
+    if (skip < 0 || std::size_t(skip) + nbytes > file.size())
+      throw InputError(data_name, "data truncated: " + std::to_string(file.size()) + " bytes, need " +
+                                      std::to_string(nbytes + std::size_t(std::max(skip, 0LL))));
+    data = file.data() + skip;
+  }
+  v.data.resize(count);
+  detail::decode_scalars(data, count, type, big, v.data.data());
+  return v;
+}
+
+}  // namespace isoloft

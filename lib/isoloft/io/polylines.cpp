@@ -1,0 +1,186 @@
+#include "isoloft/io/polylines.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string_view>
+#include <vector>
+
+#include "isoloft/core/error.h"
+#include "isoloft/io/atomic_file.h"
+#include "isoloft/io/volume.h"
+
+namespace isoloft {
+namespace {
+
+bool to_double(std::string_view s, double& v) {
+  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size() && std::isfinite(v);
+}
+
+bool to_int(std::string_view s, long long& v) {
+  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+std::vector<std::string_view> tokens_of(std::string_view line) {
+  const std::size_t h = line.find('#');
+  if (h != std::string_view::npos) line = line.substr(0, h);
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  while (i < line.size()) {
+    while (i < line.size() && space(line[i])) ++i;
+    const std::size_t b = i;
+    while (i < line.size() && !space(line[i])) ++i;
+    if (i > b) out.push_back(line.substr(b, i - b));
+  }
+  return out;
+}
+
+std::string fmt(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+}  // namespace
+
+SliceStack read_polylines(const std::string& path) {
+  const std::vector<unsigned char> bytes = detail::read_file_bytes(path);
+  auto fail = [&](std::size_t line, const std::string& problem) {
+    return InputError(path + ":" + std::to_string(line), problem);
+  };
+  SliceStack stack;
+  stack.polylines = true;
+  bool have_magic = false, have_size = false, have_pixel_size = false;
+  Polygon* contour = nullptr;    // contour being filled
+  std::size_t contour_line = 0;  // its `contour` keyword line
+  std::size_t line_no = 0;
+  auto close_contour = [&]() {
+    if (!contour) return;
+    // An explicitly repeated first point would make a zero-length closing edge.
+    if (contour->points.size() > 1 && contour->points.back() == contour->points.front()) contour->points.pop_back();
+    if (contour->points.size() < 3)
+      throw fail(contour_line,
+                 "contour with " + std::to_string(contour->points.size()) + " distinct points (need at least 3)");
+    contour = nullptr;
+  };
+
+  const char* p = reinterpret_cast<const char*>(bytes.data());
+  const char* end = p + bytes.size();
+  while (p < end) {
+    const char* e = static_cast<const char*>(std::memchr(p, '\n', std::size_t(end - p)));
+    if (!e) e = end;
+    const std::string_view line(p, std::size_t(e - p));
+    p = e < end ? e + 1 : end;
+    ++line_no;
+    const auto tok = tokens_of(line);
+    if (tok.empty()) continue;
+    const std::string_view key = tok[0];
+    if (!have_magic) {
+      if (key != "isoloft-polylines")
+        throw fail(line_no, "not an isoloft polyline file (expected 'isoloft-polylines 1')");
+      if (tok.size() != 2 || tok[1] != "1")
+        throw fail(line_no, "unsupported polyline format version (expected 'isoloft-polylines 1')");
+      have_magic = true;
+    } else if (key == "size") {
+      long long w = 0, h = 0;
+      if (tok.size() != 3 || !to_int(tok[1], w) || !to_int(tok[2], h) || w < 1 || h < 1 || w > (1 << 20) ||
+          h > (1 << 20))
+        throw fail(line_no, "expected 'size <width> <height>' with positive integers");
+      if (have_size) throw fail(line_no, "duplicate 'size'");
+      if (!stack.slices.empty()) throw fail(line_no, "'size' must come before the first slice");
+      stack.width = int(w);
+      stack.height = int(h);
+      have_size = true;
+    } else if (key == "pixel_size") {
+      double s = 0;
+      if (tok.size() != 2 || !to_double(tok[1], s) || s <= 0) throw fail(line_no, "expected 'pixel_size <number > 0>'");
+      if (have_pixel_size) throw fail(line_no, "duplicate 'pixel_size'");
+      if (!stack.slices.empty()) throw fail(line_no, "'pixel_size' must come before the first slice");
+      stack.pixel_size = s;
+      have_pixel_size = true;
+    } else if (key == "slice") {
+      close_contour();
+      double z = 0;
+      if (tok.size() != 2 || !to_double(tok[1], z)) throw fail(line_no, "expected 'slice <z>'");
+      if (!have_size) throw fail(line_no, "missing 'size <width> <height>' before the first slice");
+      if (!stack.slices.empty() && !(z > stack.slices.back().z))
+        throw fail(line_no, "slice z " + fmt(z) + " is not greater than the previous " + fmt(stack.slices.back().z) +
+                                " (z must strictly increase)");
+      Slice s;
+      s.z = z;
+      s.source = path;
+      stack.slices.push_back(std::move(s));
+    } else if (key == "contour") {
+      close_contour();
+      if (tok.size() != 1) throw fail(line_no, "'contour' takes no arguments");
+      if (stack.slices.empty()) throw fail(line_no, "'contour' before any 'slice'");
+      stack.slices.back().polygons.emplace_back();
+      contour = &stack.slices.back().polygons.back();
+      contour_line = line_no;
+    } else {
+      const bool numeric = key[0] == '-' || key[0] == '+' || key[0] == '.' || (key[0] >= '0' && key[0] <= '9');
+      if (!numeric) throw fail(line_no, "unknown keyword '" + std::string(key) + "'");
+      double x = 0, y = 0;
+      if (tok.size() != 2 || !to_double(tok[0], x) || !to_double(tok[1], y))
+        throw fail(line_no, "expected two numbers");
+      if (!contour) throw fail(line_no, "point outside a 'contour'");
+      if (x < -0.5 || y < -0.5 || x > stack.width - 0.5 || y > stack.height - 0.5)
+        throw fail(line_no, "point (" + fmt(x) + ", " + fmt(y) + ") outside the " + std::to_string(stack.width) + "x" +
+                                std::to_string(stack.height) + " grid");
+      contour->points.emplace_back(x, y);
+    }
+  }
+  close_contour();
+  if (!have_magic) throw InputError(path, "empty file (expected 'isoloft-polylines 1')");
+  if (!have_size) throw InputError(path, "missing 'size <width> <height>'");
+  if (stack.slices.empty()) throw InputError(path, "no slices");
+  return stack;
+}
+
+void write_polylines(const std::string& path, const SliceStack& stack) {
+  if (!stack.polylines) throw ParamError(path + ": write_polylines needs a polyline stack (got images)");
+  if (stack.width < 1 || stack.height < 1) throw ParamError(path + ": grid size must be >= 1");
+  if (!(stack.pixel_size > 0 && std::isfinite(stack.pixel_size))) throw ParamError(path + ": pixel_size must be > 0");
+  for (std::size_t k = 0; k < stack.slices.size(); ++k) {
+    if (k > 0 && !(stack.slices[k].z > stack.slices[k - 1].z))
+      throw ParamError(path + ": slice " + std::to_string(k) + " z does not increase");
+    for (std::size_t c = 0; c < stack.slices[k].polygons.size(); ++c) {
+      const auto& pts = stack.slices[k].polygons[c].points;
+      const std::string where = path + ": slice " + std::to_string(k) + " contour " + std::to_string(c);
+      if (pts.size() < 3) throw ParamError(where + " has fewer than 3 points");
+      for (const Vec2d& q : pts)  // the reader would reject it
+        if (!(q.x() >= -0.5 && q.y() >= -0.5 && q.x() <= stack.width - 0.5 && q.y() <= stack.height - 0.5))
+          throw ParamError(where + " has a point outside the grid");
+    }
+  }
+  std::string out;
+  out += "# isoloft polyline contours; coordinates in pixels of the working grid\n";
+  out += "isoloft-polylines 1\n";
+  out += "size " + std::to_string(stack.width) + " " + std::to_string(stack.height) + "\n";
+  out += "pixel_size " + fmt(stack.pixel_size) + "\n";
+  for (const Slice& s : stack.slices) {
+    out += "slice " + fmt(s.z) + "\n";
+    for (const Polygon& poly : s.polygons) {
+      out += "contour\n";
+      for (const Vec2d& q : poly.points) out += fmt(q.x()) + " " + fmt(q.y()) + "\n";
+    }
+  }
+  AtomicFile file(path);
+  {
+    std::FILE* fp = std::fopen(file.temp_path().c_str(), "wb");
+    if (!fp) throw Error(path + ": cannot create file (" + std::strerror(errno) + ")");
+    const bool ok = std::fwrite(out.data(), 1, out.size(), fp) == out.size();
+    const bool closed = std::fclose(fp) == 0;
+    if (!ok || !closed) throw Error(path + ": write error (" + std::strerror(errno) + ")");
+  }
+  file.commit();
+}
+
+}  // namespace isoloft

@@ -1,0 +1,256 @@
+#include "isoloft/mesh/marching_cubes.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "isoloft/core/error.h"
+
+namespace isoloft {
+
+namespace detail {
+namespace {
+
+using Tri = std::array<std::int8_t, 3>;
+
+// Faces of the unit cube: corners in cyclic order, and the outward normal.
+constexpr std::array<std::array<int, 4>, 6> kFaceCorners{{{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},  //
+                                                          {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}}};
+constexpr std::array<std::array<int, 3>, 6> kFaceNormals{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0},  //
+                                                          {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
+
+Vec3d corner_position(int c) { return {double(c & 1), double((c >> 1) & 1), double((c >> 2) & 1)}; }
+
+int edge_between(int a, int b) {
+  if (a > b) std::swap(a, b);
+  for (int e = 0; e < 12; ++e)
+    if (kCubeEdgeCorners[e][0] == a && kCubeEdgeCorners[e][1] == b) return e;
+  throw std::logic_error("marching cubes: corners are not joined by a cube edge");
+}
+
+Vec3d edge_midpoint(int e) {
+  return 0.5 * (corner_position(kCubeEdgeCorners[e][0]) + corner_position(kCubeEdgeCorners[e][1]));
+}
+
+struct CaseTable {
+  std::array<std::vector<Tri>, 256> triangles;
+};
+
+// Minimum-total-diagonal-length triangulation of one loop (vertices = cube
+// edge ids, in loop order) avoiding diagonals between two vertices on a common
+// cube face. Triangles keep the loop's orientation (indices increase along the
+// loop inside each triangle).
+std::vector<Tri> triangulate_loop(const std::vector<int>& loop, const std::array<std::array<bool, 12>, 12>& share_face) {
+  const int m = int(loop.size());
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  auto weight = [&](int i, int j) {  // i < j
+    if (j == i + 1 || (i == 0 && j == m - 1)) return 0.0;  // loop edge
+    if (share_face[loop[i]][loop[j]]) return kInf;
+    return (edge_midpoint(loop[i]) - edge_midpoint(loop[j])).norm();
+  };
+  std::vector<double> best(std::size_t(m * m), 0.0);
+  std::vector<int> split(std::size_t(m * m), -1);
+  for (int len = 2; len < m; ++len) {
+    for (int i = 0; i + len < m; ++i) {
+      const int j = i + len;
+      double b = kInf;
+      int s = -1;
+      for (int k = i + 1; k < j; ++k) {
+        const double c = best[i * m + k] + best[k * m + j] + weight(i, k) + weight(k, j);
+        if (c < b) b = c, s = k;
+      }
+      best[i * m + j] = b;
+      split[i * m + j] = s;
+    }
+  }
+  if (!(best[m - 1] < kInf)) throw std::logic_error("marching cubes: a loop has no admissible triangulation");
+  std::vector<Tri> out;
+  std::vector<std::pair<int, int>> todo{{0, m - 1}};
+  while (!todo.empty()) {
+    auto [i, j] = todo.back();
+    todo.pop_back();
+    if (j - i < 2) continue;
+    const int k = split[i * m + j];
+    out.push_back({std::int8_t(loop[i]), std::int8_t(loop[k]), std::int8_t(loop[j])});
+    todo.emplace_back(i, k);
+    todo.emplace_back(k, j);
+  }
+  return out;
+}
+
+CaseTable build_case_table() {
+  std::array<std::array<bool, 12>, 12> share_face{};
+  for (const auto& face : kFaceCorners)
+    for (int s = 0; s < 4; ++s)
+      for (int r = 0; r < 4; ++r)
+        share_face[edge_between(face[s], face[(s + 1) % 4])][edge_between(face[r], face[(r + 1) % 4])] = true;
+
+  CaseTable table;
+  for (int mask = 0; mask < 256; ++mask) {
+    auto inside = [&](int c) { return ((mask >> c) & 1) != 0; };
+    std::array<int, 12> next;
+    next.fill(-1);
+    std::array<int, 12> in_degree{};
+    auto add_segment = [&](int ea, int eb, int reference_inside_corner, int f) {
+      // Direct a -> b so that n x d points away from the inside corner, i.e.
+      // the outside part of the face lies on the left seen from outside.
+      const Vec3d n(kFaceNormals[f][0], kFaceNormals[f][1], kFaceNormals[f][2]);
+      const Vec3d pa = edge_midpoint(ea), pb = edge_midpoint(eb);
+      const double side = n.cross(pb - pa).dot(corner_position(reference_inside_corner) - 0.5 * (pa + pb));
+      if (side > 0) std::swap(ea, eb);
+      if (next[ea] != -1) throw std::logic_error("marching cubes: two segments leave one edge");
+      next[ea] = eb;
+      ++in_degree[eb];
+    };
+    for (int f = 0; f < 6; ++f) {
+      const auto& q = kFaceCorners[f];
+      std::vector<int> crossings;  // cube edges of the face whose ends differ
+      int any_inside = -1, n_inside = 0;
+      for (int s = 0; s < 4; ++s) {
+        if (inside(q[s])) any_inside = q[s], ++n_inside;
+        if (inside(q[s]) != inside(q[(s + 1) % 4])) crossings.push_back(edge_between(q[s], q[(s + 1) % 4]));
+      }
+      if (crossings.size() == 2) {
+        add_segment(crossings[0], crossings[1], any_inside, f);
+      } else if (crossings.size() == 4) {  // ambiguous face: cut off each inside corner
+        for (int s = 0; s < 4; ++s)
+          if (inside(q[s])) add_segment(edge_between(q[(s + 3) % 4], q[s]), edge_between(q[s], q[(s + 1) % 4]), q[s], f);
+      }
+    }
+    std::array<bool, 12> visited{};
+    for (int e = 0; e < 12; ++e) {
+      if (next[e] == -1) continue;
+      if (in_degree[e] != 1) throw std::logic_error("marching cubes: segments do not form loops");
+      if (visited[e]) continue;
+      std::vector<int> loop;
+      for (int v = e; !visited[v]; v = next[v]) {
+        visited[v] = true;
+        loop.push_back(v);
+      }
+      for (const Tri& t : triangulate_loop(loop, share_face)) table.triangles[mask].push_back(t);
+    }
+  }
+  return table;
+}
+
+}  // namespace
+
+const std::vector<std::array<std::int8_t, 3>>& mc_case_triangles(int inside_mask) {
+  static const CaseTable table = build_case_table();
+  if (inside_mask < 0 || inside_mask > 255) throw ParamError("marching cubes: case index must be in 0..255");
+  return table.triangles[std::size_t(inside_mask)];
+}
+
+}  // namespace detail
+
+MarchingCubes::MarchingCubes(int width, int height, double x0, double y0, MarchingCubesParams params)
+    : width_(width), height_(height), x0_(x0), y0_(y0), params_(params) {
+  if (width < 1 || height < 1)
+    throw ParamError("marching cubes: plane size " + std::to_string(width) + "x" + std::to_string(height) +
+                     " must be at least 1x1");
+  if (!std::isfinite(x0) || !std::isfinite(y0)) throw ParamError("marching cubes: origin x0, y0 must be finite");
+  if (!std::isfinite(params.iso)) throw ParamError("marching cubes: iso must be finite");
+  const auto w = std::size_t(width), h = std::size_t(height);
+  xedge_bottom_.assign((w - 1) * h, -1);
+  xedge_top_.assign((w - 1) * h, -1);
+  yedge_bottom_.assign(w * (h - 1), -1);
+  yedge_top_.assign(w * (h - 1), -1);
+  zedge_.assign(w * h, -1);
+  (void)detail::mc_case_triangles(0);  // build the table outside the hot loop
+}
+
+void MarchingCubes::add_plane(const Grid2f& values, double z) {
+  const std::string where = "marching cubes: plane " + std::to_string(planes_);
+  if (values.width != width_ || values.height != height_ || values.size() != std::size_t(width_) * std::size_t(height_))
+    throw ParamError(where + " is " + std::to_string(values.width) + "x" + std::to_string(values.height) + ", expected " +
+                     std::to_string(width_) + "x" + std::to_string(height_));
+  if (!std::isfinite(z)) throw ParamError(where + ": z is not finite");
+  if (planes_ > 0 && !(z > prev_z_))
+    throw ParamError(where + ": z = " + std::to_string(z) + " is not greater than the previous z = " +
+                     std::to_string(prev_z_));
+  for (int j = 0; j < height_; ++j)
+    for (int i = 0; i < width_; ++i)
+      if (!std::isfinite(values(i, j)))
+        throw InputError("", where + " (z = " + std::to_string(z) + "): value at pixel (" + std::to_string(i) + ", " +
+                                 std::to_string(j) + ") is not finite");
+  if (planes_ > 0) {
+    triangulate_layer(values, z);
+    std::swap(xedge_bottom_, xedge_top_);
+    std::swap(yedge_bottom_, yedge_top_);
+    std::fill(xedge_top_.begin(), xedge_top_.end(), -1);
+    std::fill(yedge_top_.begin(), yedge_top_.end(), -1);
+    std::fill(zedge_.begin(), zedge_.end(), -1);
+  }
+  prev_ = values;
+  prev_z_ = z;
+  ++planes_;
+}
+
+void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top) {
+  const int W = width_, H = height_;
+  const float iso = params_.iso;
+  const double z_bottom = prev_z_;
+  for (int j = 0; j + 1 < H; ++j) {
+    const float* b0 = prev_.data.data() + std::size_t(j) * std::size_t(W);
+    const float* b1 = b0 + W;
+    const float* t0 = top.data.data() + std::size_t(j) * std::size_t(W);
+    const float* t1 = t0 + W;
+    for (int i = 0; i + 1 < W; ++i) {
+      const std::array<float, 8> v{b0[i], b0[i + 1], b1[i], b1[i + 1], t0[i], t0[i + 1], t1[i], t1[i + 1]};
+      int mask = 0;
+      for (int c = 0; c < 8; ++c) mask |= int(v[c] > iso) << c;
+      if (mask == 0 || mask == 255) continue;
+
+      const std::size_t xi = std::size_t(j) * std::size_t(W - 1) + std::size_t(i);
+      const std::size_t yi = std::size_t(j) * std::size_t(W) + std::size_t(i);
+      std::int32_t* slot[12] = {&xedge_bottom_[xi], &xedge_bottom_[xi + std::size_t(W - 1)], &xedge_top_[xi],
+                                &xedge_top_[xi + std::size_t(W - 1)], &yedge_bottom_[yi], &yedge_bottom_[yi + 1],
+                                &yedge_top_[yi], &yedge_top_[yi + 1], &zedge_[yi], &zedge_[yi + 1],
+                                &zedge_[yi + std::size_t(W)], &zedge_[yi + std::size_t(W) + 1]};
+      auto vertex = [&](int e) {
+        std::int32_t& id = *slot[e];
+        if (id >= 0) return id;
+        if (mesh_.vertices.size() >= std::size_t(std::numeric_limits<std::int32_t>::max()))
+          throw Error("marching cubes: more than 2^31 - 1 vertices");
+        const int a = detail::kCubeEdgeCorners[e][0], b = detail::kCubeEdgeCorners[e][1];
+        const double fa = v[a], fb = v[b];
+        const double t = std::clamp((double(iso) - fa) / (fb - fa), kMinEdgeFraction, 1.0 - kMinEdgeFraction);
+        auto pos = [&](int c) {
+          return Vec3d(x0_ + i + (c & 1), y0_ + j + ((c >> 1) & 1), (c >> 2) & 1 ? z_top : z_bottom);
+        };
+        const Vec3d p = pos(a) + t * (pos(b) - pos(a));
+        id = std::int32_t(mesh_.vertices.size());
+        mesh_.vertices.push_back(p.cast<float>());
+        return id;
+      };
+      for (const auto& tri : detail::mc_case_triangles(mask))
+        mesh_.triangles.push_back({vertex(tri[0]), vertex(tri[1]), vertex(tri[2])});
+    }
+  }
+}
+
+TriMesh MarchingCubes::finish() {
+  TriMesh out = std::move(mesh_);
+  mesh_ = TriMesh{};
+  planes_ = 0;
+  prev_ = Grid2f{};
+  for (auto* m : {&xedge_bottom_, &xedge_top_, &yedge_bottom_, &yedge_top_, &zedge_}) std::fill(m->begin(), m->end(), -1);
+  return out;
+}
+
+TriMesh marching_cubes(const std::vector<Grid2f>& planes, const std::vector<double>& z, double x0, double y0,
+                       MarchingCubesParams params) {
+  if (planes.size() != z.size())
+    throw ParamError("marching cubes: " + std::to_string(planes.size()) + " planes but " + std::to_string(z.size()) +
+                     " z values");
+  if (planes.empty()) return {};
+  MarchingCubes mc(planes.front().width, planes.front().height, x0, y0, params);
+  for (std::size_t k = 0; k < planes.size(); ++k) mc.add_plane(planes[k], z[k]);
+  return mc.finish();
+}
+
+}  // namespace isoloft

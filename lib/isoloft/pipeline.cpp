@@ -1,0 +1,377 @@
+#include "isoloft/pipeline.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <set>
+
+#include "isoloft/contour/fill.h"
+#include "isoloft/contour/rasterize.h"
+#include "isoloft/core/error.h"
+#include "isoloft/field/edt.h"
+
+namespace isoloft {
+
+std::string to_string(Method m) { return m == Method::Levin ? "levin" : "marker2006"; }
+
+Method method_from_string(const std::string& s) {
+  if (s == "levin") return Method::Levin;
+  if (s == "marker2006") return Method::Marker2006;
+  throw ParamError("unknown method '" + s + "' (expected marker2006 or levin)");
+}
+
+std::string to_string(InputKind k) {
+  switch (k) {
+    case InputKind::Contours: return "contours";
+    case InputKind::Masks: return "masks";
+    case InputKind::Labels: return "labels";
+  }
+  return "?";
+}
+
+InputKind input_kind_from_string(const std::string& s) {
+  for (auto k : {InputKind::Contours, InputKind::Masks, InputKind::Labels})
+    if (s == to_string(k)) return k;
+  throw ParamError("unknown input kind '" + s + "' (expected contours, masks or labels)");
+}
+
+namespace detail {
+
+std::vector<std::uint32_t> distinct_labels(const SliceStack& stack) {
+  std::set<std::uint32_t> seen;
+  for (const auto& s : stack.slices)
+    for (auto v : s.image.data)
+      if (v) seen.insert(v);
+  return {seen.begin(), seen.end()};
+}
+
+std::vector<double> sample_planes(double z_begin, double z_end, double step) {
+  if (!(step > 0)) throw ParamError("interp.z_step must be positive");
+  if (!(z_end > z_begin)) throw ParamError("sample_planes: empty z range");
+  // Planes at z_begin + j * step, the last one moved onto z_end exactly when
+  // it would fall short (the cap slices bound the volume).
+  const long n = long(std::ceil((z_end - z_begin) / step - 1e-9));
+  std::vector<double> z;
+  z.reserve(std::size_t(n) + 1);
+  for (long j = 0; j < n; ++j) z.push_back(z_begin + double(j) * step);
+  z.push_back(z_end);
+  return z;
+}
+
+}  // namespace detail
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+struct SliceMasks {
+  Grid2u8 contour;  // contour pixels (1)
+  Grid2u8 inside;   // interior or contour (1)
+  bool empty = true;
+};
+
+// One-line error for a non-binary image in contours/masks mode.
+void check_binary(const Slice& s, std::uint32_t max_value) {
+  for (int y = 0; y < s.image.height; ++y)
+    for (int x = 0; x < s.image.width; ++x) {
+      const auto v = s.image(x, y);
+      if (v != 0 && v != max_value)
+        throw InputError(s.source, "not a binary image: value " + std::to_string(v) + " at pixel (" + std::to_string(x) + ", " +
+                                       std::to_string(y) + ") is neither 0 nor " + std::to_string(max_value) +
+                                       " (use --input labels for label images, or --binarize to threshold at half range)");
+    }
+}
+
+SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& p, std::uint32_t label, bool threshold_any,
+                       std::vector<std::string>& warnings, std::mutex& warn_mutex) {
+  SliceMasks m;
+  if (stack.polylines) {
+    rasterize_polygons(s.polygons, stack.width, stack.height, m.contour, m.inside);
+  } else if (p.input == InputKind::Labels) {
+    m.inside = Grid2u8(s.image.width, s.image.height, 0);
+    for (std::size_t i = 0; i < s.image.size(); ++i) m.inside.data[i] = s.image.data[i] == label;
+    m.contour = mask_boundary(m.inside);
+  } else {
+    if (!threshold_any) check_binary(s, stack.max_value);
+    const Grid2u8 white = binarize(s.image, stack.max_value / 2);
+    if (p.input == InputKind::Masks) {
+      m.inside = white;
+      m.contour = mask_boundary(white);
+    } else {
+      FillResult f;
+      try {
+        f = fill_even_odd(white, p.fill);
+      } catch (const InputError& e) {
+        throw InputError(s.source, e.problem);
+      }
+      for (const auto& o : f.open_contours) {
+        std::lock_guard lock(warn_mutex);
+        warnings.push_back(s.source + ": open contour with ends (" + std::to_string(o.x0) + ", " + std::to_string(o.y0) + ") and (" +
+                           std::to_string(o.x1) + ", " + std::to_string(o.y1) + "), gap " + std::to_string(o.gap) + " px: " +
+                           (o.repaired ? "closed by a straight segment" : "too wide to close, treated as a curve without inside"));
+      }
+      m.inside = std::move(f.inside);
+      m.contour = std::move(f.contour);
+    }
+  }
+  m.empty = std::none_of(m.inside.data.begin(), m.inside.data.end(), [](std::uint8_t v) { return v != 0; });
+  return m;
+}
+
+template <class T>
+Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {
+  Grid2<T> out(b.width(), b.height());
+  for (int y = b.y0; y < b.y1; ++y) std::copy_n(&g(b.x0, y), b.width(), &out(0, y - b.y0));
+  return out;
+}
+
+PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin) {
+  int x0 = width, y0 = height, x1 = -1, y1 = -1;
+  for (const auto& m : masks) {
+    if (m.empty) continue;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        if (m.inside(x, y) || m.contour(x, y)) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  }
+  if (x1 < 0) return {};
+  return {std::max(0, x0 - margin), std::max(0, y0 - margin), std::min(width, x1 + margin + 1), std::min(height, y1 + margin + 1)};
+}
+
+// Levin-style field: exact signed EDT at pixel centres (field/edt.h).
+Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind input, bool polylines) {
+  const Grid2u8 inside = crop(m.inside, b);
+  if (input == InputKind::Contours || polylines) return distance_to_contour_signed(crop(m.contour, b), inside);
+  return distance_to_mask_edge_signed(inside);
+}
+
+// marker2006 (paper 2.1-2.3): contour points + normals, MPU curve, narrow
+// band of exact distances to its zero set, extension to the whole grid, filter.
+struct MarkerSlice {
+  Grid2f field;
+  double t_mpu = 0, t_dist = 0;
+  MpuResult fit;
+  OrientedPoints points;
+  Grid2f mpu, distance;
+};
+
+MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& p, bool polylines,
+                            bool keep) {
+  MarkerSlice r;
+  auto t0 = Clock::now();
+  if (polylines) {
+    std::vector<Polygon> shifted = s.polygons;
+    for (auto& poly : shifted)
+      for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
+    r.points = polygon_points(shifted, p.polyline_spacing);
+  } else {
+    r.points = contour_normals(crop(m.contour, b), crop(m.inside, b), p.normals);
+    if (p.input != InputKind::Contours && p.mask_edge_offset != 0)
+      for (std::size_t i = 0; i < r.points.size(); ++i) r.points.points[i] += p.mask_edge_offset * r.points.normals[i];
+  }
+  MpuParams mp = p.mpu;
+  mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(b.width() - 0.5, b.height() - 0.5));
+  r.fit = fit_mpu(r.points, mp);
+  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height());
+  r.t_mpu = seconds_since(t0);
+  t0 = Clock::now();
+  const MpuCurve& curve = r.fit.curve;
+  const NarrowBandResult band = narrow_band_distance(f, [&curve](const Vec2d& q) { return curve.value(q); }, p.band);
+  r.field = extend_distance(band, p.extend);
+  r.t_dist = seconds_since(t0);
+  if (keep) {
+    r.mpu = std::move(f);
+    r.distance = r.field;
+  }
+  return r;
+}
+
+// Pads a field by one pixel of `outside` on every side so the surface closes
+// where an object is cut by the image border (within one pixel beyond it).
+Grid2f pad(const Grid2f& g, float outside) {
+  Grid2f out(g.width + 2, g.height + 2, outside);
+  for (int y = 0; y < g.height; ++y) std::copy_n(&g(0, y), g.width, &out(1, y + 1));
+  return out;
+}
+
+void validate(const SliceStack& stack) {
+  if (stack.slices.empty()) throw InputError("", "no slices");
+  if (stack.slices.size() < 2)
+    throw InputError(stack.slices.front().source, "only one slice; a reconstruction needs at least 2 slices");
+  for (std::size_t k = 1; k < stack.slices.size(); ++k)
+    if (!(stack.slices[k].z > stack.slices[k - 1].z))
+      throw InputError(stack.slices[k].source, "slice z must increase strictly (z = " + std::to_string(stack.slices[k].z) +
+                                                   " after " + std::to_string(stack.slices[k - 1].z) + ")");
+  if (stack.width < 1 || stack.height < 1) throw InputError("", "empty slice images");
+}
+
+}  // namespace
+
+ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options) {
+  validate(stack);
+  if (params.crop_margin < 1) throw ParamError("crop_margin must be at least 1");
+  ReconstructResult result;
+  std::mutex warn_mutex;
+  const std::size_t n = stack.slices.size();
+  const bool threshold_any = params.binarize;
+
+  std::vector<std::uint32_t> labels{0};
+  if (params.input == InputKind::Labels && !stack.polylines) {
+    labels = detail::distinct_labels(stack);
+    if (!options.labels.empty()) {
+      std::vector<std::uint32_t> keep;
+      for (auto l : options.labels) {
+        if (!std::binary_search(labels.begin(), labels.end(), l))
+          result.warnings.push_back("label " + std::to_string(l) + " does not occur in any slice");
+        else
+          keep.push_back(l);
+      }
+      labels = keep;
+    }
+    if (labels.empty()) result.warnings.push_back("no labels to reconstruct (every slice is 0)");
+  }
+
+  auto report = [&](const std::string& stage, long done, long total) {
+    if (options.progress) options.progress(stage, done, total);
+  };
+
+  for (const std::uint32_t label : labels) {
+    ObjectResult obj;
+    obj.label = label;
+    const std::string what = label ? "label " + std::to_string(label) : "object";
+
+    // Stage: contour pixels and even-odd inside (paper 2.1).
+    auto t0 = Clock::now();
+    std::vector<SliceMasks> masks(n);
+    std::atomic<long> done{0};
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+      masks[k] = slice_masks(stack, stack.slices[k], params, label, threshold_any, result.warnings, warn_mutex);
+      report("contour", ++done, long(n));
+    });
+    obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const SliceMasks& m) { return !m.empty; }));
+    obj.box = object_box(masks, stack.width, stack.height, params.crop_margin);
+    result.times.contour += seconds_since(t0);
+    if (obj.slices_with_contours == 0) {
+      result.warnings.push_back(what + ": no slice has an inside; nothing to reconstruct");
+      continue;
+    }
+
+    std::vector<Grid2f> fields(n);
+    done = 0;
+    if (params.method == Method::Levin) {
+      // Stage: exact signed EDT per slice (Levin-style baseline).
+      t0 = Clock::now();
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+        if (!masks[k].empty) fields[k] = levin_field(masks[k], obj.box, params.input, stack.polylines);
+        masks[k] = SliceMasks{};  // release
+        report("distance", ++done, long(n));
+      });
+      result.times.dist += seconds_since(t0);
+    } else {
+      // Stages: MPU fit (paper 2.1) and distance field (paper 2.2), per slice in
+      // parallel; their wall times are split by each slice's share of CPU time.
+      t0 = Clock::now();
+      std::vector<MarkerSlice> ms(n);
+      const bool keep = bool(options.on_slice_fields);
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+        if (!masks[k].empty) ms[k] = marker_distance(masks[k], stack.slices[k], obj.box, params, stack.polylines, keep);
+        masks[k] = SliceMasks{};
+        report("mpu+distance", ++done, long(n));
+      });
+      const double wall = seconds_since(t0);
+      double cpu_mpu = 0, cpu_dist = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        cpu_mpu += ms[k].t_mpu;
+        cpu_dist += ms[k].t_dist;
+        obj.fit.points += long(ms[k].points.size());
+        obj.fit.leaves += ms[k].fit.leaves;
+        obj.fit.leaves_over_tol += ms[k].fit.leaves_over_tol;
+        obj.fit.max_depth_reached = std::max(obj.fit.max_depth_reached, ms[k].fit.max_depth_reached);
+        obj.fit.max_local_error = std::max(obj.fit.max_local_error, ms[k].fit.max_local_error);
+        fields[k] = std::move(ms[k].field);
+      }
+      const double share = cpu_mpu + cpu_dist > 0 ? cpu_mpu / (cpu_mpu + cpu_dist) : 0.5;
+      result.times.mpu += wall * share;
+      result.times.dist += wall * (1 - share);
+
+      // Stage: distance-dependent Gaussian filter (paper 2.3).
+      t0 = Clock::now();
+      done = 0;
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+        if (fields[k].empty() || !params.filter.enabled) return;
+        fields[k] = distance_filter(fields[k], params.filter);
+        report("filter", ++done, long(n));
+      });
+      result.times.filter += seconds_since(t0);
+      if (keep)
+        for (std::size_t k = 0; k < n; ++k) {
+          if (fields[k].empty()) continue;
+          SliceStageFields sf{label, int(k), obj.box, std::move(ms[k].points), std::move(ms[k].mpu), std::move(ms[k].distance), fields[k]};
+          options.on_slice_fields(sf);
+        }
+    }
+    t0 = Clock::now();
+    // Empty slices (no inside) are all outside: they take the most negative
+    // value of the object's other slices, so no spline sees an artificial jump
+    // larger than the data themselves.
+    float most_negative = -1.0f;
+    for (const auto& f : fields)
+      if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
+    for (auto& f : fields)
+      if (f.empty()) f = Grid2f(obj.box.width(), obj.box.height(), most_negative);
+    result.times.dist += seconds_since(t0);
+
+    // Stage: z splines with end caps (paper 2.4), streamed into Marching Cubes (paper 2.5).
+    t0 = Clock::now();
+    std::vector<double> z(n);
+    for (std::size_t k = 0; k < n; ++k) z[k] = stack.slices[k].z;
+    add_end_caps(fields, z, params.interp);
+    const ZInterpolator interp(std::move(fields), z, params.interp.spline);
+    const std::vector<double> planes = detail::sample_planes(z.front(), z.back(), params.interp.z_step);
+    result.times.interp += seconds_since(t0);
+
+    MarchingCubes mc(obj.box.width() + 2, obj.box.height() + 2, obj.box.x0 - 1.0, obj.box.y0 - 1.0, params.mc);
+    Grid2f plane;
+    const float outside = -float(params.interp.cap_depth);
+    double t_interp = 0, t_mesh = 0;
+    for (std::size_t j = 0; j < planes.size(); ++j) {
+      auto ta = Clock::now();
+      interp.evaluate(planes[j], plane);
+      Grid2f padded = pad(plane, outside);
+      t_interp += seconds_since(ta);
+      if (options.on_plane) options.on_plane(label, padded, obj.box.x0 - 1.0, obj.box.y0 - 1.0, planes[j], int(j), int(planes.size()));
+      ta = Clock::now();
+      mc.add_plane(padded, planes[j]);
+      t_mesh += seconds_since(ta);
+      report("interpolate+mesh", long(j + 1), long(planes.size()));
+    }
+    auto ta = Clock::now();
+    obj.mesh = mc.finish();
+    t_mesh += seconds_since(ta);
+    result.times.interp += t_interp;
+    result.times.mesh += t_mesh;
+
+    // Stage: quadric error decimation (paper 2.5).
+    t0 = Clock::now();
+    obj.triangles_before_decimation = long(obj.mesh.triangles.size());
+    if (params.decimate.max_error > 0) {
+      report("decimate", 0, 1);
+      decimate(obj.mesh, params.decimate);
+      report("decimate", 1, 1);
+    }
+    result.times.decimate += seconds_since(t0);
+    obj.check = check_mesh(obj.mesh);
+    if (!obj.check.closed || !obj.check.manifold || !obj.check.oriented)
+      result.warnings.push_back(what + ": mesh is not a closed oriented manifold (boundary edges " +
+                                std::to_string(obj.check.boundary_edges) + ", non-manifold edges " +
+                                std::to_string(obj.check.nonmanifold_edges) + ")");
+    result.objects.push_back(std::move(obj));
+  }
+  return result;
+}
+
+}  // namespace isoloft

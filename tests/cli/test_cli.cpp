@@ -1,0 +1,187 @@
+// The isoloft executable: its contract (issue: foundation) and its handling
+// of bad input: a one-line error naming the file, exit != 0, no output left.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "isoloft/io/mesh_io.h"
+#include "isoloft/io/png.h"
+
+namespace fs = std::filesystem;
+using namespace isoloft;
+
+namespace {
+
+struct CliRun {
+  int code;
+  std::string err, out;
+};
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("isoloft_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CliRun run(const std::string& args) {
+    const std::string err = (dir_ / "stderr.txt").string(), out = (dir_ / "stdout.txt").string();
+    const std::string cmd = std::string(ISOLOFT_CLI) + " " + args + " >" + out + " 2>" + err;
+    const int status = std::system(cmd.c_str());
+    auto slurp = [](const std::string& p) {
+      std::ifstream in(p);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      return ss.str();
+    };
+    return {WEXITSTATUS(status), slurp(err), slurp(out)};
+  }
+  std::string p(const std::string& name) const { return (dir_ / name).string(); }
+
+  // A 24x24 contour image of a circle.
+  void write_circle(const std::string& path, int size = 24, std::uint8_t white = 255) {
+    Grid2u8 g(size, size, 0);
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        const double r = std::hypot(x - size / 2.0, y - size / 2.0);
+        if (std::abs(r - size / 4.0) < 0.6) g(x, y) = white;
+      }
+    write_png(path, g);
+  }
+  // Files in dir_ other than our captured stdout/stderr (e.g. half-written output).
+  std::vector<std::string> leftovers(const std::string& stem) {
+    std::vector<std::string> v;
+    for (const auto& e : fs::directory_iterator(dir_))
+      if (e.path().filename().string().rfind(stem, 0) == 0 || e.path().filename().string().find("." + stem) == 0) v.push_back(e.path().filename().string());
+    return v;
+  }
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(Cli, ReconstructsASynthesizedSphereWithAReport) {
+  ASSERT_EQ(run("synth sphere --size 64 --z-spacing 8 --out " + p("sphere")).code, 0);
+  ASSERT_TRUE(fs::exists(p("sphere/shape.json")));
+  const CliRun r = run("reconstruct " + p("sphere") + " --method levin --z-spacing 8 -o " + p("out.ply") + " --report " + p("report.json") +
+                    " --volume " + p("vol.nrrd"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const TriMesh m = read_mesh(p("out.ply"));
+  EXPECT_GT(m.triangles.size(), 100u);
+  std::ifstream in(p("report.json"));
+  const auto rep = nlohmann::json::parse(in);
+  for (const char* key : {"contour", "mpu", "dist", "filter", "interp", "mesh", "decimate", "total"})
+    EXPECT_TRUE(rep["timings_s"].contains(key)) << key;
+  EXPECT_EQ(rep["params"]["method"], "levin");
+  EXPECT_TRUE(rep["objects"][0]["closed"].get<bool>());
+  EXPECT_TRUE(rep["isoloft"].contains("version"));
+  EXPECT_TRUE(fs::exists(p("vol.nrrd")));
+  const CliRun e = run("eval --mesh " + p("out.ply") + " --truth " + p("sphere/shape.json"));
+  ASSERT_EQ(e.code, 0) << e.err;
+  const auto ev = nlohmann::json::parse(e.out);
+  EXPECT_LT(ev["mesh_to_truth"]["in_range"]["mean_distance_px"].get<double>(), 1.0);
+}
+
+TEST_F(Cli, PrintParamsRoundTripsThroughParamsFile) {
+  const CliRun r = run("reconstruct --print-params --spline natural");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["interp"]["spline"], "natural");
+  std::ofstream(p("params.json")) << j.dump();
+  const CliRun again = run("reconstruct --print-params --params " + p("params.json"));
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_EQ(nlohmann::json::parse(again.out), j);
+  std::ofstream(p("bad.json")) << R"({"interp": {"splin": "linear"}})";
+  const CliRun bad = run("reconstruct --print-params --params " + p("bad.json"));
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.err.find("bad.json"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("interp.splin"), std::string::npos) << bad.err;
+}
+
+TEST_F(Cli, MissingFileIsNamed) {
+  const CliRun r = run("reconstruct " + p("nope.png") + " " + p("nope2.png") + " -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("nope.png"), std::string::npos) << r.err;
+  EXPECT_TRUE(leftovers("out").empty());
+}
+
+TEST_F(Cli, CorruptPngIsNamed) {
+  write_circle(p("a.png"));
+  std::ofstream(p("b.png")) << "\x89PNG\r\n\x1a\nthis is not a png";
+  const CliRun r = run("reconstruct " + p("a.png") + " " + p("b.png") + " -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("b.png"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+  EXPECT_TRUE(leftovers("out").empty());
+}
+
+TEST_F(Cli, DifferentSizesAreNamed) {
+  write_circle(p("a.png"), 24);
+  write_circle(p("b.png"), 32);
+  const CliRun r = run("reconstruct " + p("a.png") + " " + p("b.png") + " -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("b.png"), std::string::npos) << r.err;
+  EXPECT_TRUE(leftovers("out").empty());
+}
+
+TEST_F(Cli, ZeroAndOneSliceAreRejected) {
+  fs::create_directories(p("empty"));
+  CliRun r = run("reconstruct " + p("empty") + " -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("empty"), std::string::npos) << r.err;
+  write_circle(p("a.png"));
+  r = run("reconstruct " + p("a.png") + " -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("a.png"), std::string::npos) << r.err;
+  EXPECT_TRUE(leftovers("out").empty());
+}
+
+TEST_F(Cli, NonBinaryImageIsRejectedUnlessBinarized) {
+  write_circle(p("a.png"));
+  write_circle(p("b.png"), 24, 200);
+  CliRun r = run("reconstruct " + p("a.png") + " " + p("b.png") + " --method levin -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("b.png"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("binary"), std::string::npos) << r.err;
+  EXPECT_TRUE(leftovers("out").empty());
+  r = run("reconstruct " + p("a.png") + " " + p("b.png") + " --method levin --binarize -o " + p("out.ply"));
+  EXPECT_EQ(r.code, 0) << r.err;
+}
+
+TEST_F(Cli, UnknownOptionValueIsAUsageError) {
+  write_circle(p("a.png"));
+  write_circle(p("b.png"));
+  const CliRun r = run("reconstruct " + p("a.png") + " " + p("b.png") + " --spline cubic -o " + p("out.ply"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("cubic"), std::string::npos) << r.err;
+  const CliRun ext = run("reconstruct " + p("a.png") + " " + p("b.png") + " -o " + p("out.xyz"));
+  EXPECT_NE(ext.code, 0);
+  EXPECT_NE(ext.err.find("out.xyz"), std::string::npos) << ext.err;
+}
+
+TEST_F(Cli, LabelsWriteOneMeshPerLabelAndACombinedOne) {
+  for (int k = 0; k < 3; ++k) {
+    Grid2u8 g(40, 40, 0);
+    for (int y = 0; y < 40; ++y)
+      for (int x = 0; x < 40; ++x) {
+        if (std::hypot(x - 12, y - 20) < 7) g(x, y) = 3;
+        if (std::hypot(x - 28, y - 20) < 6) g(x, y) = 5;
+      }
+    write_png(p("l" + std::to_string(k) + ".png"), g);
+  }
+  const CliRun r = run("reconstruct " + p("l0.png") + " " + p("l1.png") + " " + p("l2.png") +
+                    " --method levin --input labels --z-spacing 4 -o " + p("lab.ply"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(p("lab_label3.ply")));
+  EXPECT_TRUE(fs::exists(p("lab_label5.ply")));
+  std::vector<Rgb> colours;
+  const TriMesh all = read_mesh(p("lab.ply"), &colours);
+  EXPECT_EQ(colours.size(), all.vertices.size());
+}

@@ -1,0 +1,167 @@
+// z splines (paper 2.4): each kind reproduces its defining property, and the
+// monotone kind never overshoots (Hyman 1983), while Catmull-Rom and natural
+// cubic do on some monotone data.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cmath>
+
+#include "isoloft/core/error.h"
+#include "isoloft/interp/spline.h"
+
+using namespace isoloft;
+
+namespace {
+// Round-off of double Hermite evaluation on values of order 100.
+constexpr double kEvalTol = 1e-9;
+// Samples per interval when scanning an interpolant.
+constexpr int kScan = 64;
+
+std::vector<double> knots(const std::vector<double>& gaps) {
+  std::vector<double> z{0.0};
+  for (double g : gaps) z.push_back(z.back() + g);
+  return z;
+}
+}  // namespace
+
+TEST(Spline, EveryKindInterpolatesItsData) {
+  const std::vector<double> z{0, 1, 3, 3.5, 7}, f{2, -1, 4, 4, 0};
+  for (auto kind : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear}) {
+    const Spline1D s(z, f, kind);
+    for (std::size_t i = 0; i < z.size(); ++i) EXPECT_NEAR(s(z[i]), f[i], kEvalTol) << to_string(kind) << " knot " << i;
+  }
+}
+
+TEST(Spline, CubicKindsReproduceLinesAndLinearIsPiecewiseLinear) {
+  const std::vector<double> z{0, 2, 3, 7, 8};
+  std::vector<double> f;
+  for (double v : z) f.push_back(3 - 0.5 * v);
+  for (auto kind : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear}) {
+    const Spline1D s(z, f, kind);
+    for (double q = 0; q <= 8; q += 0.125) EXPECT_NEAR(s(q), 3 - 0.5 * q, kEvalTol) << to_string(kind) << " at z=" << q;
+  }
+}
+
+TEST(Spline, NaturalHasContinuousSecondDerivativeAndZeroAtEnds) {
+  const std::vector<double> z{0, 1, 2.5, 4, 4.5, 6}, f{0, 2, 1, 3, 2.5, 0};
+  const Spline1D s(z, f, SplineKind::Natural);
+  const auto& m = s.tangents();
+  // Second derivative of the Hermite piece on [z_k, z_k+1] at its two ends.
+  auto d2_start = [&](std::size_t k) {
+    const double h = z[k + 1] - z[k];
+    return (6 * (f[k + 1] - f[k]) - h * (4 * m[k] + 2 * m[k + 1])) / (h * h);
+  };
+  auto d2_end = [&](std::size_t k) {
+    const double h = z[k + 1] - z[k];
+    return (-6 * (f[k + 1] - f[k]) + h * (2 * m[k] + 4 * m[k + 1])) / (h * h);
+  };
+  constexpr double kC2Tol = 1e-9;  // round-off of the tridiagonal solve
+  for (std::size_t k = 1; k + 1 < z.size(); ++k) EXPECT_NEAR(d2_end(k - 1), d2_start(k), kC2Tol) << "knot " << k;
+  EXPECT_NEAR(d2_start(0), 0.0, kC2Tol);
+  EXPECT_NEAR(d2_end(z.size() - 2), 0.0, kC2Tol);
+}
+
+TEST(Spline, CatmullRomTangentsAreCentralDifferences) {
+  const std::vector<double> z{0, 1, 3, 4}, f{0, 1, 5, 2};
+  const Spline1D s(z, f, SplineKind::CatmullRom);
+  EXPECT_NEAR(s.tangents()[1], (5.0 - 0.0) / 3.0, kEvalTol);
+  EXPECT_NEAR(s.tangents()[2], (2.0 - 1.0) / 3.0, kEvalTol);
+}
+
+TEST(Spline, MonotoneIsFlatAtLocalExtremaOfTheData) {
+  const std::vector<double> z{0, 1, 2, 3}, f{0, 5, 1, 1};
+  const Spline1D s(z, f, SplineKind::Monotone);
+  EXPECT_EQ(s.tangents()[1], 0.0);
+  EXPECT_EQ(s.tangents()[2], 0.0);
+}
+
+TEST(Spline, RejectsNonIncreasingKnotsAndUnknownNames) {
+  EXPECT_THROW(Spline1D({0, 1, 1}, {0, 1, 2}, SplineKind::Monotone), ParamError);
+  EXPECT_THROW(spline_kind_from_string("cubic"), ParamError);
+  EXPECT_EQ(spline_kind_from_string("catmull-rom"), SplineKind::CatmullRom);
+}
+
+// On any data, every interval of the monotone spline is monotone and stays
+// within the range of its two data values (Hyman 1983; paper 2.4).
+RC_GTEST_PROP(SplineProperty, MonotoneNeverLeavesItsIntervalRange, ()) {
+  const int n = *rc::gen::inRange(2, 9);
+  const auto gaps = *rc::gen::container<std::vector<double>>(std::size_t(n - 1), rc::gen::map(rc::gen::inRange(1, 200), [](int v) { return v / 10.0; }));
+  const auto f = *rc::gen::container<std::vector<double>>(std::size_t(n), rc::gen::map(rc::gen::inRange(-1000, 1000), [](int v) { return v / 10.0; }));
+  const auto z = knots(gaps);
+  const Spline1D s(z, f, SplineKind::Monotone);
+  for (int k = 0; k + 1 < n; ++k) {
+    const double lo = std::min(f[k], f[k + 1]), hi = std::max(f[k], f[k + 1]);
+    double prev = f[k];
+    const double dir = f[k + 1] >= f[k] ? 1.0 : -1.0;
+    for (int i = 1; i <= kScan; ++i) {
+      const double q = z[k] + (z[k + 1] - z[k]) * i / kScan;
+      const double v = s(q);
+      RC_ASSERT(v >= lo - kEvalTol);
+      RC_ASSERT(v <= hi + kEvalTol);
+      RC_ASSERT(dir * (v - prev) >= -kEvalTol);
+      prev = v;
+    }
+  }
+}
+
+// The counterpart: on monotone data Catmull-Rom and natural splines overshoot
+// (the paper's Fig. 9 "lip"). Data: a step, as a distance field sees at a
+// contour that appears between slices.
+TEST(Spline, CatmullRomAndNaturalOvershootOnMonotoneData) {
+  const std::vector<double> z{0, 1, 2, 3, 4}, f{0, 0, 0, 10, 10};
+  for (auto kind : {SplineKind::CatmullRom, SplineKind::Natural}) {
+    const Spline1D s(z, f, kind);
+    double lo = 0, hi = 10;
+    for (int i = 0; i <= 4 * kScan; ++i) {
+      const double v = s(4.0 * i / (4 * kScan));
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    EXPECT_TRUE(lo < -0.1 || hi > 10.1) << to_string(kind) << " stayed in [" << lo << ", " << hi << "]";
+  }
+  const Spline1D m(z, f, SplineKind::Monotone);
+  for (int i = 0; i <= 4 * kScan; ++i) {
+    const double v = m(4.0 * i / (4 * kScan));
+    EXPECT_GE(v, -kEvalTol);
+    EXPECT_LE(v, 10 + kEvalTol);
+  }
+}
+
+TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
+  const std::vector<double> z{0, 4, 6, 12};
+  std::vector<Grid2f> slices;
+  for (std::size_t k = 0; k < z.size(); ++k) {
+    Grid2f g(3, 2);
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 3; ++x) g(x, y) = float((x + 1) * std::sin(double(k) + y) * 5);
+    slices.push_back(g);
+  }
+  for (auto kind : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear}) {
+    const ZInterpolator zi(slices, z, kind);
+    Grid2f out;
+    for (double q : {0.0, 1.5, 4.0, 5.2, 9.9, 12.0}) {
+      zi.evaluate(q, out);
+      for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 3; ++x) {
+          std::vector<double> f;
+          for (const auto& s : slices) f.push_back(s(x, y));
+          constexpr double kFloatTol = 1e-4;  // fields and tangents are stored as float
+          EXPECT_NEAR(out(x, y), Spline1D(z, f, kind)(q), kFloatTol) << to_string(kind) << " pixel (" << x << ", " << y << ") z=" << q;
+        }
+    }
+  }
+}
+
+TEST(EndCaps, VirtualSlicesAreOutsideAndHalfASpacingAway) {
+  std::vector<Grid2f> slices{Grid2f(2, 1, 3.0f), Grid2f(2, 1, -1.0f), Grid2f(2, 1, 2.0f)};
+  slices[0](1, 0) = -2.0f;
+  std::vector<double> z{0, 8, 10};
+  InterpParams p;
+  add_end_caps(slices, z, p);
+  ASSERT_EQ(slices.size(), 5u);
+  EXPECT_DOUBLE_EQ(z.front(), -4.0);
+  EXPECT_DOUBLE_EQ(z.back(), 11.0);
+  for (float v : slices.front().data) EXPECT_LE(v, -float(p.cap_depth));
+  for (float v : slices.back().data) EXPECT_LE(v, -float(p.cap_depth));
+  EXPECT_FLOAT_EQ(slices.front()(0, 0), 3.0f - 3.0f - float(p.cap_depth));
+}

@@ -1,0 +1,225 @@
+// Tests of mesh/decimate.h: quadric decimation (Garland & Heckbert 1997) with
+// a hard bound on the distance from every original vertex to the result,
+// checked here by brute force against every output triangle.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "isoloft/core/error.h"
+#include "isoloft/mesh/decimate.h"
+#include "isoloft/mesh/marching_cubes.h"
+#include "isoloft/mesh/mesh_check.h"
+
+namespace isoloft {
+namespace {
+
+// Output vertices are input vertices (halfedge collapses), so the decimator
+// and this test measure the same float coordinates, in double; they differ
+// only in the rounding of two distance formulas.
+constexpr double kDistanceRounding = 1e-9;
+
+TriMesh mc_of(const std::function<double(const Vec3d&)>& f, int nx, int ny, int nz) {
+  MarchingCubes mc(nx, ny);
+  for (int k = 0; k < nz; ++k) {
+    Grid2f g(nx, ny);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) g(i, j) = float(f(Vec3d(i, j, k)));
+    mc.add_plane(g, k);
+  }
+  return mc.finish();
+}
+
+TriMesh sphere_mesh(double r, const Vec3d& c, int n) {
+  return mc_of([&](const Vec3d& p) { return r - (p - c).norm(); }, n, n, n);
+}
+
+// Closest point on triangle abc to p by Voronoi regions (Ericson, Real-Time
+// Collision Detection, 5.1.5): a different formulation from the library's.
+Vec3d closest_on_triangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const Vec3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Vec3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = va + vb + vc;
+  if (!(std::abs(denom) > 0)) {  // zero-area triangle: nearest of its sides
+    Vec3d best = a;
+    for (auto [s, e] : {std::pair{a, b}, std::pair{b, c}, std::pair{c, a}}) {
+      const double len2 = (e - s).squaredNorm();
+      const double t = len2 > 0 ? std::clamp((p - s).dot(e - s) / len2, 0.0, 1.0) : 0.0;
+      const Vec3d q = s + t * (e - s);
+      if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
+    }
+    return best;
+  }
+  return a + ab * (vb / denom) + ac * (vc / denom);
+}
+
+// Largest distance from a vertex of `original` to the surface `mesh`, and
+// which vertex attains it.
+std::pair<double, std::size_t> max_vertex_distance(const TriMesh& original, const TriMesh& mesh) {
+  double worst = 0;
+  std::size_t worst_v = 0;
+  for (std::size_t v = 0; v < original.vertices.size(); ++v) {
+    const Vec3d p = original.vertices[v].cast<double>();
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : mesh.triangles) {
+      const Vec3d q = closest_on_triangle(p, mesh.vertices[std::size_t(t[0])].cast<double>(),
+                                          mesh.vertices[std::size_t(t[1])].cast<double>(),
+                                          mesh.vertices[std::size_t(t[2])].cast<double>());
+      best = std::min(best, (q - p).norm());
+    }
+    if (best > worst) worst = best, worst_v = v;
+  }
+  return {worst, worst_v};
+}
+
+TEST(Decimate, SphereStaysClosedAndWithinBound) {
+  const TriMesh original = sphere_mesh(11.3, Vec3d(13.2, 12.7, 13.4), 27);
+  const MeshCheck before = check_mesh(original);
+  ASSERT_TRUE(before.closed && before.manifold && before.oriented);
+  for (double max_error : {0.1, 0.5}) {
+    TriMesh mesh = original;
+    const DecimateResult r = decimate(mesh, {max_error});
+    EXPECT_EQ(r.triangles_before, long(original.triangles.size()));
+    EXPECT_EQ(r.triangles_after, long(mesh.triangles.size()));
+    EXPECT_LT(r.triangles_after, r.triangles_before / 4) << "max_error " << max_error << " should remove most triangles";
+    const MeshCheck after = check_mesh(mesh);
+    EXPECT_TRUE(after.closed && after.manifold && after.oriented) << "max_error " << max_error;
+    EXPECT_EQ(after.euler, 2);
+    EXPECT_EQ(after.components, 1);
+    EXPECT_EQ(after.degenerate_triangles, 0);
+    EXPECT_GT(after.volume, 0.0);
+    const auto [worst, v] = max_vertex_distance(original, mesh);
+    EXPECT_LE(worst, max_error + kDistanceRounding) << "original vertex " << v << " at max_error " << max_error;
+  }
+}
+
+TEST(Decimate, OutputVerticesAreInputVertices) {
+  const TriMesh original = sphere_mesh(6.4, Vec3d(8.1, 7.7, 8.3), 17);
+  TriMesh mesh = original;
+  decimate(mesh, {0.3});
+  std::vector<std::array<float, 3>> in;
+  for (const Vec3f& p : original.vertices) in.push_back({p.x(), p.y(), p.z()});
+  std::sort(in.begin(), in.end());
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    const Vec3f& p = mesh.vertices[v];
+    ASSERT_TRUE(std::binary_search(in.begin(), in.end(), std::array<float, 3>{p.x(), p.y(), p.z()})) << "vertex " << v;
+  }
+}
+
+TEST(Decimate, ZeroErrorIsNoOp) {
+  const TriMesh original = sphere_mesh(5.3, Vec3d(7.2, 6.9, 7.1), 15);
+  TriMesh mesh = original;
+  const DecimateResult r = decimate(mesh, {0.0});
+  EXPECT_EQ(r.triangles_before, r.triangles_after);
+  EXPECT_EQ(mesh.triangles, original.triangles);
+  EXPECT_EQ(mesh.vertices, original.vertices);
+}
+
+// A sphere cut open by the volume's side: boundary edges stay boundary,
+// the surface stays an oriented manifold within the bound.
+TEST(Decimate, OpenSurfaceStaysManifold) {
+  const Vec3d c(6.3, 9.1, 8.7);
+  const TriMesh original = mc_of([&](const Vec3d& p) { return 8.2 - (p - c).norm(); }, 18, 19, 18);
+  const MeshCheck before = check_mesh(original);
+  ASSERT_FALSE(before.closed);
+  ASSERT_TRUE(before.manifold && before.oriented);
+  TriMesh mesh = original;
+  const DecimateResult r = decimate(mesh, {0.4});
+  EXPECT_LT(r.triangles_after, r.triangles_before);
+  const MeshCheck after = check_mesh(mesh);
+  EXPECT_TRUE(after.manifold);
+  EXPECT_TRUE(after.oriented);
+  EXPECT_FALSE(after.closed);
+  EXPECT_EQ(after.euler, before.euler);
+  const auto [worst, v] = max_vertex_distance(original, mesh);
+  EXPECT_LE(worst, 0.4 + kDistanceRounding) << "original vertex " << v;
+}
+
+TEST(Decimate, RejectsBadParametersAndMeshes) {
+  TriMesh mesh = sphere_mesh(3.1, Vec3d(4.2, 4.1, 3.9), 9);
+  EXPECT_THROW(decimate(mesh, {-0.1}), ParamError);
+  EXPECT_THROW(decimate(mesh, {std::nan("")}), ParamError);
+  EXPECT_THROW(decimate(mesh, {0.5, 0.0}), ParamError);
+  EXPECT_THROW(decimate(mesh, {0.5, 90.0}), ParamError);
+
+  TriMesh fin;  // three triangles on one edge
+  fin.vertices = {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0), Vec3f(0, -1, 0), Vec3f(0, 0, 1)};
+  fin.triangles = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+  EXPECT_THROW(decimate(fin, {0.5}), InputError);
+  TriMesh repeated = fin;
+  repeated.triangles = {{0, 1, 1}};
+  EXPECT_THROW(decimate(repeated, {0.5}), InputError);
+  TriMesh out_of_range = fin;
+  out_of_range.triangles = {{0, 1, 7}};
+  EXPECT_THROW(decimate(out_of_range, {0.5}), InputError);
+}
+
+// Random unions of spheres and tori (several components, handles, creases):
+// decimation never adds triangles, keeps closed oriented manifolds of the
+// same topology, and keeps every original vertex within max_error.
+RC_GTEST_PROP(Decimate, RandomShapesKeepTopologyAndBound, ()) {
+  const int n = *rc::gen::inRange(8, 15);
+  const int parts = *rc::gen::inRange(1, 5);
+  auto coord = [&] { return *rc::gen::inRange(30, 10 * n - 30) / 10.0; };
+  std::vector<std::function<double(const Vec3d&)>> sdfs;  // signed distances, positive inside
+  for (int k = 0; k < parts; ++k) {
+    const Vec3d c(coord(), coord(), coord());
+    if (*rc::gen::arbitrary<bool>()) {
+      const double r = *rc::gen::inRange(8, 40) / 10.0;
+      sdfs.push_back([=](const Vec3d& p) { return r - (p - c).norm(); });
+    } else {  // torus around a random axis-aligned direction
+      const double R = *rc::gen::inRange(18, 40) / 10.0, r = *rc::gen::inRange(7, 15) / 10.0;
+      const int axis = *rc::gen::inRange(0, 3);
+      sdfs.push_back([=](const Vec3d& p) {
+        const Vec3d q = p - c;
+        const double h = q[axis], rho = std::sqrt(std::max(0.0, q.squaredNorm() - h * h));
+        return r - std::hypot(rho - R, h);
+      });
+    }
+  }
+  const TriMesh original = mc_of(
+      [&](const Vec3d& p) {
+        if (p.minCoeff() <= 0 || p.maxCoeff() >= n - 1) return -1.0;  // border outside
+        double f = -std::numeric_limits<double>::infinity();
+        for (const auto& sdf : sdfs) f = std::max(f, sdf(p));
+        return f;
+      },
+      n, n, n);
+  DecimateParams params;
+  params.max_error = *rc::gen::inRange(1, 16) / 10.0;
+  params.max_normal_deviation_deg = *rc::gen::inRange(20, 89);
+  TriMesh mesh = original;
+  const DecimateResult r = decimate(mesh, params);
+  RC_ASSERT(r.triangles_after <= r.triangles_before);
+  RC_ASSERT(r.triangles_after == long(mesh.triangles.size()));
+  const MeshCheck before = check_mesh(original), after = check_mesh(mesh);
+  RC_ASSERT(after.closed);
+  RC_ASSERT(after.manifold);
+  RC_ASSERT(after.oriented);
+  RC_ASSERT(after.euler == before.euler);
+  RC_ASSERT(after.components == before.components);
+  const auto [worst, v] = max_vertex_distance(original, mesh);
+  RC_ASSERT(worst <= params.max_error + kDistanceRounding);
+}
+
+}  // namespace
+}  // namespace isoloft

@@ -1,0 +1,163 @@
+// Tests of mesh/mesh_check.h on small hand-built meshes whose defects are
+// known: a hole, a flipped triangle, a non-manifold edge and vertex.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "isoloft/core/error.h"
+#include "isoloft/mesh/mesh_check.h"
+
+namespace isoloft {
+namespace {
+
+// Volumes and areas of these meshes are sums of a few exact products of
+// small integers in double: only rounding in the last bits.
+constexpr double kExactTol = 1e-12;
+
+// Unit cube [0,1]^3, 12 triangles counter-clockwise seen from outside.
+TriMesh unit_cube(Vec3f offset = Vec3f::Zero()) {
+  TriMesh m;
+  for (int c = 0; c < 8; ++c) m.vertices.push_back(Vec3f(float(c & 1), float((c >> 1) & 1), float((c >> 2) & 1)) + offset);
+  // Each face as a quad (a, b, c, d) counter-clockwise from outside.
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    m.triangles.push_back({q[0], q[1], q[2]});
+    m.triangles.push_back({q[0], q[2], q[3]});
+  }
+  return m;
+}
+
+TriMesh tetrahedron(Vec3f offset = Vec3f::Zero()) {
+  TriMesh m;
+  m.vertices = {Vec3f(0, 0, 0) + offset, Vec3f(1, 0, 0) + offset, Vec3f(0, 1, 0) + offset, Vec3f(0, 0, 1) + offset};
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  return m;
+}
+
+TriMesh merged(const TriMesh& a, const TriMesh& b) {
+  TriMesh m = a;
+  const auto n = std::int32_t(a.vertices.size());
+  m.vertices.insert(m.vertices.end(), b.vertices.begin(), b.vertices.end());
+  for (auto t : b.triangles) m.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+  return m;
+}
+
+void expect_good_closed(const MeshCheck& m, const std::string& what) {
+  EXPECT_TRUE(m.closed) << what;
+  EXPECT_TRUE(m.manifold) << what;
+  EXPECT_TRUE(m.oriented) << what;
+  EXPECT_EQ(m.boundary_edges, 0) << what;
+  EXPECT_EQ(m.nonmanifold_edges, 0) << what;
+  EXPECT_EQ(m.nonmanifold_vertices, 0) << what;
+  EXPECT_EQ(m.inconsistent_edges, 0) << what;
+  EXPECT_EQ(m.degenerate_triangles, 0) << what;
+}
+
+TEST(MeshCheck, CubeAndTetrahedron) {
+  const MeshCheck c = check_mesh(unit_cube());
+  expect_good_closed(c, "cube");
+  EXPECT_EQ(c.components, 1);
+  EXPECT_EQ(c.euler, 2);
+  EXPECT_NEAR(c.volume, 1.0, kExactTol);
+  EXPECT_NEAR(c.area, 6.0, kExactTol);
+
+  const MeshCheck t = check_mesh(tetrahedron(Vec3f(3, -2, 5)));  // volume independent of position
+  expect_good_closed(t, "tetrahedron");
+  EXPECT_EQ(t.euler, 2);
+  EXPECT_NEAR(t.volume, 1.0 / 6.0, kExactTol);
+  EXPECT_NEAR(t.area, 1.5 + std::sqrt(3.0) / 2.0, kExactTol);
+}
+
+TEST(MeshCheck, InsideOutMeshHasNegativeVolume) {
+  TriMesh m = unit_cube();
+  for (auto& t : m.triangles) std::swap(t[1], t[2]);
+  const MeshCheck c = check_mesh(m);
+  expect_good_closed(c, "inverted cube");
+  EXPECT_NEAR(c.volume, -1.0, kExactTol);
+}
+
+TEST(MeshCheck, DetectsHole) {
+  TriMesh m = unit_cube();
+  m.triangles.pop_back();
+  const MeshCheck c = check_mesh(m);
+  EXPECT_FALSE(c.closed);
+  EXPECT_EQ(c.boundary_edges, 3);
+  EXPECT_TRUE(c.manifold);  // a disk-like boundary fan is still manifold
+  EXPECT_TRUE(c.oriented);
+  EXPECT_EQ(c.euler, 1);
+}
+
+TEST(MeshCheck, DetectsFlippedTriangle) {
+  TriMesh m = unit_cube();
+  std::swap(m.triangles[4][1], m.triangles[4][2]);
+  const MeshCheck c = check_mesh(m);
+  EXPECT_TRUE(c.closed);
+  EXPECT_TRUE(c.manifold);
+  EXPECT_FALSE(c.oriented);
+  EXPECT_EQ(c.inconsistent_edges, 3);
+}
+
+TEST(MeshCheck, DetectsNonManifoldEdge) {
+  TriMesh m = unit_cube();
+  m.vertices.push_back(Vec3f(0.5f, 0.5f, 2.0f));  // a fin on the top edge (4, 5)
+  m.triangles.push_back({4, 5, 8});
+  const MeshCheck c = check_mesh(m);
+  EXPECT_FALSE(c.manifold);
+  EXPECT_EQ(c.nonmanifold_edges, 1);
+  EXPECT_EQ(c.boundary_edges, 2);
+  EXPECT_FALSE(c.closed);
+}
+
+TEST(MeshCheck, DetectsNonManifoldVertex) {
+  // Two tetrahedra touching at vertex 0: every edge is fine, vertex 0 is not.
+  TriMesh m = tetrahedron();
+  m.vertices.insert(m.vertices.end(), {Vec3f(-1, 0, 0), Vec3f(0, -1, 0), Vec3f(0, 0, -1)});
+  const std::int32_t mirror[4] = {0, 4, 5, 6};  // point reflection: reverse the triangles
+  for (std::size_t f = 0; f < 4; ++f) {
+    const auto t = m.triangles[f];
+    m.triangles.push_back({mirror[t[0]], mirror[t[2]], mirror[t[1]]});
+  }
+  const MeshCheck c = check_mesh(m);
+  EXPECT_TRUE(c.closed);
+  EXPECT_TRUE(c.oriented);
+  EXPECT_EQ(c.nonmanifold_edges, 0);
+  EXPECT_EQ(c.nonmanifold_vertices, 1);
+  EXPECT_FALSE(c.manifold);
+  EXPECT_EQ(c.components, 1);
+}
+
+TEST(MeshCheck, CountsComponentsAndDegenerateTriangles) {
+  TriMesh m = merged(unit_cube(), unit_cube(Vec3f(3, 0, 0)));
+  const MeshCheck two = check_mesh(m);
+  expect_good_closed(two, "two cubes");
+  EXPECT_EQ(two.components, 2);
+  EXPECT_EQ(two.euler, 4);
+  EXPECT_NEAR(two.volume, 2.0, kExactTol);
+
+  m.vertices.push_back(Vec3f(9, 9, 9));  // unused vertices are ignored
+  EXPECT_EQ(check_mesh(m).euler, 4);
+
+  TriMesh d;
+  d.vertices = {Vec3f(0, 0, 0), Vec3f(1, 1, 1), Vec3f(2, 2, 2), Vec3f(0, 1, 0)};
+  d.triangles = {{0, 1, 2}, {0, 0, 3}, {0, 1, 3}};  // collinear, repeated index, fine
+  EXPECT_EQ(check_mesh(d).degenerate_triangles, 2);
+}
+
+TEST(MeshCheck, EmptyMeshAndBadIndices) {
+  const MeshCheck e = check_mesh(TriMesh{});
+  EXPECT_EQ(e.components, 0);
+  EXPECT_EQ(e.euler, 0);
+  EXPECT_EQ(e.volume, 0.0);
+  TriMesh bad = tetrahedron();
+  bad.triangles[2][1] = 4;
+  try {
+    check_mesh(bad);
+    ADD_FAILURE() << "out-of-range index accepted";
+  } catch (const InputError& err) {
+    EXPECT_NE(std::string(err.what()).find("triangle 2"), std::string::npos) << err.what();
+  }
+}
+
+}  // namespace
+}  // namespace isoloft

@@ -1,0 +1,104 @@
+// End to end through the library: a synthesized sphere at 8:1 is
+// reconstructed and compared with the analytic sphere.
+#include <gtest/gtest.h>
+
+#include "isoloft/eval/metrics.h"
+#include "isoloft/pipeline.h"
+#include "isoloft/synth/synth.h"
+
+using namespace isoloft;
+
+namespace {
+
+struct Case {
+  SynthResult synth;
+  ReconstructResult result;
+};
+
+Case run(const std::string& shape, Method method, int size, double ratio) {
+  SynthParams sp;
+  sp.size = size;
+  sp.z_spacing = ratio;
+  Case c{synthesize(*make_default_shape(shape, size), sp), {}};
+  ReconstructParams p;
+  p.method = method;
+  c.result = reconstruct(c.synth.stack, p);
+  return c;
+}
+
+}  // namespace
+
+// Levin baseline on a sphere of radius 44.8 px cut every 8 px. The contour
+// pixels themselves sit up to ~0.5 px off the circle (mean ~0.25 px), and the
+// z spline of r(z) = sqrt(R^2 - z^2) errs most near the end slices, so:
+constexpr double kLevinSphereMeanTol = 0.5;  // px, in the slice range
+constexpr double kLevinSphereMaxTol = 2.5;   // px, in the slice range (worst at the last slices, where r(z) bends fastest)
+
+TEST(EndToEnd, LevinSphereAt8To1IsClosedAndNearTheTrueSphere) {
+  const Case c = run("sphere", Method::Levin, 128, 8.0);
+  ASSERT_EQ(c.result.objects.size(), 1u);
+  const auto& obj = c.result.objects.front();
+  EXPECT_TRUE(obj.check.closed);
+  EXPECT_TRUE(obj.check.manifold);
+  EXPECT_TRUE(obj.check.oriented);
+  EXPECT_EQ(obj.check.euler, 2);
+  EXPECT_GT(obj.check.volume, 0.0) << "outward orientation gives a positive volume";
+  const auto& st = c.synth.stack;
+  const auto stats = mesh_to_shape_stats(obj.mesh, *c.synth.shape, st.slices.front().z, st.slices.back().z);
+  RecordProperty("mean_distance_px", std::to_string(stats.in_range.mean_distance));
+  RecordProperty("max_distance_px", std::to_string(stats.in_range.max_distance));
+  std::cout << "levin sphere 8:1 in range: mean " << stats.in_range.mean_distance << " px, max " << stats.in_range.max_distance
+            << " px, normal angle " << stats.in_range.mean_normal_angle_deg << " deg; caps mean " << stats.caps.mean_distance << " px\n";
+  EXPECT_LT(stats.in_range.mean_distance, kLevinSphereMeanTol);
+  EXPECT_LT(stats.in_range.max_distance, kLevinSphereMaxTol);
+}
+
+TEST(EndToEnd, LabelsGiveOneClosedMeshPerLabel) {
+  SliceStack st;
+  st.width = st.height = 40;
+  for (int k = 0; k < 4; ++k) {
+    Slice s;
+    s.z = 3.0 * k;
+    s.source = "slice" + std::to_string(k);
+    s.image = Grid2u32(40, 40, 0);
+    for (int y = 0; y < 40; ++y)
+      for (int x = 0; x < 40; ++x) {
+        if ((x - 12) * (x - 12) + (y - 20) * (y - 20) < 64) s.image(x, y) = 7;
+        if ((x - 28) * (x - 28) + (y - 20) * (y - 20) < 36 + 4 * k) s.image(x, y) = 9;
+      }
+    st.slices.push_back(std::move(s));
+  }
+  ReconstructParams p;
+  p.method = Method::Levin;
+  p.input = InputKind::Labels;
+  const auto r = reconstruct(st, p);
+  ASSERT_EQ(r.objects.size(), 2u);
+  EXPECT_EQ(r.objects[0].label, 7u);
+  EXPECT_EQ(r.objects[1].label, 9u);
+  for (const auto& o : r.objects) {
+    EXPECT_TRUE(o.check.closed && o.check.manifold && o.check.oriented) << "label " << o.label;
+    EXPECT_EQ(o.check.components, 1) << "label " << o.label;
+  }
+}
+
+TEST(EndToEnd, EmptyMiddleSliceSplitsTheObject) {
+  SliceStack st;
+  st.width = st.height = 32;
+  for (int k = 0; k < 5; ++k) {
+    Slice s;
+    s.z = 4.0 * k;
+    s.image = Grid2u32(32, 32, 0);
+    if (k != 2)
+      for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 32; ++x)
+          if ((x - 16) * (x - 16) + (y - 16) * (y - 16) < 81) s.image(x, y) = 255;
+    st.slices.push_back(std::move(s));
+  }
+  ReconstructParams p;
+  p.method = Method::Levin;
+  p.input = InputKind::Masks;
+  const auto r = reconstruct(st, p);
+  ASSERT_EQ(r.objects.size(), 1u);
+  EXPECT_TRUE(r.objects[0].check.closed);
+  EXPECT_EQ(r.objects[0].check.components, 2) << "an all-outside slice separates the two halves";
+}
