@@ -88,10 +88,13 @@ class SegmentBuckets {
       }
       total_len += (s[1] - s[0]).norm();
     }
-    // Cell side ~ 2 mean segment lengths (few segments per cell), but at most
-    // 2048 cells per side; >= a tiny positive size for degenerate inputs.
+    // Cell side: at least 2 mean segment lengths (few segments per cell) and
+    // sqrt(box area / segments) (a curve's segments then fill ~sqrt(n) cells,
+    // so the rings searched from a far pixel stay few); at most 2048 cells per
+    // side; a tiny positive size for degenerate inputs.
     const Vec2d ext = hi_ - lo_;
-    cell_ = std::max({2.0 * total_len / double(segments.size()), ext.maxCoeff() / 2048.0, 1e-9});
+    cell_ = std::max({2.0 * total_len / double(segments.size()), std::sqrt(ext.prod() / double(segments.size())),
+                      ext.maxCoeff() / 2048.0, 1e-9});
     nx_ = int(ext.x() / cell_) + 1;
     ny_ = int(ext.y() / cell_) + 1;
     // Relative rounding of the inexact distances (coordinates up to |lo|,
@@ -126,12 +129,16 @@ class SegmentBuckets {
     double best = std::numeric_limits<double>::infinity();
     const int kmax = std::max({cx, nx_ - 1 - cx, cy, ny_ - 1 - cy});
     for (int k = 0; k <= kmax; ++k) {
-      // Every cell of ring k lies outside the block of rings < k; p's distance
-      // to that block's complement bounds every unvisited segment from below.
+      // Every unvisited cell lies in one of the four half-planes of cells at
+      // index distance >= k in x or y (those beyond the grid hold none); p's
+      // distance to the nearest of them bounds every unvisited segment.
       if (k > 0) {
-        const double bx0 = lo_.x() + (cx - k + 1) * cell_, bx1 = lo_.x() + (cx + k) * cell_;
-        const double by0 = lo_.y() + (cy - k + 1) * cell_, by1 = lo_.y() + (cy + k) * cell_;
-        const double lb = std::max(0.0, std::min({p.x() - bx0, bx1 - p.x(), p.y() - by0, by1 - p.y()}));
+        constexpr double kNone = std::numeric_limits<double>::infinity();
+        auto side = [](double d, bool exists) { return exists ? std::max(0.0, d) : kNone; };
+        const double lb = std::min({side(p.x() - (lo_.x() + (cx - k + 1) * cell_), cx - k >= 0),
+                                    side(lo_.x() + (cx + k) * cell_ - p.x(), cx + k < nx_),
+                                    side(p.y() - (lo_.y() + (cy - k + 1) * cell_), cy - k >= 0),
+                                    side(lo_.y() + (cy + k) * cell_ - p.y(), cy + k < ny_)});
         if (lb > std::min(best, band) + margin_) break;
       }
       for (int y = cy - k; y <= cy + k; ++y) {
@@ -157,8 +164,9 @@ class SegmentBuckets {
   }
 
  private:
-  int cell_x(double x) const { return std::clamp(int(std::floor((x - lo_.x()) / cell_)), -1, nx_); }
-  int cell_y(double y) const { return std::clamp(int(std::floor((y - lo_.y()) / cell_)), -1, ny_); }
+  // Clamped in double first: a pixel far from the segments must not overflow int.
+  int cell_x(double x) const { return int(std::clamp(std::floor((x - lo_.x()) / cell_), -1.0, double(nx_))); }
+  int cell_y(double y) const { return int(std::clamp(std::floor((y - lo_.y()) / cell_), -1.0, double(ny_))); }
 
   const std::vector<Segment2d>& segs_;
   Vec2d lo_{0, 0}, hi_{0, 0};

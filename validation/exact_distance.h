@@ -63,6 +63,7 @@ Grid2d exact_signed_distance(const std::vector<Polygon>& polygons, int width, in
 /// Exact signed distance to unordered segments (e.g. NarrowBandResult::segments
 /// or a marching-squares zero set), the sign taken from `inside` (1 = inside,
 /// e.g. the samples of the implicit function > 0); the grid has inside's size.
+/// With no segments every pixel is +-infinity (by its inside flag).
 /// \throw ParamError as above; InputError if a segment end point is not finite.
 Grid2d exact_signed_distance(const std::vector<Segment2d>& segments, const Grid2u8& inside, double x0 = 0,
                              double y0 = 0, double band = std::numeric_limits<double>::infinity());

@@ -7,6 +7,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/distance.h>
 #include <CGAL/Surface_mesh.h>
+#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -316,37 +317,58 @@ MeshDistanceReport mesh_distance(const TriMesh& a, const TriMesh& b, double erro
 
 namespace {
 
-// Points of the cubic grid of spacing h over the shape's bounds (+2 h) with
-// |value| < h, projected onto the surface. Grows h while over the cap.
-std::vector<Vec3d> sample_truth(const Shape& shape, double& h, long max_samples) {
+// Surface samples by hierarchical voxels. A voxel (centre g, side h) can hold
+// a surface point only if |value(g)| <= (sqrt(3) / 2) h, since |value| <= the
+// distance to the surface (value is 1-Lipschitz: exact for sphere and torus,
+// and for the ellipsoid and smooth-max blends of synth/shapes.h too). Kept
+// voxels are split in 8 down to `h` (growing h while the next level would pass
+// the cap); the final centres are projected by closest_point. Every surface
+// point lies in a kept final voxel, so it is within sqrt(3) h of a sample.
+}  // namespace
+
+namespace detail {
+
+std::vector<Vec3d> sample_shape_surface(const Shape& shape, double& h, long max_samples) {
+  const double target = h;
+  constexpr double kCoarse = 4.0;  // px: first level, cheap to evaluate over the whole box
+  int levels = 0;
+  while (target * double(1 << levels) < kCoarse && levels < 20) ++levels;
+  h = target * double(1 << levels);
+  const double keep = 0.5 * kSqrt3 * (1.0 + 1e-12);
   const auto bounds = shape.bounds();
-  for (;;) {
-    const Vec3d lo = bounds[0] - Vec3d::Constant(2 * h), hi = bounds[1] + Vec3d::Constant(2 * h);
-    const Eigen::Vector3i n = ((hi - lo) / h).array().ceil().cast<int>() + 1;
-    std::vector<std::vector<Vec3d>> slab(std::size_t(n.z()));
-    tbb::parallel_for(0, n.z(), [&](int k) {
-      auto& out = slab[std::size_t(k)];
-      for (int j = 0; j < n.y(); ++j)
-        for (int i = 0; i < n.x(); ++i) {
-          const Vec3d g = lo + h * Vec3d(i, j, k);
-          if (std::abs(shape.value(g)) < h) out.push_back(g);
+  const Vec3d lo = bounds[0] - Vec3d::Constant(h), hi = bounds[1] + Vec3d::Constant(h);
+  const Eigen::Vector3i n = ((hi - lo) / h).array().ceil().cast<int>() + 1;
+  std::vector<std::vector<Vec3d>> slab(std::size_t(n.z()));
+  tbb::parallel_for(0, n.z(), [&](int k) {
+    for (int j = 0; j < n.y(); ++j)
+      for (int i = 0; i < n.x(); ++i) {
+        const Vec3d g = lo + h * Vec3d(i, j, k);
+        if (std::abs(shape.value(g)) <= keep * h) slab[std::size_t(k)].push_back(g);
+      }
+  });
+  std::vector<Vec3d> voxels;
+  for (const auto& s : slab) voxels.insert(voxels.end(), s.begin(), s.end());
+  // A surface's voxel count grows ~4x per halving.
+  for (; levels > 0 && 4 * long(voxels.size()) <= max_samples; --levels) {
+    const double child = 0.5 * h;
+    constexpr std::size_t kBlock = 4096;
+    std::vector<std::vector<Vec3d>> out((voxels.size() + kBlock - 1) / kBlock);
+    tbb::parallel_for(std::size_t(0), out.size(), [&](std::size_t b) {
+      for (std::size_t v = b * kBlock; v < std::min(voxels.size(), (b + 1) * kBlock); ++v)
+        for (int c = 0; c < 8; ++c) {
+          const Vec3d g = voxels[v] + 0.5 * child * Vec3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1);
+          if (std::abs(shape.value(g)) <= keep * child) out[b].push_back(g);
         }
     });
-    std::size_t count = 0;
-    for (const auto& s : slab) count += s.size();
-    if (long(count) > max_samples) {
-      h *= std::sqrt(double(count) / double(max_samples)) * 1.05;  // samples ~ 1 / h^2
-      continue;
-    }
-    std::vector<Vec3d> pts;
-    pts.reserve(count);
-    for (auto& s : slab) pts.insert(pts.end(), s.begin(), s.end());
-    tbb::parallel_for(std::size_t(0), pts.size(), [&](std::size_t i) { pts[i] = shape.closest_point(pts[i]); });
-    return pts;
+    voxels.clear();
+    for (const auto& o : out) voxels.insert(voxels.end(), o.begin(), o.end());
+    h = child;
   }
+  tbb::parallel_for(std::size_t(0), voxels.size(), [&](std::size_t i) { voxels[i] = shape.closest_point(voxels[i]); });
+  return voxels;
 }
 
-}  // namespace
+}  // namespace detail
 
 TruthDistanceReport mesh_to_truth(const TriMesh& mesh, const Shape& truth, double z_first, double z_last,
                                   const TruthDistanceParams& params) {
@@ -396,7 +418,7 @@ TruthDistanceReport mesh_to_truth(const TriMesh& mesh, const Shape& truth, doubl
 
   // Truth -> mesh.
   double h = params.truth_spacing;
-  const std::vector<Vec3d> tp = sample_truth(truth, h, params.max_truth_samples);
+  const std::vector<Vec3d> tp = detail::sample_shape_surface(truth, h, params.max_truth_samples);
   r.truth_spacing = h;
   const TriangleVector tris = triangles_of(mesh);
   Tree tree(tris.begin(), tris.end());

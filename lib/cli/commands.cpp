@@ -71,7 +71,10 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
 
   eval_ = app.add_subcommand("eval", "Compare a mesh with an analytic truth (from isoloft synth)");
   eval_->add_option("--mesh", e_.mesh, "Mesh to evaluate")->required();
-  eval_->add_option("--truth", e_.truth, "shape.json written by isoloft synth")->required();
+  eval_->add_option("--truth", e_.truth, "shape.json written by isoloft synth (analytic truth)");
+  eval_->add_option("--reference", e_.reference, "A reference mesh: two-sided distances and CGAL's bounded-error Hausdorff distance");
+  eval_->add_option("--error-bound", e_.error_bound, "Error bound of the Hausdorff computation, pixels")->check(CLI::PositiveNumber);
+  eval_->add_option("--threshold", e_.threshold, "Hausdorff threshold for a pass/fail/undecided verdict, pixels")->check(CLI::PositiveNumber);
   eval_->add_option("--pixel-size", e_.pixel_size, "Pixel size the mesh was written with")->check(CLI::PositiveNumber);
   eval_->add_option("--report", e_.report, "Write the metrics as JSON");
 }

@@ -28,8 +28,8 @@ struct SynthOptions {
 };
 
 struct EvalOptions {
-  std::string mesh, truth, report;
-  double pixel_size = 1.0;
+  std::string mesh, truth, reference, report;
+  double pixel_size = 1.0, error_bound = 0.05, threshold = 0;
 };
 
 class Commands {

@@ -12,6 +12,9 @@
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
 #include "isoloft/synth/synth.h"
+#if ISOLOFT_HAVE_VALIDATION
+#include "validation/hausdorff.h"
+#endif
 
 namespace fs = std::filesystem;
 
@@ -48,27 +51,49 @@ int Commands::synth() {
 }
 
 int Commands::eval() {
-  std::ifstream in(e_.truth);
-  if (!in) throw InputError(e_.truth, "cannot open truth file");
-  nlohmann::json truth;
-  try {
-    truth = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(e_.truth, std::string("not valid JSON: ") + e.what());
-  }
-  if (!truth.contains("shape") || !truth.contains("stack")) throw InputError(e_.truth, "expected 'shape' and 'stack' (from isoloft synth)");
-  std::unique_ptr<Shape> shape;
-  try {
-    shape = shape_from_json(truth["shape"]);
-  } catch (const ParamError& e) {
-    throw InputError(e_.truth, e.what());
-  }
   TriMesh mesh = read_mesh(e_.mesh);
   if (e_.pixel_size != 1.0)
     for (auto& v : mesh.vertices) v /= float(e_.pixel_size);
-  const double z0 = truth["stack"].value("z_first", 0.0), z1 = truth["stack"].value("z_last", 0.0);
-  const MeshToShapeStats st = mesh_to_shape_stats(mesh, *shape, z0, z1);
-  nlohmann::json out = {{"mesh", e_.mesh}, {"truth", e_.truth}, {"units", "pixels"}, {"mesh_to_truth", st.to_json()}};
+  nlohmann::json out = {{"mesh", e_.mesh}, {"units", "pixels"}};
+  if (!e_.reference.empty()) {
+#if ISOLOFT_HAVE_VALIDATION
+    TriMesh ref = read_mesh(e_.reference);
+    if (e_.pixel_size != 1.0)
+      for (auto& v : ref.vertices) v /= float(e_.pixel_size);
+    const MeshDistanceReport r = mesh_distance(mesh, ref, e_.error_bound);
+    out["reference"] = e_.reference;
+    out["mesh_vs_reference"] = r.to_json();
+    if (e_.threshold > 0) out["verdict"] = to_string(hausdorff_verdict(r.symmetric(), e_.threshold));
+#else
+    throw ParamError("eval --reference needs the validation oracles (build with ISOLOFT_BUILD_VALIDATION=ON)");
+#endif
+  }
+  if (!e_.truth.empty()) {
+    std::ifstream in(e_.truth);
+    if (!in) throw InputError(e_.truth, "cannot open truth file");
+    nlohmann::json truth;
+    try {
+      truth = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(e_.truth, std::string("not valid JSON: ") + e.what());
+    }
+    if (!truth.contains("shape") || !truth.contains("stack")) throw InputError(e_.truth, "expected 'shape' and 'stack' (from isoloft synth)");
+    std::unique_ptr<Shape> shape;
+    try {
+      shape = shape_from_json(truth["shape"]);
+    } catch (const ParamError& e) {
+      throw InputError(e_.truth, e.what());
+    }
+    const double z0 = truth["stack"].value("z_first", 0.0), z1 = truth["stack"].value("z_last", 0.0);
+    out["truth"] = e_.truth;
+#if ISOLOFT_HAVE_VALIDATION
+    const TruthDistanceReport r = mesh_to_truth(mesh, *shape, z0, z1);
+    out["two_sided"] = r.to_json();
+    if (e_.threshold > 0) out["verdict"] = to_string(hausdorff_verdict(r.hausdorff, e_.threshold));
+#endif
+    out["mesh_to_truth"] = mesh_to_shape_stats(mesh, *shape, z0, z1).to_json();
+  }
+  if (e_.truth.empty() && e_.reference.empty()) throw ParamError("eval: give --truth SHAPE.json or --reference MESH");
   std::cout << out.dump(2) << "\n";
   if (!e_.report.empty()) write_text_atomic(e_.report, out.dump(2) + "\n");
   return 0;

@@ -98,8 +98,12 @@ TEST(ContourNormals, EllipseNormalsFollowTheImplicitGradient) {
 TEST(ContourNormals, HoleNormalsPointIntoTheHole) {
   const Vec2d c(80.2, 79.7);
   Grid2u8 mask, contour;
-  digitise([&](const Vec2d& p) { const double r = (p - c).norm(); return std::min(60.0 - r, r - 25.0); }, 160, 160,
-           mask, contour);
+  digitise(
+      [&](const Vec2d& p) {
+        const double r = (p - c).norm();
+        return std::min(60.0 - r, r - 25.0);
+      },
+      160, 160, mask, contour);
   const OrientedPoints op = contour_normals(contour, mask);
   int inner = 0, outer = 0;
   for (std::size_t i = 0; i < op.size(); ++i) {
@@ -107,7 +111,8 @@ TEST(ContourNormals, HoleNormalsPointIntoTheHole) {
     const bool is_inner = radial.norm() < 42.5;
     // Inner contour: outward = out of the material = towards the centre.
     const Vec2d want = is_inner ? Vec2d(-radial) : radial;
-    EXPECT_LE(angle_deg(op.normals[i], want), kMaxNormalAngleDeg) << (is_inner ? "hole " : "outer ") << at(op.points[i]);
+    EXPECT_LE(angle_deg(op.normals[i], want), kMaxNormalAngleDeg)
+        << (is_inner ? "hole " : "outer ") << at(op.points[i]);
     (is_inner ? inner : outer)++;
   }
   EXPECT_GT(inner, 100);
@@ -118,8 +123,12 @@ TEST(ContourNormals, WorksWithEvenOddFillOfTheContour) {
   // The pipeline's way: the filled mask comes from fill_even_odd(contour).
   const Vec2d c(60.3, 59.8);
   Grid2u8 mask, contour;
-  digitise([&](const Vec2d& p) { const double r = (p - c).norm(); return std::min(45.0 - r, r - 15.0); }, 120, 120,
-           mask, contour);
+  digitise(
+      [&](const Vec2d& p) {
+        const double r = (p - c).norm();
+        return std::min(45.0 - r, r - 15.0);
+      },
+      120, 120, mask, contour);
   const FillResult fill = fill_even_odd(contour);
   const OrientedPoints op = contour_normals(contour, fill.inside);
   ASSERT_GT(op.size(), 300u);
@@ -271,7 +280,8 @@ RC_GTEST_PROP(PolygonPoints, ConvexPolygonNormalsPointAwayFromCentroid, ()) {
   for (std::size_t i = 0; i < op.size(); ++i) {
     RC_ASSERT(std::abs(op.normals[i].norm() - 1.0) < kUnitTol);
     // Strictly positive for a convex polygon containing its vertex centroid.
-    if (!(op.normals[i].dot(op.points[i] - centroid) > 0.0)) RC_FAIL("inward normal at sample " + std::to_string(i) + " " + at(op.points[i]));
+    if (!(op.normals[i].dot(op.points[i] - centroid) > 0.0))
+      RC_FAIL("inward normal at sample " + std::to_string(i) + " " + at(op.points[i]));
   }
 }
 

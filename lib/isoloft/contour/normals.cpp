@@ -1,10 +1,9 @@
 #include "isoloft/contour/normals.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <string>
-
-#include <Eigen/Geometry>
 
 #include "isoloft/core/error.h"
 
@@ -105,8 +104,8 @@ OrientedPoints polygon_points(const std::vector<Polygon>& polygons, double spaci
   for (std::size_t k = 0; k < polygons.size(); ++k) {
     const auto& v = polygons[k].points;
     if (v.size() < 3)
-      throw InputError("", "polygon " + std::to_string(k) + " has " + std::to_string(v.size()) +
-                               " vertices (need at least 3)");
+      throw InputError(
+          "", "polygon " + std::to_string(k) + " has " + std::to_string(v.size()) + " vertices (need at least 3)");
     Eigen::AlignedBox2d box;
     double area2 = 0.0;
     for (std::size_t i = 0; i < v.size(); ++i) {

@@ -40,9 +40,10 @@ struct NormalsParams {
 struct OrientedPoints {
   std::vector<Vec2d> points;
   std::vector<Vec2d> normals;  ///< unit length, pointing out of the filled region
-  /// Input samples left out because their normal is undefined (contour_normals:
-  /// smoothed-mask gradient ~ 0, e.g. a one-pixel line with no inside;
-  /// polygon_points: zero-length edges are skipped and not counted).
+  /// Input samples left out because their normal is undefined: contour_normals:
+  /// smoothed-mask gradient ~ 0 (e.g. a one-pixel line with no inside);
+  /// polygon_points: samples of an edge that is no boundary of the even-odd
+  /// fill (covered twice). Zero-length edges give no samples at all.
   std::size_t dropped = 0;
   [[nodiscard]] std::size_t size() const { return points.size(); }
 };

@@ -1,14 +1,14 @@
 #include "isoloft/fit/mpu.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <string>
-
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 
 #include "isoloft/core/error.h"
 
@@ -71,6 +71,7 @@ void MpuCurve::fallback_eval(const Vec2d& p, double& value, Vec2d& grad) const {
 }
 
 double MpuCurve::fallback(const Vec2d& p) const {
+  if (grid_.size() == 0) return -kEmpty;
   double v;
   Vec2d g;
   fallback_eval(p, v, g);
@@ -78,6 +79,11 @@ double MpuCurve::fallback(const Vec2d& p) const {
 }
 
 void MpuCurve::value_and_gradient(const Vec2d& p, double& value, Vec2d& gradient) const {
+  if (nodes_.empty()) {
+    value = -kEmpty;
+    gradient.setZero();
+    return;
+  }
   double num, den;
   Vec2d dnum, dden;
   accumulate(p, num, den, &dnum, &dden);
@@ -95,6 +101,7 @@ void MpuCurve::value_and_gradient(const Vec2d& p, double& value, Vec2d& gradient
 }
 
 double MpuCurve::value(const Vec2d& p) const {
+  if (nodes_.empty()) return -kEmpty;
   double num, den;
   accumulate(p, num, den, nullptr, nullptr);
   if (den >= w_floor_) return num / den;
@@ -110,6 +117,7 @@ Vec2d MpuCurve::gradient(const Vec2d& p) const {
 
 std::vector<std::pair<int, double>> MpuCurve::weights(const Vec2d& p) const {
   std::vector<std::pair<int, double>> out;
+  if (nodes_.empty()) return out;
   double den = 0.0;
   for (std::size_t i = 0; i < leaves_.size(); ++i) {
     const double t = 1.5 * (p - leaves_[i].centre).norm() / leaves_[i].radius;
@@ -132,7 +140,7 @@ Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0,
                      " is negative");
   if (!(step > 0.0) || !std::isfinite(step))
     throw ParamError("evaluate MPU on grid: step must be a finite number > 0 (got " + std::to_string(step) + ")");
-  Grid2f out(width, height);
+  Grid2f out(width, height, static_cast<float>(-MpuCurve::kEmpty));
   if (width == 0 || height == 0 || curve.nodes_.empty()) return out;
   const double xmax = x0 + (width - 1) * step;
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
@@ -147,8 +155,7 @@ Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0,
       while (!stack.empty()) {
         const MpuCurve::Node& node = curve.nodes_[stack.back()];
         stack.pop_back();
-        if (y < node.box.min().y() || y > node.box.max().y() || node.box.max().x() < x0 ||
-            node.box.min().x() > xmax)
+        if (y < node.box.min().y() || y > node.box.max().y() || node.box.max().x() < x0 || node.box.min().x() > xmax)
           continue;
         if (node.first_child >= 0) {
           for (int k = 0; k < 4; ++k) stack.push_back(node.first_child + k);
@@ -195,7 +202,8 @@ struct Scratch {
   std::vector<std::pair<double, int>> nn;
   std::vector<int> comp_count;
   std::vector<int> touched;
-  std::vector<int> first, second;
+  std::vector<std::vector<int>> parts;
+  int touched_pieces = 0;
   std::vector<detail::AuxPoint> aux;
 };
 
@@ -255,7 +263,8 @@ class MpuBuilder {
                        spacing.end());
       med = spacing[spacing.size() / 2];
     }
-    comp_ = point_components(grid_, p_.component_link * med, ncomp_);
+    link_ = p_.component_link * med;
+    comp_ = point_components(grid_, link_, ncomp_);
     comp_size_.assign(ncomp_, 0);
     for (int c : comp_) ++comp_size_[c];
   }
@@ -277,10 +286,11 @@ class MpuBuilder {
     tbb::enumerable_thread_specific<Scratch> scratch;
     while (!level.empty()) {
       std::vector<MpuCurve::Leaf> fits(level.size());
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-        Scratch& s = scratch.local();
-        for (std::size_t k = r.begin(); k < r.end(); ++k) fits[k] = fit_cell(cells[level[k]], s);
-      });
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          Scratch& s = scratch.local();
+                          for (std::size_t k = r.begin(); k < r.end(); ++k) fits[k] = fit_cell(cells[level[k]], s);
+                        });
       std::vector<int> next;
       for (std::size_t k = 0; k < level.size(); ++k) {
         const int id = level[k];
@@ -290,7 +300,10 @@ class MpuBuilder {
         // A cell whose support had to grow to more than kSupportShrink of its
         // parent's radius is not subdivided: its children would grow back to
         // about the same points (file comment).
-        const bool stalled = fits[k].grown && fits[k].radius > detail::kSupportShrink * cell.parent_radius;
+        // Unless its support touches more pieces of data than one local
+        // function joins: children may see fewer.
+        const bool stalled = fits[k].support_bound && fits[k].radius > detail::kSupportShrink * cell.parent_radius &&
+                             fits[k].pieces <= detail::kMaxComponents;
         if ((fits[k].error > p_.tol || !fits[k].sign_ok) && cell.depth < p_.max_depth && !stalled) {
           nodes[id].first_child = static_cast<int>(nodes.size());
           const double h = 0.5 * cell.half;
@@ -318,7 +331,7 @@ class MpuBuilder {
           case LocalFn::Kind::Quadric: ++res.quadric_leaves; break;
           case LocalFn::Kind::Height: ++res.height_leaves; break;
           case LocalFn::Kind::Corner: ++res.corner_leaves; break;
-          case LocalFn::Kind::TwoCurves: ++res.two_curve_leaves; break;
+          case LocalFn::Kind::Components: ++res.component_leaves; break;
         }
         curve.leaves_.push_back(std::move(leaf));
       }
@@ -347,7 +360,7 @@ class MpuBuilder {
     std::size_t pos = 0;
     int incomplete = 0;
     double r = r0;
-    for (int m = 0;; ++m) {
+    for (;;) {
       while (pos < s.nn.size() && s.nn[pos].first <= r) {
         const int comp = comp_[s.nn[pos].second];
         if (s.comp_count[comp]++ == 0) {
@@ -373,14 +386,23 @@ class MpuBuilder {
     int n = n_eff_;
     double radius = support_radius(cell.centre, r0, n, false, s, grown);
     MpuCurve::Leaf best = fit_support(cell, radius, grown, n, s);
+    best.support_bound = grown;
     const int floor = std::min(n_eff_, p_.n_floor);
-    while ((best.error > p_.tol || !best.sign_ok) && best.grown && n > floor) {
+    while ((best.error > p_.tol || !best.sign_ok) && best.support_bound && n > floor) {
       n = std::max(floor, n / 2);
       radius = support_radius(cell.centre, r0, n, true, s, grown);
+      if (!grown) {
+        // The cell's own circle holds n points: smaller cells, not smaller
+        // supports, are the way on; let it be subdivided.
+        best.support_bound = false;
+        break;
+      }
       if (radius >= best.radius) continue;  // same support, same fit
       MpuCurve::Leaf leaf = fit_support(cell, radius, grown, n, s);
-      if ((leaf.sign_ok && !best.sign_ok) || (leaf.sign_ok == best.sign_ok && leaf.error < best.error))
+      if ((leaf.sign_ok && !best.sign_ok) || (leaf.sign_ok == best.sign_ok && leaf.error < best.error)) {
+        leaf.support_bound = true;
         best = std::move(leaf);
+      }
     }
     return best;
   }
@@ -396,7 +418,7 @@ class MpuBuilder {
     leaf.n_target = n_target;
     grid_.in_ball(cell.centre, R, s.idx);
     leaf.support = static_cast<int>(s.idx.size());
-    const detail::FitInput in{pts, normals_, cell.centre, R, p_.corner_angle * M_PI / 180.0};
+    const detail::FitInput in{pts, normals_, cell.centre, R, p_.corner_angle * M_PI / 180.0, link_};
 
     // MPU's choice: mean normal of the weighted support; a height function if
     // every normal is within 90 degrees of it and N <= 2 N_min, else a conic.
@@ -453,35 +475,39 @@ class MpuBuilder {
     }
     if (!good()) {
       split_components(s);
-      if (!s.second.empty()) {
-        consider(detail::fit_two_curves(in, s.first, s.second));
+      leaf.pieces = s.touched_pieces;
+      if (s.parts.size() >= 2) {
+        consider(detail::fit_components(in, s.parts, p_.tol));
       } else {
-        LocalFn corner;
-        corner.kind = LocalFn::Kind::Corner;
-        if (detail::fit_corner(in, s.idx, corner.group[0])) consider(corner);
+        for (int k = 2; k <= 3 && !good(); ++k) {
+          LocalFn corner;
+          corner.kind = LocalFn::Kind::Corner;
+          if (detail::fit_corner(in, s.idx, k, corner.group[0])) consider(corner);
+        }
       }
     }
     leaf.sign_ok = leaf_checked;
     return leaf;
   }
 
-  /// The support's points of its two largest connected pieces (s.first,
-  /// s.second; s.second empty if the support touches one piece).
+  /// The support's points by connected piece of the data, the
+  /// kMaxComponents largest (s.parts; one entry if the support touches one
+  /// piece). s.touched_pieces: how many it touches.
   void split_components(Scratch& s) const {
-    s.first.clear();
-    s.second.clear();
+    s.parts.clear();
     if (s.comp_count.size() != comp_size_.size()) s.comp_count.assign(comp_size_.size(), 0);
     s.touched.clear();
     for (int i : s.idx)
       if (s.comp_count[comp_[i]]++ == 0) s.touched.push_back(comp_[i]);
-    if (s.touched.size() >= 2) {
-      std::partial_sort(s.touched.begin(), s.touched.begin() + 2, s.touched.end(),
-                        [&](int a, int b) { return s.comp_count[a] > s.comp_count[b] || (s.comp_count[a] == s.comp_count[b] && a < b); });
-      for (int i : s.idx) {
-        if (comp_[i] == s.touched[0]) s.first.push_back(i);
-        if (comp_[i] == s.touched[1]) s.second.push_back(i);
-      }
-    }
+    std::sort(s.touched.begin(), s.touched.end(), [&](int a, int b) {
+      return s.comp_count[a] > s.comp_count[b] || (s.comp_count[a] == s.comp_count[b] && a < b);
+    });
+    s.touched_pieces = static_cast<int>(s.touched.size());
+    const std::size_t keep = std::min<std::size_t>(s.touched.size(), detail::kMaxComponents);
+    s.parts.assign(keep, {});
+    for (int i : s.idx)
+      for (std::size_t k = 0; k < keep; ++k)
+        if (comp_[i] == s.touched[k]) s.parts[k].push_back(i);
     for (int c : s.touched) s.comp_count[c] = 0;
   }
 
@@ -513,6 +539,7 @@ class MpuBuilder {
   detail::PointGrid grid_;
   std::vector<Vec2d> normals_;
   int n_eff_ = 0;
+  double link_ = 0.0;
   std::vector<int> comp_, comp_size_;
   int ncomp_ = 0;
 };
@@ -521,12 +548,14 @@ MpuResult fit_mpu(const OrientedPoints& in, const MpuParams& p) {
   auto bad = [](const std::string& what) { throw ParamError("MPU fit: " + what); };
   if (p.n_min < 1) bad("n_min must be >= 1 (got " + std::to_string(p.n_min) + ")");
   if (p.n_floor < 1) bad("n_floor must be >= 1 (got " + std::to_string(p.n_floor) + ")");
-  if (!(p.tol > 0.0) || !std::isfinite(p.tol)) bad("tol must be a finite number > 0 (got " + std::to_string(p.tol) + ")");
+  if (!(p.tol > 0.0) || !std::isfinite(p.tol))
+    bad("tol must be a finite number > 0 (got " + std::to_string(p.tol) + ")");
   if (!(p.alpha > 0.5) || !std::isfinite(p.alpha))
     bad("alpha must be a finite number > 0.5 (got " + std::to_string(p.alpha) + ")");
   if (!(p.lambda > 0.0) || !std::isfinite(p.lambda))
     bad("lambda must be a finite number > 0 (got " + std::to_string(p.lambda) + ")");
-  if (p.max_depth < 0 || p.max_depth > 24) bad("max_depth must be in [0, 24] (got " + std::to_string(p.max_depth) + ")");
+  if (p.max_depth < 0 || p.max_depth > 24)
+    bad("max_depth must be in [0, 24] (got " + std::to_string(p.max_depth) + ")");
   if (!(p.corner_angle > 0.0 && p.corner_angle < 180.0))
     bad("corner_angle must be in (0, 180) degrees (got " + std::to_string(p.corner_angle) + ")");
   if (!(p.component_link >= 0.0) || !std::isfinite(p.component_link))

@@ -24,12 +24,15 @@
 //   * else a general conic a x^2 + b xy + c y^2 + d x + e y + f (MPU's "general
 //     3D quadric") by weighted least squares on the points plus auxiliary
 //     off-surface points p -/+ 1 px n with values +/- 1 px
-//     (detail::kOffSurfaceDelta), which fix orientation and scale;
+//     (detail::kOffSurfaceDelta), taken as a central difference, which fixes
+//     orientation and scale (grad Q . n = -1) without biasing the zero set;
 //   * sharp features (MPU's "edge" in 3D is a corner in 2D): the normals are
-//     split into two clusters (largest angular gap, then optimal 1D 2-means;
-//     means >= corner_angle apart), one piece per cluster, Q = min(Q1, Q2) at
-//     a convex corner (each cluster lies behind the other's mean normal),
-//     max(Q1, Q2) at a concave one.
+//     split into 2 or 3 clusters (cut at the largest angular gap, optimal 1D
+//     k-means; neighbouring means >= corner_angle apart), clusters split
+//     further into connected parts (two parallel sides share a normal), one
+//     piece per part; 2 pieces: min at a convex corner (each part lies behind
+//     the other's mean normal), max at a concave one; 3 pieces (bar end,
+//     step): the min/max combination with the least error.
 // - Error and subdivision (MPU 2): the error of a local function is the
 //   maximum over the support points of the Taubin distance |Q(p)| / |grad Q(p)|;
 //   cells are subdivided into 4 while it exceeds tol. Cells are fitted
@@ -41,61 +44,71 @@
 //
 // Departures from MPU, each for a failure measured on digitised contours with
 // N_min ~ 150 (a support is then an arc of >= 75 px, far longer than MPU's
-// 15-point patches):
+// 15-point patches; measured failures: sign errors and zeros up to 70 px off):
 // - Model fallback: if MPU's pick misses tol or a sign check, the other single
-//   model is tried, then a two-part model: a corner (above) if the support
-//   holds one connected piece of data, else the two largest pieces, each its
-//   best of height function / conic / corner, combined by min if each lies
-//   inside the other's function (a hole in a region, a thin wall) else max
-//   (two regions across a gap). Pieces of data: points linked closer than
-//   component_link x the median point spacing. The candidate that passes the
-//   sign checks with the least error is kept. (A parabola cannot follow an
-//   arc of 60+ degrees, which a conic fits exactly; nor can one quadric fit
-//   both sides of a gap narrower than the support.)
+//   model is tried, then a corner (above) if the support holds one connected
+//   piece of data, else one group per piece (its best of height function /
+//   conic / corner; the kMaxComponents = 4 largest pieces) joined bottom-up,
+//   each step by the min or max with the least error (min where each lies
+//   inside the other: a hole in a region, a thin wall; max where neither
+//   does: regions across a gap, an island in a hole). Pieces of data: points
+//   linked closer than component_link x the median point spacing. The
+//   candidate that passes the sign checks with the least error is kept. (A
+//   parabola cannot follow an arc of 60+ degrees, which a conic fits exactly;
+//   no single quadric fits both sides of a gap narrower than the support.)
 // - Sign checks instead of MPU's auxiliary values: MPU constrains the quadric
 //   at the cell corners and centre to d = mean (p_k - q) . n_k over the 6
 //   nearest points. Those values grow linearly with the distance, a conic
 //   quadratically, so with cell corners 50-100 px from the data they moved the
 //   zero set by up to 20 px. Here the same points (plus the edge midpoints)
-//   only check the sign of Q where all 6 agree and |d| >= 2 px.
+//   only check the sign of Q where all 6 agree and |d| >= 2 px; a cell whose
+//   best fit fails one is subdivided.
 // - Component rule: support growth also stops once the circle holds a point
 //   and every connected piece it touches lies wholly inside it, so an island
 //   or hole with fewer than N_min points gets fits of its own.
 // - Support reduction: a cell whose support had to grow and still misses tol
 //   is refitted with N_min halved, down to n_floor, each support grown exactly
-//   to its n-th nearest point (no lambda steps); the best is kept. Features
+//   to its n-th nearest point (no lambda steps); the best is kept. Once the
+//   cell's own circle holds n points, the cell is subdivided instead. Features
 //   smaller than N_min points (petals, bar ends) are otherwise never resolved:
 //   subdividing a support-bound cell gives children with the same support.
-// - Stall rule: for the same reason a cell whose support grew to more than
-//   0.8 of its parent's radius (detail::kSupportShrink) is not subdivided;
-//   MPU would subdivide it down to max_depth without reducing the error.
+// - Stall rule: for the same reason a support-bound cell whose support radius
+//   exceeds 0.8 of its parent's (detail::kSupportShrink) is not subdivided,
+//   unless its support touches more than kMaxComponents pieces; MPU would
+//   subdivide it down to max_depth without reducing the error.
 // - Outside the root square, where the leaf weights fade out, f blends into a
 //   fallback F(x) = s |x - p| with p the nearest data point and s the sign of
 //   (p - x) . n_p (behind the nearest point's normal = inside):
 //   f = (sum w_i Q_i + w0 F) / (sum w_i + w0), w0 = max(0, w_floor - sum w_i),
 //   w_floor = b(0.75 / alpha) / 2: f is continuous, and w0 = 0 (pure MPU) in
 //   the whole root square.
+// With these, on digitised slices (tests and random blob slices with holes,
+// islands, necks, border contact) no pixel farther than 3 px from the contour
+// has the wrong sign and no zero lies farther than 1.2 px from a contour
+// pixel (measured; the tests bound it by tol + 1 px).
 //
 // What tol bounds: the Taubin distance (the first-order Euclidean distance)
 // from every input point in a leaf's support circle to that leaf's local zero
 // set, in pixels. f at a data point is a convex combination of local
 // functions that all vanish within tol of it and all have |grad| ~ 1 there,
 // so the zero set of f passes within ~tol of every input point. It bounds the
-// fit to the points, not to the unknown true curve (digitised contour points
+// fit to the points, not to the unknown true curve (digitised contour pixels
 // lie up to 1 px inside it, see the tests). Leaves can exceed tol only when
 // stopped by max_depth or by the stall rule with n_floor points still too
-// many (e.g. three sides of a bar end within 20 points); MpuResult reports
-// them. Measured (tests/fit/test_mpu.cpp): circle, ellipse, annulus, two
-// circles, square with hole at tol = 1 fit with no leaf over tol.
+// many (MpuResult reports them, Leaf::support_bound marks the latter). At
+// tol = 1, circle, ellipse, annulus, two circles, square with hole fit with
+// no leaf over tol (tests/fit/test_mpu.cpp).
+//
+// Thread safety: fit_mpu runs its levels in parallel (TBB); an MpuCurve is
+// immutable and may be evaluated from any number of threads.
 //
 // Units: pixels of the working grid, pixel-centre convention (core/grid.h).
 #pragma once
 
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "isoloft/contour/normals.h"
 #include "isoloft/core/grid.h"
@@ -116,11 +129,14 @@ struct MpuParams {
   int n_floor = 20;
   /// Error bound epsilon_0 of MPU 2, pixels: maximum Taubin distance of a
   /// leaf's support points from its local zero set (see the file comment).
-  /// 1 px: digitised contour points scatter by up to ~0.7 px about a smooth
-  /// curve; a tighter bound only forces smaller supports that follow the
-  /// pixel staircase (measured on a 100 px disk: zero set 0.8 px from the
-  /// true circle at tol 0.5, 0.5 px at tol 1).
-  double tol = 1.0;
+  /// 0.75 px: digitised contour points scatter by up to ~0.7 px about a
+  /// smooth curve, so much tighter bounds force smaller supports that follow
+  /// the pixel staircase (on a 100 px disk: zero set 0.8 px from the true
+  /// circle at tol 0.5, 0.5 px at tol 1); looser ones under-fit curved
+  /// slices (synthesized tilted torus at 8:1, two-sided mean surface error:
+  /// 0.164 px at tol 1, 0.142 px at 0.75, 0.144 px at 0.5; sphere and
+  /// branching cylinders within 0.003 px of each other at all three).
+  double tol = 0.75;
   /// Support radius over cell diagonal (MPU 2: 0.75). Must be > 0.5 so every
   /// cell lies inside its own support circle.
   double alpha = 0.75;
@@ -130,9 +146,10 @@ struct MpuParams {
   /// a safety net: 10 levels take a 500 px root to 0.5 px cells, while the
   /// stall rule stops digitised data at depth 6-8 (measured).
   int max_depth = 10;
-  /// Least angle between the two normal clusters of a corner fit, degrees
-  /// (MPU 3 sharp features; the 25.8 degree threshold cos = 0.9 of Kobbelt et
-  /// al., "Feature sensitive surface extraction", SIGGRAPH 2001).
+  /// Least angle between neighbouring normal clusters of a corner fit,
+  /// degrees (MPU 3 sharp features; not given there). 25.8 = acos(0.9): above
+  /// the scatter of digitised normals along a straight edge (at most 14
+  /// degrees, contour/normals.h), far below a 90 degree corner.
   double corner_angle = 25.8;
   /// Points closer than this many median nearest-neighbour spacings form one
   /// connected piece (component rule in the file comment). 2: an 8-connected
@@ -145,8 +162,12 @@ struct MpuParams {
 };
 
 /// The fitted curve: an immutable function, safe to evaluate from many threads.
+/// A default-constructed one holds no data and is -kEmpty (outside) everywhere.
 class MpuCurve {
  public:
+  /// Magnitude of the value of an empty curve (as field/edt.h's kNoSurfaceDistance).
+  static constexpr double kEmpty = 1.0e6;
+
   /// One leaf of the quadtree: its local function and support circle.
   struct Leaf {
     detail::LocalFn fn;
@@ -155,10 +176,14 @@ class MpuCurve {
     double half_size = 0.0;  ///< half the cell side
     double error = 0.0;      ///< Taubin error over the support points
     int depth = 0;
-    int support = 0;  ///< points in the support circle
-    int n_target = 0;  ///< N_min used (n_min, or less after support reduction)
-    bool grown = false;
+    int support = 0;     ///< points in the support circle
+    int n_target = 0;    ///< N_min used (n_min, or less after support reduction)
+    bool grown = false;  ///< the support radius grew beyond alpha x diagonal
+    /// Grown, and no smaller n fitted inside the cell's own circle: the fit is
+    /// bound by its support, not by the cell size (stall rule).
+    bool support_bound = false;
     bool sign_ok = true;  ///< fn agrees with every sign check of the cell
+    int pieces = 0;       ///< connected pieces of data in the support; 0 if no multi-part model was tried
   };
 
   /// f(p), positive inside, ~ signed distance in pixels near the curve.
@@ -169,6 +194,7 @@ class MpuCurve {
 
   /// The normalised blending weights at p: (leaf index, weight), plus
   /// (-1, weight) for the fallback when it takes part. They sum to 1.
+  /// O(leaves), for tests and inspection.
   [[nodiscard]] std::vector<std::pair<int, double>> weights(const Vec2d& p) const;
 
   [[nodiscard]] const std::vector<Leaf>& leaves() const { return leaves_; }
@@ -205,16 +231,16 @@ class MpuCurve {
 
 struct MpuResult {
   MpuCurve curve;
-  int cells = 0;   ///< quadtree cells fitted (internal + leaves)
+  int cells = 0;  ///< quadtree cells fitted (internal + leaves)
   int leaves = 0;
   int max_depth_reached = 0;
-  double max_local_error = 0.0;  ///< max leaf error (Taubin distance, px)
-  int leaves_over_tol = 0;       ///< leaves with error > tol: support-bound (grown) or at max_depth
+  double max_local_error = 0.0;          ///< max leaf error (Taubin distance, px)
+  int leaves_over_tol = 0;               ///< leaves with error > tol: support-bound (stall rule) or at max_depth
   int leaves_over_tol_at_max_depth = 0;  ///< of those, the ones stopped by max_depth
-  int quadric_leaves = 0, height_leaves = 0, corner_leaves = 0, two_curve_leaves = 0;
-  int grown_leaves = 0;  ///< leaves whose support radius had to grow
+  int quadric_leaves = 0, height_leaves = 0, corner_leaves = 0, component_leaves = 0;
+  int grown_leaves = 0;         ///< leaves whose support radius had to grow
   int sign_check_failures = 0;  ///< leaves whose best model failed a sign check
-  int components = 0;    ///< connected pieces of the point set (component rule)
+  int components = 0;           ///< connected pieces of the point set (component rule)
 };
 
 /// Fits the 2D MPU curve to oriented points (paper 2.1; algorithm in the file comment).
@@ -222,7 +248,7 @@ struct MpuResult {
 /// \throw InputError (empty file name; the caller prefixes the slice) if there
 ///        are no points, the sizes differ, or a point or normal is not finite
 ///        or a normal is not of unit length (+-1e-3).
-/// \throw ParamError if n_min < 1, tol <= 0, alpha <= 0.5, lambda <= 0,
+/// \throw ParamError if n_min < 1, n_floor < 1, tol <= 0, alpha <= 0.5, lambda <= 0,
 ///        max_depth outside [0, 24], corner_angle outside (0, 180),
 ///        component_link < 0, or a parameter is not finite.
 MpuResult fit_mpu(const OrientedPoints& points, const MpuParams& params = {});

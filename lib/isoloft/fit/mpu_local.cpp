@@ -1,11 +1,10 @@
 #include "isoloft/fit/mpu_local.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
-
-#include <Eigen/Dense>
 
 namespace isoloft::detail {
 
@@ -35,33 +34,60 @@ void Piece::eval(const Vec2d& x, double& value, Vec2d& grad) const {
     return;
   }
   const Vec2d s = (x - centre) / scale;
-  value = scale * (q[0] * s.x() * s.x() + q[1] * s.x() * s.y() + q[2] * s.y() * s.y() + q[3] * s.x() +
-                   q[4] * s.y() + q[5]);
+  value =
+      scale * (q[0] * s.x() * s.x() + q[1] * s.x() * s.y() + q[2] * s.y() * s.y() + q[3] * s.x() + q[4] * s.y() + q[5]);
   grad = Vec2d(2.0 * q[0] * s.x() + q[1] * s.y() + q[3], q[1] * s.x() + 2.0 * q[2] * s.y() + q[4]);
 }
 
 void Group::eval(const Vec2d& x, double& value, Vec2d& grad) const {
+  auto pick = [](bool take_min, double& v, Vec2d& g, double v2, const Vec2d& g2) {
+    if (take_min ? v2 < v : v2 > v) {
+      v = v2;
+      g = g2;
+    }
+  };
   piece[0].eval(x, value, grad);
   if (count < 2) return;
-  double v;
-  Vec2d g;
-  piece[1].eval(x, v, g);
-  if (use_min ? v < value : v > value) {
-    value = v;
-    grad = g;
+  if (count == 2 || op == Op::Min || op == Op::Max) {
+    const bool take_min = op == Op::Min || op == Op::MinOfMax;
+    for (int i = 1; i < count; ++i) {
+      double v;
+      Vec2d g;
+      piece[i].eval(x, v, g);
+      pick(take_min, value, grad, v, g);
+    }
+    return;
   }
+  // Three pieces, mixed: inner op over the two others, outer op with the lone one.
+  const bool inner_min = op == Op::MaxOfMin;
+  const int a = (lone + 1) % 3, b = (lone + 2) % 3;
+  double va, vb, vl;
+  Vec2d ga, gb, gl;
+  piece[a].eval(x, va, ga);
+  piece[b].eval(x, vb, gb);
+  piece[lone].eval(x, vl, gl);
+  pick(inner_min, va, ga, vb, gb);
+  pick(!inner_min, va, ga, vl, gl);
+  value = va;
+  grad = ga;
 }
 
 void LocalFn::eval(const Vec2d& x, double& value, Vec2d& grad) const {
-  group[0].eval(x, value, grad);
-  if (groups < 2) return;
-  double v;
-  Vec2d g;
-  group[1].eval(x, v, g);
-  if (use_min ? v < value : v > value) {
-    value = v;
-    grad = g;
+  if (joins == 0) {
+    group[0].eval(x, value, grad);
+    return;
   }
+  std::array<double, 2 * kMaxComponents - 1> v;
+  std::array<Vec2d, 2 * kMaxComponents - 1> g;
+  for (int i = 0; i < groups; ++i) group[i].eval(x, v[i], g[i]);
+  for (int j = 0; j < joins; ++j) {
+    const Join& J = join[j];
+    const bool first = J.use_min ? v[J.a] <= v[J.b] : v[J.a] >= v[J.b];
+    v[groups + j] = first ? v[J.a] : v[J.b];
+    g[groups + j] = first ? g[J.a] : g[J.b];
+  }
+  value = v[groups + joins - 1];
+  grad = g[groups + joins - 1];
 }
 
 namespace {
@@ -126,8 +152,12 @@ Piece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& norm
       const Vec2d& p = points[idx[k]];
       const Vec2d& n = normals[idx[k]];
       add(row(p), 0.0, wk);
-      add(row(p - kOffSurfaceDelta * n), kOffSurfaceDelta, wk);   // inward: positive
-      add(row(p + kOffSurfaceDelta * n), -kOffSurfaceDelta, wk);  // outward: negative
+      // Off-surface pair p -/+ delta n with values +/- delta, as the central
+      // difference (Q(p - delta n) - Q(p + delta n)) / 2 = delta: exact for a
+      // conic, it is delta grad Q(p) . n = -delta, so the pair fixes
+      // orientation and scale without biasing the zero set (two separate
+      // off-surface rows would: a circle's Q is not linear along n).
+      add(0.5 * (row(p - kOffSurfaceDelta * n) - row(p + kOffSurfaceDelta * n)), kOffSurfaceDelta, wk);
     }
   const Vec6 x = solve_normal_equations<6>(m, v);
   Piece fn;
@@ -151,57 +181,70 @@ double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const s
   return err;
 }
 
-bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, double min_angle, int min_size,
-                   std::vector<int>& first, std::vector<int>& second) {
-  first.clear();
-  second.clear();
+bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts) {
+  parts.clear();
   const int n = static_cast<int>(idx.size());
-  if (n < 2 * min_size || min_size < 1) return false;
+  if (k < 2 || k > 3 || min_size < 1 || n < k * min_size) return false;
   std::vector<std::pair<double, int>> ang(n);
-  for (int k = 0; k < n; ++k) ang[k] = {std::atan2(normals[idx[k]].y(), normals[idx[k]].x()), idx[k]};
+  for (int i = 0; i < n; ++i) ang[i] = {std::atan2(normals[idx[i]].y(), normals[idx[i]].x()), idx[i]};
   std::sort(ang.begin(), ang.end());
   // Cut the circle open at its largest gap: start after it, unrolled increasing.
   int cut = 0;
   double gap = ang[0].first + 2.0 * M_PI - ang[n - 1].first;
-  for (int k = 1; k < n; ++k)
-    if (ang[k].first - ang[k - 1].first > gap) {
-      gap = ang[k].first - ang[k - 1].first;
-      cut = k;
+  for (int i = 1; i < n; ++i)
+    if (ang[i].first - ang[i - 1].first > gap) {
+      gap = ang[i].first - ang[i - 1].first;
+      cut = i;
     }
   std::rotate(ang.begin(), ang.begin() + cut, ang.end());
-  for (int k = 1; k < n; ++k)
-    if (ang[k].first < ang[k - 1].first) ang[k].first += 2.0 * M_PI;
+  for (int i = 1; i < n; ++i)
+    if (ang[i].first < ang[i - 1].first) ang[i].first += 2.0 * M_PI;
   std::vector<double> pre(n + 1, 0.0), pre2(n + 1, 0.0);
-  for (int k = 0; k < n; ++k) {
-    pre[k + 1] = pre[k] + ang[k].first;
-    pre2[k + 1] = pre2[k] + ang[k].first * ang[k].first;
+  for (int i = 0; i < n; ++i) {
+    pre[i + 1] = pre[i] + ang[i].first;
+    pre2[i + 1] = pre2[i] + ang[i].first * ang[i].first;
   }
   auto sse = [&](int lo, int hi) {  // [lo, hi)
     const double s = pre[hi] - pre[lo], s2 = pre2[hi] - pre2[lo];
     return s2 - s * s / (hi - lo);
   };
-  int best = -1;
+  // Optimal contiguous split: bounds b[0] = 0 < b[1] < ... < b[k] = n.
+  std::vector<int> best;
   double best_cost = std::numeric_limits<double>::infinity();
-  for (int k = min_size; k <= n - min_size; ++k) {
-    const double c = sse(0, k) + sse(k, n);
-    if (c < best_cost) {
-      best_cost = c;
-      best = k;
-    }
+  if (k == 2) {
+    for (int i = min_size; i <= n - min_size; ++i)
+      if (const double c = sse(0, i) + sse(i, n); c < best_cost) {
+        best_cost = c;
+        best = {0, i, n};
+      }
+  } else {
+    // Split positions on a stride of n / 64: O(64^2) instead of O(n^2), and
+    // the clusters of a corner are far wider than n / 64 points.
+    const int stride = std::max(1, n / 64);
+    for (int i = min_size; i <= n - 2 * min_size; i += stride)
+      for (int j = i + min_size; j <= n - min_size; j += stride)
+        if (const double c = sse(0, i) + sse(i, j) + sse(j, n); c < best_cost) {
+          best_cost = c;
+          best = {0, i, j, n};
+        }
   }
-  if (best < 0) return false;
-  Vec2d m1(0.0, 0.0), m2(0.0, 0.0);
-  for (int k = 0; k < n; ++k) (k < best ? m1 : m2) += normals[ang[k].second];
-  if (m1.norm() == 0.0 || m2.norm() == 0.0) return false;
-  const double sep = std::acos(std::clamp(m1.normalized().dot(m2.normalized()), -1.0, 1.0));
-  if (sep < min_angle) return false;
-  for (int k = 0; k < n; ++k) (k < best ? first : second).push_back(ang[k].second);
+  if (best.empty()) return false;
+  std::vector<Vec2d> mean(k, Vec2d(0.0, 0.0));
+  for (int c = 0; c < k; ++c)
+    for (int i = best[c]; i < best[c + 1]; ++i) mean[c] += normals[ang[i].second];
+  for (int c = 0; c + 1 < k; ++c) {
+    if (mean[c].norm() == 0.0 || mean[c + 1].norm() == 0.0) return false;
+    const double sep = std::acos(std::clamp(mean[c].normalized().dot(mean[c + 1].normalized()), -1.0, 1.0));
+    if (sep < min_angle) return false;
+  }
+  parts.assign(k, {});
+  for (int c = 0; c < k; ++c)
+    for (int i = best[c]; i < best[c + 1]; ++i) parts[c].push_back(ang[i].second);
   return true;
 }
 
-double FitInput::weight(const Vec2d& p) const {
-  return std::max(bspline2(1.5 * (p - centre).norm() / radius), 1e-12);
-}
+double FitInput::weight(const Vec2d& p) const { return std::max(bspline2(1.5 * (p - centre).norm() / radius), 1e-12); }
 
 namespace {
 double group_error(const FitInput& in, const Group& g, const std::vector<int>& ids) {
@@ -243,11 +286,47 @@ Piece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error) 
   return g.piece[0];
 }
 
-bool fit_corner(const FitInput& in, const std::vector<int>& ids, Group& group) {
-  std::vector<int> part[2];
-  if (!split_normals(in.normals, ids, in.corner_angle, kMinClusterSize, part[0], part[1])) return false;
-  Vec2d centroid[2], normal[2];
-  for (int c = 0; c < 2; ++c) {
+namespace {
+/// Connected parts of ids (union-find over links shorter than `link`).
+std::vector<std::vector<int>> connected_parts(const std::vector<Vec2d>& points, const std::vector<int>& ids,
+                                              double link) {
+  const int m = static_cast<int>(ids.size());
+  std::vector<int> parent(m);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  const double l2 = link * link;
+  for (int i = 0; i < m; ++i)
+    for (int j = i + 1; j < m; ++j)
+      if ((points[ids[i]] - points[ids[j]]).squaredNorm() <= l2) parent[find(j)] = find(i);
+  std::vector<int> label(m, -1);
+  std::vector<std::vector<int>> parts;
+  for (int i = 0; i < m; ++i) {
+    const int r = find(i);
+    if (label[r] < 0) {
+      label[r] = static_cast<int>(parts.size());
+      parts.emplace_back();
+    }
+    parts[label[r]].push_back(ids[i]);
+  }
+  return parts;
+}
+}  // namespace
+
+bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group) {
+  std::vector<std::vector<int>> clusters, part;
+  if (!split_normals(in.normals, ids, k, in.corner_angle, kMinClusterSize, clusters)) return false;
+  for (const auto& c : clusters)
+    for (auto& p : connected_parts(in.points, c, in.link)) {
+      if (static_cast<int>(p.size()) < 3) return false;  // a stray point: no piece
+      part.push_back(std::move(p));
+    }
+  const int m = static_cast<int>(part.size());
+  if (m < 2 || m > 3) return false;
+  std::vector<Vec2d> centroid(m), normal(m);
+  for (int c = 0; c < m; ++c) {
     double err;
     group.piece[c] = fit_piece(in, part[c], err);
     Vec2d sum(0.0, 0.0), nsum(0.0, 0.0);
@@ -258,44 +337,80 @@ bool fit_corner(const FitInput& in, const std::vector<int>& ids, Group& group) {
     centroid[c] = sum / static_cast<double>(part[c].size());
     normal[c] = nsum.normalized();
   }
-  group.count = 2;
-  // Convex corner: each cluster lies behind the other's normal; the inside is in both.
-  group.use_min = (centroid[1] - centroid[0]).dot(normal[0] - normal[1]) < 0.0;
+  group.count = m;
+  group.lone = 0;
+  if (m == 2) {
+    // Convex corner: each part lies behind the other's normal; the inside is in both.
+    group.op = (centroid[1] - centroid[0]).dot(normal[0] - normal[1]) < 0.0 ? Group::Op::Min : Group::Op::Max;
+    return true;
+  }
+  Group best = group;
+  double best_err = std::numeric_limits<double>::infinity();
+  for (Group::Op op : {Group::Op::Min, Group::Op::Max, Group::Op::MaxOfMin, Group::Op::MinOfMax})
+    for (int lone = 0; lone < ((op == Group::Op::Min || op == Group::Op::Max) ? 1 : 3); ++lone) {
+      Group g = group;
+      g.op = op;
+      g.lone = lone;
+      if (const double e = group_error(in, g, ids); e < best_err) {
+        best_err = e;
+        best = g;
+      }
+    }
+  group = best;
   return true;
 }
 
-Group fit_curve(const FitInput& in, const std::vector<int>& ids, double& error) {
-  Group g;
-  g.piece[0] = fit_piece(in, ids, error);
-  Group c;
-  if (fit_corner(in, ids, c)) {
-    const double e = group_error(in, c, ids);
-    if (e < error) {
+Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, double& error) {
+  Group best;
+  best.piece[0] = fit_piece(in, ids, error);
+  for (int k = 2; k <= 3 && error > tol; ++k) {
+    Group c;
+    if (!fit_corner(in, ids, k, c)) continue;
+    if (const double e = group_error(in, c, ids); e < error) {
       error = e;
-      return c;
+      best = c;
     }
   }
-  return g;
+  return best;
 }
 
-LocalFn fit_two_curves(const FitInput& in, const std::vector<int>& a, const std::vector<int>& b) {
+LocalFn fit_components(const FitInput& in, const std::vector<std::vector<int>>& parts, double tol) {
   LocalFn fn;
-  fn.kind = LocalFn::Kind::TwoCurves;
-  fn.groups = 2;
+  fn.kind = LocalFn::Kind::Components;
+  fn.groups = static_cast<int>(parts.size());
   double err;
-  fn.group[0] = fit_curve(in, a, err);
-  fn.group[1] = fit_curve(in, b, err);
-  double inside = 0.0, v;
-  Vec2d g;
-  for (int i : b) {
-    fn.group[0].eval(in.points[i], v, g);
-    inside += v / static_cast<double>(b.size());
+  for (int i = 0; i < fn.groups; ++i) fn.group[i] = fit_curve(in, parts[i], tol, err);
+  // Open nodes and their points; join the best pair until one is left.
+  std::vector<int> open(fn.groups);
+  std::iota(open.begin(), open.end(), 0);
+  std::vector<std::vector<int>> pts(parts.begin(), parts.end());
+  while (open.size() > 1) {
+    double best = std::numeric_limits<double>::infinity();
+    LocalFn best_fn;
+    std::size_t bi = 0, bj = 1;
+    for (std::size_t i = 0; i < open.size(); ++i)
+      for (std::size_t j = i + 1; j < open.size(); ++j) {
+        std::vector<int> both = pts[i];
+        both.insert(both.end(), pts[j].begin(), pts[j].end());
+        for (bool use_min : {true, false}) {
+          LocalFn trial = fn;
+          trial.join[trial.joins] = {use_min, static_cast<std::int8_t>(open[i]), static_cast<std::int8_t>(open[j])};
+          ++trial.joins;
+          // Evaluate the new node alone: it is the last one.
+          if (const double e = taubin_error(trial, in.points, both); e < best) {
+            best = e;
+            best_fn = trial;
+            bi = i;
+            bj = j;
+          }
+        }
+      }
+    fn = best_fn;
+    pts[bi].insert(pts[bi].end(), pts[bj].begin(), pts[bj].end());
+    pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(bj));
+    open[bi] = fn.groups + fn.joins - 1;
+    open.erase(open.begin() + static_cast<std::ptrdiff_t>(bj));
   }
-  for (int i : a) {
-    fn.group[1].eval(in.points[i], v, g);
-    inside += v / static_cast<double>(a.size());
-  }
-  fn.use_min = inside > 0.0;
   return fn;
 }
 

@@ -1,8 +1,10 @@
 // Local approximations of the 2D MPU curve (fit/mpu.h): the three kinds of
-// Ohtake et al. 2003, section 3, reduced from surfaces in 3D to curves in 2D.
-// All are positive inside (the input normals point outward) and are written so
-// that Q is in pixels and |grad Q| ~ 1 on the data, i.e. Q ~ signed distance
-// near the curve. Internals of fit_mpu, exposed for the tests.
+// Ohtake et al. 2003, section 3 (height function, general quadric, sharp
+// feature), reduced from surfaces in 3D to curves in 2D, and their min/max
+// joins over connected pieces of data. All are positive inside (the input
+// normals point outward) and are written so that Q is in pixels and
+// |grad Q| ~ 1 on the data, i.e. Q ~ signed distance near the curve.
+// Internals of fit_mpu, exposed for the tests.
 #pragma once
 
 #include <array>
@@ -42,28 +44,46 @@ struct Piece {
   void eval(const Vec2d& x, double& value, Vec2d& grad) const;
 };
 
-/// One or two pieces combined by min or max: a smooth curve piece, or a
-/// corner (MPU's sharp-feature "edge" function in 2D).
+/// Up to three pieces combined by min and max: a smooth curve piece, a
+/// corner (MPU's sharp-feature "edge" function in 2D), or two corners in a
+/// row (the end of a thin bar: min of three; a step: max(A, min(B, C))).
 struct Group {
-  std::array<Piece, 2> piece{};
-  int count = 1;        ///< pieces used (1 or 2)
-  bool use_min = true;  ///< two pieces: min (the inside is inside both) or max (inside either)
+  enum class Op : std::uint8_t {
+    Min,       ///< inside all pieces (convex corners)
+    Max,       ///< inside any piece (concave corners)
+    MaxOfMin,  ///< max(piece[lone], min(the other two))
+    MinOfMax,  ///< min(piece[lone], max(the other two))
+  };
+  std::array<Piece, 3> piece{};
+  int count = 1;  ///< pieces used (1 to 3)
+  Op op = Op::Min;
+  int lone = 0;  ///< the piece outside the inner min / max (three pieces, mixed ops)
   void eval(const Vec2d& x, double& value, Vec2d& grad) const;
 };
 
-/// One local approximation Q_i: one group, or two groups (the two largest
-/// connected pieces of the data in the support) combined by min or max.
+/// Largest number of connected pieces of data one local function combines.
+inline constexpr int kMaxComponents = 4;
+
+/// One local approximation Q_i: one group, or one group per connected piece
+/// of the data in the support (up to kMaxComponents) joined by min and max.
 struct LocalFn {
   enum class Kind : std::uint8_t {
-    Quadric,    ///< MPU "general 3D quadric" in 2D: one conic
-    Height,     ///< MPU "bivariate quadratic polynomial": one height function
-    Corner,     ///< MPU "sharp feature" in 2D: two pieces split by normals, min/max
-    TwoCurves,  ///< two connected pieces of data (e.g. the sides of a gap), min/max
+    Quadric,     ///< MPU "general 3D quadric" in 2D: one conic
+    Height,      ///< MPU "bivariate quadratic polynomial": one height function
+    Corner,      ///< MPU "sharp feature" in 2D: pieces split by normals, by min/max
+    Components,  ///< one group per connected piece of data, joined by min/max
+  };
+  /// Node groups + j of the join tree: min or max of nodes a and b (a node
+  /// below `groups` is that group); the last node is the value.
+  struct Join {
+    bool use_min = true;
+    std::int8_t a = 0, b = 0;
   };
   Kind kind = Kind::Height;
-  std::array<Group, 2> group{};
+  std::array<Group, kMaxComponents> group{};
   int groups = 1;
-  bool use_min = true;  ///< two groups: min or max
+  std::array<Join, kMaxComponents - 1> join{};
+  int joins = 0;
   void eval(const Vec2d& x, double& value, Vec2d& grad) const;
   [[nodiscard]] double value(const Vec2d& x) const {
     double v;
@@ -94,17 +114,18 @@ inline constexpr double kSignCheckMargin = 2.0;
 /// children would hold about the same points, so no error could drop.
 inline constexpr double kSupportShrink = 0.8;
 
-/// Offset of the auxiliary off-surface points p -/+ delta n (targets +/- delta)
-/// added for every support point of a general quadric, pixels. They fix the
-/// orientation and scale (|grad Q| ~ 1) that the point term alone leaves free
-/// (it is minimised by Q = 0); one pixel is the resolution of the data, small
-/// enough that the O(delta^2 curvature) error of a quadric is negligible.
+/// Offset of the auxiliary off-surface points p -/+ delta n (values +/- delta)
+/// of a general conic, pixels. They enter as their central difference, which
+/// for a conic is exactly grad Q(p) . n = -1 (orientation and scale, which the
+/// point term alone leaves free: it is minimised by Q = 0); delta sets the
+/// weight of that condition against the point term (residuals in pixels): 1
+/// px, the resolution of the data.
 inline constexpr double kOffSurfaceDelta = 1.0;
 
 /// General conic by weighted least squares on the points and their
-/// off-surface points (MPU's 3D quadric fit with the auxiliary values moved
+/// off-surface pairs (MPU's 3D quadric fit with the auxiliary values moved
 /// out to sign checks, see fit/mpu.h):
-///   sum w_k [Q(p_k)^2 + (Q(p_k - delta n_k) - delta)^2 + (Q(p_k + delta n_k) + delta)^2].
+///   sum w_k [Q(p_k)^2 + ((Q(p_k - delta n_k) - Q(p_k + delta n_k)) / 2 - delta)^2].
 Piece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& normals, const std::vector<int>& idx,
                 const std::vector<double>& w, const Vec2d& centre, double scale);
 
@@ -112,13 +133,14 @@ Piece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& norm
 /// Euclidean distance from p to the zero set of Q).
 double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const std::vector<int>& idx);
 
-/// Split of the normals of points idx into two clusters: the unit normals'
-/// angles are cut open at their largest gap on the circle and split by optimal
-/// 1D 2-means (both clusters are then arcs of directions). Returns false if a
-/// cluster has fewer than `min_size` points or the clusters' mean directions
-/// are closer than `min_angle` (radians).
-bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, double min_angle, int min_size,
-                   std::vector<int>& first, std::vector<int>& second);
+/// Split of the normals of points idx into k (2 or 3) clusters: the unit
+/// normals' angles are cut open at their largest gap on the circle and split
+/// by optimal 1D k-means (each cluster is then an arc of directions), in
+/// angular order. Returns false if a cluster has fewer than `min_size` points
+/// or two neighbouring clusters' mean directions are closer than `min_angle`
+/// (radians).
+bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts);
 
 /// What a local fit sees: the data and the support circle (centre, radius).
 struct FitInput {
@@ -127,6 +149,7 @@ struct FitInput {
   Vec2d centre;
   double radius;
   double corner_angle;  ///< radians, MpuParams::corner_angle
+  double link = 0.0;    ///< points closer than this are connected (MpuParams::component_link x spacing)
   /// MPU weight of a point: b(3 |p - centre| / (2 radius)), floored at 1e-12
   /// so that points on the circle itself still count a little.
   [[nodiscard]] double weight(const Vec2d& p) const;
@@ -141,17 +164,23 @@ inline constexpr int kMinClusterSize = 6;
 /// whichever has the smaller Taubin error over ids (returned in `error`).
 Piece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error);
 
-/// Corner: ids split by split_normals, a piece (fit_piece) per cluster,
-/// combined by min if convex (each cluster lies behind the other's mean
-/// normal), else max. False if the normals do not split.
-bool fit_corner(const FitInput& in, const std::vector<int>& ids, Group& group);
+/// Corner: ids split by split_normals into k (2 or 3) clusters, each cluster
+/// split further into its connected parts (links shorter than in.link: two
+/// parallel sides with one normal direction are two parts); 2 or 3 parts in
+/// all, else false. A piece (fit_piece) per part. Two pieces: min if convex
+/// (each part lies behind the other's mean normal), else max. Three: the
+/// min / max combination (Group::Op) with the least Taubin error over ids.
+bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group);
 
-/// Best group for ids: fit_piece, or fit_corner if that has a smaller error.
-Group fit_curve(const FitInput& in, const std::vector<int>& ids, double& error);
+/// Best group for ids: fit_piece, or fit_corner (2, then 3 pieces) if that
+/// has a smaller error; stops at the first within `tol`.
+Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, double& error);
 
-/// Two groups (fit_curve each) combined by min if each lies inside the other's
-/// function on average (nested: a hole in a region, a thin wall), else max
-/// (side by side: two regions across a gap).
-LocalFn fit_two_curves(const FitInput& in, const std::vector<int>& a, const std::vector<int>& b);
+/// One group per part (fit_curve each), joined bottom-up: each step joins
+/// the two nodes, by min or by max, whose join has the least Taubin error over
+/// their points (min where each lies inside the other: a hole in a region, a
+/// thin wall; max where neither does: regions across a gap, an island in a
+/// hole). \pre 2 <= parts.size() <= kMaxComponents.
+LocalFn fit_components(const FitInput& in, const std::vector<std::vector<int>>& parts, double tol);
 
 }  // namespace isoloft::detail

@@ -81,8 +81,7 @@ void PointGrid::nearest(const Vec2d& c, int k, std::vector<std::pair<double, int
     auto visit = [&](int bi, int bj) {
       if (bi < 0 || bj < 0 || bi >= nx_ || bj >= ny_) return;
       const int b = bj * nx_ + bi;
-      for (int q = start_[b]; q < start_[b + 1]; ++q)
-        cand.emplace_back((pts_[order_[q]] - c).squaredNorm(), order_[q]);
+      for (int q = start_[b]; q < start_[b + 1]; ++q) cand.emplace_back((pts_[order_[q]] - c).squaredNorm(), order_[q]);
     };
     if (r == 0) {
       visit(ci, cj);

@@ -1,0 +1,134 @@
+// Question: how close to the truth is each method, per analytic shape and z
+// ratio? Every shape of synth/shapes.h is cut at z ratios 4, 8, 16 into 1-pixel
+// contour images and reconstructed by marker2006 (default; without filter;
+// with each spline kind) and by the Levin-style baseline. Each mesh is
+// compared with the analytic surface by the validation oracles (two-sided
+// distances, Hausdorff interval, normal angle), inside the slice range (caps
+// are reported apart).
+//
+// usage: accuracy [--out DIR] [--size N] [--ratios 4,8,16] [--shapes a,b] [--threads N]
+// writes DIR/accuracy.csv, DIR/accuracy.json, DIR/accuracy.md
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "isoloft/pipeline.h"
+#include "isoloft/synth/synth.h"
+#include "validation/hausdorff.h"
+
+using namespace isoloft;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Config {
+  std::string name;
+  Method method;
+  SplineKind spline;
+  bool filter;
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) v.push_back(item);
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string out = "experiments/out/accuracy";
+  int size = 128, threads = 0;
+  std::vector<double> ratios{4, 8, 16};
+  std::vector<std::string> shapes = shape_names();
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i], v = argv[i + 1];
+    if (a == "--out") out = v;
+    else if (a == "--size") size = std::stoi(v);
+    else if (a == "--threads") threads = std::stoi(v);
+    else if (a == "--ratios") {
+      ratios.clear();
+      for (const auto& r : split(v)) ratios.push_back(std::stod(r));
+    } else if (a == "--shapes") shapes = split(v);
+    else {
+      std::cerr << "unknown option " << a << "\n";
+      return 2;
+    }
+  }
+  std::unique_ptr<tbb::global_control> gc;
+  if (threads > 0) gc = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  const std::vector<Config> configs = {
+      {"marker2006", Method::Marker2006, SplineKind::Monotone, true},
+      {"marker2006 no-filter", Method::Marker2006, SplineKind::Monotone, false},
+      {"marker2006 catmull-rom", Method::Marker2006, SplineKind::CatmullRom, true},
+      {"marker2006 natural", Method::Marker2006, SplineKind::Natural, true},
+      {"marker2006 linear", Method::Marker2006, SplineKind::Linear, true},
+      {"levin", Method::Levin, SplineKind::Monotone, false},
+  };
+  fs::create_directories(out);
+  std::ofstream csv(fs::path(out) / "accuracy.csv");
+  csv << "shape,ratio,method,mean_two_sided_px,mean_mesh_to_truth_px,mean_truth_to_mesh_px,p99_mesh_to_truth_px,"
+         "hausdorff_lower_px,hausdorff_upper_px,normal_angle_deg,caps_mean_mesh_to_truth_px,triangles,seconds\n";
+  nlohmann::json rows = nlohmann::json::array();
+  std::map<std::string, std::map<std::string, std::string>> cells;  // row key -> method -> cell
+  std::vector<std::string> row_keys;
+  for (const auto& shape_name : shapes) {
+    for (double ratio : ratios) {
+      SynthParams sp;
+      sp.size = size;
+      sp.z_spacing = ratio;
+      const SynthResult syn = synthesize(*make_default_shape(shape_name, size), sp);
+      const double z0 = syn.stack.slices.front().z, z1 = syn.stack.slices.back().z;
+      std::ostringstream key;
+      key << shape_name << " " << ratio << ":1";
+      row_keys.push_back(key.str());
+      for (const auto& c : configs) {
+        ReconstructParams p;
+        p.method = c.method;
+        p.interp.spline = c.spline;
+        p.filter.enabled = c.filter;
+        const auto t0 = std::chrono::steady_clock::now();
+        const ReconstructResult r = reconstruct(syn.stack, p);
+        const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const TriMesh& mesh = r.objects.front().mesh;
+        const TruthDistanceReport t = mesh_to_truth(mesh, *syn.shape, z0, z1);
+        const auto& in = t.in_range;
+        const double two_sided = 0.5 * (in.mesh_to_truth.mean + in.truth_to_mesh.mean);
+        const HausdorffInterval hin{std::max(in.mesh_to_truth.max.lower, in.truth_to_mesh.max.lower),
+                                    std::max(in.mesh_to_truth.max.upper, in.truth_to_mesh.max.upper)};
+        csv << shape_name << "," << ratio << "," << c.name << "," << two_sided << "," << in.mesh_to_truth.mean << ","
+            << in.truth_to_mesh.mean << "," << in.mesh_to_truth.p99 << "," << hin.lower << "," << hin.upper << ","
+            << in.mean_normal_angle_deg << "," << t.caps.mesh_to_truth.mean << "," << mesh.triangles.size() << "," << secs << "\n";
+        rows.push_back({{"shape", shape_name}, {"ratio", ratio}, {"method", c.name}, {"seconds", secs}, {"report", t.to_json()}});
+        std::ostringstream cell;
+        cell << std::fixed << std::setprecision(3) << two_sided << " / " << std::setprecision(2) << hin.lower << " / "
+             << std::setprecision(1) << in.mean_normal_angle_deg;
+        cells[key.str()][c.name] = cell.str();
+        std::cerr << key.str() << " " << c.name << ": " << cell.str() << "\n";
+      }
+    }
+  }
+  std::ofstream(fs::path(out) / "accuracy.json") << nlohmann::json{{"size", size}, {"rows", rows}}.dump(1) << "\n";
+  std::ofstream md(fs::path(out) / "accuracy.md");
+  md << "Cells: mean two-sided distance (px) / Hausdorff distance, lower end of its interval (px) / area-weighted mean normal "
+        "angle (deg), inside the slice range. Input: "
+     << size << "x" << size << " 1-pixel contour images.\n\n| shape, ratio |";
+  for (const auto& c : configs) md << " " << c.name << " |";
+  md << "\n|---|";
+  for (std::size_t i = 0; i < configs.size(); ++i) md << "---|";
+  md << "\n";
+  for (const auto& k : row_keys) {
+    md << "| " << k << " |";
+    for (const auto& c : configs) md << " " << cells[k][c.name] << " |";
+    md << "\n";
+  }
+  std::cerr << "wrote " << out << "/accuracy.{csv,json,md}\n";
+  return 0;
+}
