@@ -52,6 +52,8 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--tol", r_.tol, "marker2006: MPU error bound in pixels (max Taubin distance of a cell's points)")->check(CLI::PositiveNumber);
   R->add_option("--extend", r_.extend, "marker2006: distance extension: mcc (marching with a correctness criterion), fast-marching, fast-sweeping")
       ->check(CLI::IsMember({"mcc", "fast-marching", "fast-sweeping"}));
+  R->add_option("--raster-resolution", r_.raster_resolution, "marker2006, polyline input: rasterize the polygons at this many pixels across and fit there (0 = fit the polygons directly)")
+      ->check(CLI::NonNegativeNumber);
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
   R->add_flag("--binarize", r_.binarize, "Threshold non-binary contour/mask images at half range instead of rejecting them");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
@@ -66,7 +68,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   synth_->add_option("--out", s_.out, "Output directory (slice_000.png ... and shape.json)");
   synth_->add_option("--size", s_.size, "Image width and height in pixels")->check(CLI::Range(8, 20000));
   synth_->add_option("--z-spacing", s_.z_spacing, "Slice spacing in pixels (the z ratio)")->check(CLI::PositiveNumber);
-  synth_->add_option("--kind", s_.kind, "contours or masks")->check(CLI::IsMember({"contours", "masks"}));
+  synth_->add_option("--kind", s_.kind, "contours or masks (PNG images), or polylines (stack.txt)")->check(CLI::IsMember({"contours", "masks", "polylines"}));
   synth_->add_flag("--list", s_.list, "List the shapes and exit");
 
   eval_ = app.add_subcommand("eval", "Compare a mesh with an analytic truth (from isoloft synth)");

@@ -126,6 +126,7 @@ int Commands::reconstruct() {
   if (o.max_gap >= 0) params.fill.max_gap = o.max_gap;
   if (o.binarize) params.binarize = true;
   if (o.no_filter) params.filter.enabled = false;
+  if (o.raster_resolution >= 0) params.polyline_raster_width = o.raster_resolution;
   if (o.n_min > 0) params.mpu.n_min = o.n_min;
   if (o.tol > 0) params.mpu.tol = o.tol;
   if (!o.extend.empty()) params.extend = params_from_json({{"extend", {{"method", o.extend}}}}, params).extend;

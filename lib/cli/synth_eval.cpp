@@ -11,6 +11,7 @@
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
+#include "isoloft/io/polylines.h"
 #include "isoloft/synth/synth.h"
 #if ISOLOFT_HAVE_VALIDATION
 #include "validation/hausdorff.h"
@@ -32,8 +33,18 @@ int Commands::synth() {
   p.size = s_.size;
   p.z_spacing = s_.z_spacing;
   p.kind = s_.kind == "masks" ? InputKind::Masks : InputKind::Contours;
+  p.polylines = s_.kind == "polylines";
   SynthResult r = synthesize(*shape, p);
   fs::create_directories(s_.out);
+  if (p.polylines) {
+    const std::string path = (fs::path(s_.out) / "stack.txt").string();
+    write_polylines(path, r.stack);
+    r.description["stack"]["files"] = "stack.txt";
+    r.description["reconstruct_hint"] = "isoloft reconstruct " + path + " -o out.ply";
+    write_text_atomic((fs::path(s_.out) / "shape.json").string(), r.description.dump(2) + "\n");
+    std::cerr << "isoloft: wrote " << r.stack.slices.size() << " slices of polygons (stack.txt) and shape.json to " << s_.out << "\n";
+    return 0;
+  }
   for (std::size_t k = 0; k < r.stack.slices.size(); ++k) {
     const auto& s = r.stack.slices[k];
     Grid2u8 img(s.image.width, s.image.height);

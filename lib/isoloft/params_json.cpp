@@ -153,6 +153,7 @@ json params_to_json(const ReconstructParams& p) {
           {"crop_margin", p.crop_margin},
           {"mask_edge_offset", p.mask_edge_offset},
           {"polyline_spacing", p.polyline_spacing},
+          {"polyline_raster_width", p.polyline_raster_width},
           {"fill", stage_to_json(p.fill)},
           {"normals", stage_to_json(p.normals)},
           {"mpu", stage_to_json(p.mpu)},
@@ -174,6 +175,7 @@ ReconstructParams params_from_json(const json& j, const ReconstructParams& base)
     else if (k == "crop_margin") take(v, k, p.crop_margin);
     else if (k == "mask_edge_offset") take(v, k, p.mask_edge_offset);
     else if (k == "polyline_spacing") take(v, k, p.polyline_spacing);
+    else if (k == "polyline_raster_width") take(v, k, p.polyline_raster_width);
     else if (k == "fill") stage_from_json(v, k, p.fill);
     else if (k == "normals") stage_from_json(v, k, p.normals);
     else if (k == "mpu") stage_from_json(v, k, p.mpu);

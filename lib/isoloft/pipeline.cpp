@@ -160,9 +160,42 @@ struct MarkerSlice {
 };
 
 MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& p, bool polylines,
-                            bool keep) {
+                            int stack_width, bool keep) {
   MarkerSlice r;
   auto t0 = Clock::now();
+  if (polylines && p.polyline_raster_width > 0) {
+    // Fit on a finer raster: working coordinate x maps to X = k (x + 0.5) - 0.5
+    // (pixel-centre convention at both resolutions); f is rescaled to working pixels.
+    const double k = double(p.polyline_raster_width) / stack_width;
+    auto to_fine = [&](const Vec2d& q) { return Vec2d(k * (q.x() - b.x0 + 0.5) - 0.5, k * (q.y() - b.y0 + 0.5) - 0.5); };
+    std::vector<Polygon> fine = s.polygons;
+    for (auto& poly : fine)
+      for (auto& q : poly.points) q = to_fine(q);
+    const int W = int(std::ceil(k * b.width())), H = int(std::ceil(k * b.height()));
+    Grid2u8 contour, inside;
+    rasterize_polygons(fine, W, H, contour, inside);
+    r.points = contour_normals(contour, inside, p.normals);
+    MpuParams mp = p.mpu;
+    mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(W - 0.5, H - 0.5));
+    r.fit = fit_mpu(r.points, mp);
+    for (std::size_t i = 0; i < r.points.size(); ++i)  // report points in working crop coordinates
+      r.points.points[i] = (r.points.points[i] + Vec2d(0.5, 0.5)) / k - Vec2d(0.5, 0.5);
+    const MpuCurve& curve = r.fit.curve;
+    const Grid2f fine_f = evaluate_on_grid(curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
+    Grid2f f = fine_f;
+    for (float& v : f.data) v = float(v / k);
+    r.t_mpu = seconds_since(t0);
+    t0 = Clock::now();
+    const NarrowBandResult band =
+        narrow_band_distance(f, [&curve, k](const Vec2d& q) { return curve.value(Vec2d(k * (q.x() + 0.5) - 0.5, k * (q.y() + 0.5) - 0.5)) / k; }, p.band);
+    r.field = extend_distance(band, p.extend);
+    r.t_dist = seconds_since(t0);
+    if (keep) {
+      r.mpu = std::move(f);
+      r.distance = r.field;
+    }
+    return r;
+  }
   if (polylines) {
     std::vector<Polygon> shifted = s.polygons;
     for (auto& poly : shifted)
@@ -214,6 +247,7 @@ void validate(const SliceStack& stack) {
 ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options) {
   validate(stack);
   if (params.crop_margin < 1) throw ParamError("crop_margin must be at least 1");
+  if (params.polyline_raster_width < 0) throw ParamError("polyline_raster_width must be >= 0");
   ReconstructResult result;
   std::mutex warn_mutex;
   const std::size_t n = stack.slices.size();
@@ -278,7 +312,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
       std::vector<MarkerSlice> ms(n);
       const bool keep = bool(options.on_slice_fields);
       tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
-        if (!masks[k].empty) ms[k] = marker_distance(masks[k], stack.slices[k], obj.box, params, stack.polylines, keep);
+        if (!masks[k].empty) ms[k] = marker_distance(masks[k], stack.slices[k], obj.box, params, stack.polylines, stack.width, keep);
         masks[k] = SliceMasks{};
         report("mpu+distance", ++done, long(n));
       });

@@ -70,6 +70,11 @@ struct ReconstructParams {
   /// marker2006 with polyline input: contour points sampled along every
   /// polygon edge at this spacing (pixels), normals from the polygons.
   double polyline_spacing = 0.5;
+  /// marker2006 with polyline input: 0 fits the polygons directly; N > 0
+  /// rasterizes them at N pixels across the slice width (the paper fitted its
+  /// pelvis contours at 2000x2000 and continued at 500x500), fits the MPU
+  /// curve to those contour pixels, and resamples it onto the working grid.
+  int polyline_raster_width = 0;
   InterpParams interp;          ///< interp/: paper 2.4
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5 (quadric error decimation)

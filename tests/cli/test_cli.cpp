@@ -185,3 +185,25 @@ TEST_F(Cli, LabelsWriteOneMeshPerLabelAndACombinedOne) {
   const TriMesh all = read_mesh(p("lab.ply"), &colours);
   EXPECT_EQ(colours.size(), all.vertices.size());
 }
+
+TEST_F(Cli, DumpStagesWritesEachSlicesFields) {
+  ASSERT_EQ(run("synth sphere --size 48 --z-spacing 8 --out " + p("s")).code, 0);
+  const CliRun r = run("reconstruct " + p("s") + " --z-spacing 8 -o " + p("m.ply") + " --dump-stages " + p("dump"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"mpu", "distance", "filtered", "difference"})
+    EXPECT_TRUE(fs::exists(p(std::string("dump/label0_slice000_") + f + ".nrrd"))) << f;
+  EXPECT_TRUE(fs::exists(p("dump/label0_slice000_points.csv")));
+}
+
+TEST_F(Cli, EvalAgainstAReferenceMeshGivesAVerdict) {
+  ASSERT_EQ(run("synth sphere --size 48 --z-spacing 4 --out " + p("s")).code, 0);
+  ASSERT_EQ(run("reconstruct " + p("s") + " --z-spacing 4 -o " + p("a.ply")).code, 0);
+  ASSERT_EQ(run("reconstruct " + p("s") + " --z-spacing 4 --method levin -o " + p("b.ply")).code, 0);
+  const CliRun same = run("eval --mesh " + p("a.ply") + " --reference " + p("a.ply") + " --threshold 0.5");
+  ASSERT_EQ(same.code, 0) << same.err;
+  EXPECT_EQ(nlohmann::json::parse(same.out)["verdict"], "pass");
+  const CliRun other = run("eval --mesh " + p("a.ply") + " --reference " + p("b.ply"));
+  ASSERT_EQ(other.code, 0) << other.err;
+  const auto j = nlohmann::json::parse(other.out);
+  EXPECT_TRUE(j["mesh_vs_reference"].contains("a_to_b")) << j.dump();
+}

@@ -15,7 +15,8 @@ using isoloft::Volume;
 using isoloft::test::TempDir;
 
 namespace {
-const char* const kFrog = "/work/shared/data/frog/frogtissue.mhd";
+// The shared data folder sits beside the checkout (../shared/data, see its README).
+const std::string kFrog = std::string(ISOLOFT_SOURCE_DIR) + "/../shared/data/frog/frogtissue.mhd";
 
 std::vector<unsigned char> zlib_compress(const std::vector<unsigned char>& raw) {
   std::vector<unsigned char> z(compressBound(uLong(raw.size())));

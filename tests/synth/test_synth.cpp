@@ -91,3 +91,25 @@ TEST(Synth, TiltedTorusSlicesSplitIntoTwoComponentsAndTorusSlicesNest) {
   EXPECT_GE(max_components, 2);
   EXPECT_GE(max_depth, 2);  // annulus: outside (0) | ring (1) | hole (2)
 }
+
+TEST(Synth, PolylinesTraceTheExactCutAsClosedLoops) {
+  SynthParams p;
+  p.size = 96;
+  p.z_spacing = 6;
+  p.polylines = true;
+  const SynthResult r = synthesize(*make_default_shape("torus", p.size), p);
+  ASSERT_TRUE(r.stack.polylines);
+  std::size_t max_loops = 0;
+  for (std::size_t k = 0; k < r.stack.slices.size(); ++k) {
+    const auto& s = r.stack.slices[k];
+    max_loops = std::max(max_loops, s.polygons.size());
+    for (std::size_t c = 0; c < s.polygons.size(); ++c)
+      for (std::size_t i = 0; i < s.polygons[c].points.size(); ++i) {
+        const Vec2d& q = s.polygons[c].points[i];
+        // Vertices are refined onto the surface by 30 regula-falsi steps.
+        constexpr double kVertexTol = 1e-6;
+        ASSERT_NEAR(r.shape->value(Vec3d(q.x(), q.y(), s.z)), 0.0, kVertexTol) << "slice " << k << " loop " << c << " vertex " << i;
+      }
+  }
+  EXPECT_EQ(max_loops, 2u) << "a horizontal torus cut through its hole gives an annulus";
+}

@@ -8,6 +8,7 @@
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -98,42 +99,59 @@ struct PreparedTriangle {
   }
 };
 
+// A part of an original triangle: the whole triangle, or a piece of its
+// midpoint subdivision. Bit k of `original` marks corner k as an original
+// vertex, held to max_error itself (the other corners get the slack).
+struct Piece {
+  std::array<OmPoint, 3> p;
+  unsigned original = 0;
+};
+
 // The Decimater's one continuous module: Garland-Heckbert priority (the
 // area-weighted plane quadrics of OpenMesh's ModQuadricT) with the error bound
-// as a hard constraint. Bound scheme as OpenMesh's ModHausdorffT: every
-// removed vertex is stored with its nearest face and re-tested whenever that
-// face changes. Differences, see decimate.h: points go only to the faces that
-// were around v0 (whose vertices the Decimater re-queues), zero-area faces get
-// their true distance, and the test runs lazily: DecimaterT::heap_vertex()
-// evaluates all halfedges out of one vertex in a row and keeps the smallest
-// priority, so a candidate whose quadric error is not below the best legal
-// one so far for that vertex cannot be chosen and needs no test.
+// as a hard constraint. Bound scheme after OpenMesh's ModHausdorffT, but on
+// the original surface instead of its vertices: every original triangle (or
+// piece of one) is stored with one face of the current mesh that covers it,
+// i.e. every point of it is within the bound of that face, and it is
+// re-certified whenever that face changes. The distance to a triangle is
+// convex, so a piece is covered by a face iff its three corners are: an exact
+// test. A piece that no single face covers (it spans a crease of the current
+// mesh) is split into four at its edge midpoints. Differences, see decimate.h:
+// pieces go only to the faces that were around v0 (whose vertices the
+// Decimater re-queues), zero-area faces get their true distance, and the test
+// runs lazily: DecimaterT::heap_vertex() evaluates all halfedges out of one
+// vertex in a row and keeps the smallest priority, so a candidate whose
+// quadric error is not below the best legal one so far for that vertex cannot
+// be chosen and needs no test.
 template <class MeshT>
 class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
  public:
   DECIMATING_MODULE(ModBoundedQuadricT, MeshT, BoundedQuadric);
-  using Points = std::vector<OmPoint>;
+  using Pieces = std::vector<Piece>;
   using FaceHandle = typename MeshT::FaceHandle;
   using VertexHandle = typename MeshT::VertexHandle;
   using Quadric = OpenMesh::Geometry::QuadricT<double>;
 
   explicit ModBoundedQuadricT(MeshT& mesh) : Base(mesh, false) {
-    mesh.add_property(points_);
+    mesh.add_property(pieces_);
     mesh.add_property(quadrics_);
   }
   ~ModBoundedQuadricT() override {
-    Base::mesh().remove_property(points_);
+    Base::mesh().remove_property(pieces_);
     Base::mesh().remove_property(quadrics_);
   }
-  void set_tolerance(double tolerance) { tolerance_ = tolerance; }
+  void set_tolerance(double tolerance) {
+    vertex_tol2_ = tolerance * tolerance;
+    surface_tol2_ = (tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack);
+  }
 
   void initialize() override {
     MeshT& m = Base::mesh();
     for (auto v : m.vertices()) m.property(quadrics_, v).clear();
     for (auto f : m.faces()) {
-      m.property(points_, f).clear();
       auto fv = m.cfv_iter(f);
       const VertexHandle a = *fv, b = *++fv, c = *++fv;
+      m.property(pieces_, f).assign(1, Piece{{m.point(a), m.point(b), m.point(c)}, 7u});
       OmPoint n = (m.point(b) - m.point(a)) % (m.point(c) - m.point(a));
       const double twice_area = n.norm();
       if (twice_area <= 0) continue;  // no plane; contributes nothing
@@ -157,53 +175,113 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
     return float(err);
   }
 
-  // Takes the points out of the faces around v0; collapse_priority() has just
+  // Takes the pieces out of the faces around v0; collapse_priority() has just
   // accepted this collapse, so faces_ and tris_ describe it.
   void preprocess_collapse(const CollapseInfo& ci) override {
     prepare(ci);
     moved_.clear();
     for (auto [f, own] : around_) {
-      Points& stored = Base::mesh().property(points_, f);
+      Pieces& stored = Base::mesh().property(pieces_, f);
       moved_.insert(moved_.end(), stored.begin(), stored.end());
       stored.clear();
     }
-    moved_.push_back(ci.p0);
   }
 
   // The faces that were around v0 (but fl, fr) now have v1 instead; each
-  // point goes to its nearest one, within tolerance by within_tolerance().
+  // piece goes to the covering face with the most margin, split as in
+  // within_tolerance() (the same decisions, as they do not depend on order).
   void postprocess_collapse(const CollapseInfo& ci) override {
     MeshT& m = Base::mesh();
     m.property(quadrics_, ci.v1) += m.property(quadrics_, ci.v0);
     sequence_v0_.reset();  // a new heap_vertex() sequence starts
     if (faces_.empty()) return;  // unreachable: within_tolerance() rejects it
-    for (const OmPoint& p : moved_) {
-      std::size_t best = 0;
-      double best_d = std::numeric_limits<double>::infinity();
-      for (std::size_t k = 0; k < tris_.size(); ++k) {
-        const double d = tris_[k].distance_sq(p);
-        if (d < best_d) best_d = d, best = k;
-      }
-      m.property(points_, faces_[best]).push_back(p);
-    }
+    auto store = [&](std::size_t k, const Piece& q) { m.property(pieces_, faces_[k]).push_back(q); };
+    for (const Piece& piece : moved_) cover(piece, -1, true, store);
   }
 
  private:
-  // Every point stored around v0, plus v0 itself, must be within tolerance of
-  // one of the faces around v0 but fl, fr after v0 moves to p1. Each point is
-  // first tested against the face that holds it (usually enough).
+  // Every piece stored around v0 must be covered by the faces around v0 but
+  // fl, fr after v0 moves to p1; each is first tested against the face that
+  // holds it (usually enough).
   bool within_tolerance(const CollapseInfo& ci) {
     prepare(ci);
-    const double tol2 = tolerance_ * tolerance_;
-    auto near_any = [&](const OmPoint& p, int skip) {
-      for (std::size_t k = 0; k < tris_.size(); ++k)
-        if (int(k) != skip && tris_[k].distance_sq(p) <= tol2) return true;
-      return false;
-    };
+    auto ignore = [](std::size_t, const Piece&) {};
     for (auto [f, own] : around_)
-      for (const OmPoint& p : Base::mesh().property(points_, f))
-        if (!(own >= 0 && tris_[std::size_t(own)].distance_sq(p) <= tol2) && !near_any(p, own)) return false;
-    return near_any(ci.p0, -1);
+      for (const Piece& piece : Base::mesh().property(pieces_, f))
+        if (!cover(piece, own, false, ignore)) return false;
+    return true;
+  }
+
+  // Largest squared corner distance of q to t, or infinity if a corner is
+  // beyond its bound (original vertices: max_error; other corners: max_error
+  // + kDecimateSurfaceSlack). By convexity, a finite result means every point
+  // of q is within that bound of t.
+  [[nodiscard]] double cover_distance_sq(const PreparedTriangle& t, const Piece& q) const {
+    double worst = 0;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const double d = t.distance_sq(q.p[k]);
+      if (d > ((q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_)) return std::numeric_limits<double>::infinity();
+      worst = std::max(worst, d);
+    }
+    return worst;
+  }
+
+  // Covers `piece` by faces of tris_, splitting it where no single face
+  // covers it, and calls place(k, part) for every covered part (k: the first
+  // covering face, `hint` tried first; with `best`, the one with the smallest
+  // corner distance). Whether a part is split does not depend on hint/best.
+  // Returns false (the collapse is illegal) if a part with longest side <=
+  // kDecimateSurfaceSlack and at most one original corner v is covered by no
+  // face: were every point within max_error, the face nearest to v would
+  // cover it (its corners are within max_error + that side of the face).
+  // In postprocess (unreachable, see there) such a part goes to the face of
+  // smallest corner distance instead of being lost.
+  template <class Place>
+  bool cover(const Piece& piece, int hint, bool best, Place&& place) {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    const double smallest2 = kDecimateSurfaceSlack * kDecimateSurfaceSlack;
+    stack_.assign(1, piece);
+    while (!stack_.empty()) {
+      const Piece q = stack_.back();
+      stack_.pop_back();
+      std::size_t chosen = tris_.size();
+      if (hint >= 0 && !best && cover_distance_sq(tris_[std::size_t(hint)], q) < kInf) {
+        chosen = std::size_t(hint);
+      } else {
+        double chosen_d = kInf;
+        for (std::size_t k = 0; k < tris_.size(); ++k) {
+          if (int(k) == hint && !best) continue;  // just tested
+          const double d = cover_distance_sq(tris_[k], q);
+          if (d < chosen_d) {
+            chosen_d = d, chosen = k;
+            if (!best) break;
+          }
+        }
+      }
+      if (chosen < tris_.size()) {
+        place(chosen, q);
+        continue;
+      }
+      const OmPoint m01 = 0.5 * (q.p[0] + q.p[1]), m12 = 0.5 * (q.p[1] + q.p[2]), m20 = 0.5 * (q.p[2] + q.p[0]);
+      const double side2 = std::max({(q.p[1] - q.p[0]).sqrnorm(), (q.p[2] - q.p[1]).sqrnorm(), (q.p[0] - q.p[2]).sqrnorm()});
+      if (side2 <= smallest2 && std::popcount(q.original) <= 1) {
+        if (!best) return false;
+        std::size_t nearest = 0;  // unreachable in postprocess: keep the part
+        double nearest_d = kInf;
+        for (std::size_t k = 0; k < tris_.size(); ++k) {
+          double d = 0;
+          for (const OmPoint& p : q.p) d = std::max(d, tris_[k].distance_sq(p));
+          if (d < nearest_d) nearest_d = d, nearest = k;
+        }
+        place(nearest, q);
+        continue;
+      }
+      stack_.push_back(Piece{{q.p[0], m01, m20}, q.original & 1u});
+      stack_.push_back(Piece{{m01, q.p[1], m12}, q.original & 2u});
+      stack_.push_back(Piece{{m20, m12, q.p[2]}, q.original & 4u});
+      stack_.push_back(Piece{{m01, m12, m20}, 0u});
+    }
+    return true;
   }
 
   // around_: every face around v0 with the index of its surviving version in
@@ -227,15 +305,15 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
     }
   }
 
-  double tolerance_ = 0.0;
-  OpenMesh::FPropHandleT<Points> points_;
+  double vertex_tol2_ = 0.0, surface_tol2_ = 0.0;
+  OpenMesh::FPropHandleT<Pieces> pieces_;
   OpenMesh::VPropHandleT<Quadric> quadrics_;
   VertexHandle sequence_v0_;
   double sequence_best_ = 0.0;
   std::vector<FaceHandle> faces_;
   std::vector<PreparedTriangle> tris_;
   std::vector<std::pair<FaceHandle, int>> around_;
-  Points moved_;
+  Pieces moved_, stack_;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "isoloft/core/error.h"
+#include "isoloft/field/narrow_band.h"
 
 namespace isoloft {
 
@@ -24,6 +25,35 @@ Grid2u8 rasterize_implicit_contour(const Grid2f& f) {
   return out;
 }
 
+std::vector<Polygon> implicit_slice_polygons(const std::function<double(const Vec2d&)>& f, int width, int height, double step) {
+  const int W = int(std::floor((width - 1) / step)) + 1, H = int(std::floor((height - 1) / step)) + 1;
+  auto fine = [&](const Vec2d& q) { return f(q * step); };
+  Grid2f samples(W, H);
+  tbb::parallel_for(0, H, [&](int y) {
+    for (int x = 0; x < W; ++x) samples(x, y) = float(fine(Vec2d(x, y)));
+  });
+  const detail::ZeroSet zs = detail::marching_squares(samples, fine, 30, 1);
+  // Chain the segments into loops through their end-point links.
+  std::vector<Polygon> out;
+  std::vector<char> used(zs.segments.size(), 0);
+  for (std::size_t start = 0; start < zs.segments.size(); ++start) {
+    if (used[start]) continue;
+    Polygon poly;
+    std::int32_t k = std::int32_t(start);
+    int end = 1;  // leave segment k through its end point `end`
+    while (k >= 0 && !used[std::size_t(k)]) {
+      used[std::size_t(k)] = 1;
+      poly.points.push_back(zs.segments[std::size_t(k)][1 - end] * step);
+      const std::int32_t next = zs.links[std::size_t(k)][end];
+      if (next < 0) break;
+      end = zs.links[std::size_t(next)][0] == k ? 1 : 0;
+      k = next;
+    }
+    if (poly.points.size() >= 3) out.push_back(std::move(poly));
+  }
+  return out;
+}
+
 SynthResult synthesize(const Shape& shape, const SynthParams& params) {
   if (params.size < 8) throw ParamError("synth: --size must be at least 8");
   if (!(params.z_spacing > 0)) throw ParamError("synth: --z-spacing must be positive");
@@ -36,6 +66,7 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
   r.shape = shape.translated(Vec3d(0, 0, -z0));
   r.stack.width = r.stack.height = params.size;
   r.stack.max_value = 255;
+  r.stack.polylines = params.polylines;
   for (int k = 0;; ++k) {
     const double z = k * params.z_spacing;
     if (z + z0 >= hi.z()) break;
@@ -46,6 +77,13 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
     tbb::parallel_for(0, params.size, [&](int y) {
       for (int x = 0; x < params.size; ++x) f(x, y) = float(r.shape->value(Vec3d(x, y, z)));
     });
+    if (params.polylines) {
+      const Shape& sh = *r.shape;
+      s.polygons = implicit_slice_polygons([&sh, z](const Vec2d& q) { return sh.value(Vec3d(q.x(), q.y(), z)); }, params.size,
+                                           params.size, params.polyline_step);
+      r.stack.slices.push_back(std::move(s));
+      continue;
+    }
     s.image = Grid2u32(params.size, params.size, 0);
     if (params.kind == InputKind::Contours) {
       const Grid2u8 c = rasterize_implicit_contour(f);
@@ -63,7 +101,7 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
                      {"slices", r.stack.slices.size()},
                      {"z_first", r.stack.slices.front().z},
                      {"z_last", r.stack.slices.back().z},
-                     {"input", params.kind == InputKind::Contours ? "contours" : "masks"},
+                     {"input", params.polylines ? "polylines" : params.kind == InputKind::Contours ? "contours" : "masks"},
                      {"units", "pixels; pixel (i, j) of slice k is at (i, j, k * z_spacing)"}}}};
   return r;
 }
