@@ -283,7 +283,8 @@ int Commands::reconstruct() {
                            {"leaves", ob.fit.leaves},
                            {"leaves_over_tol", ob.fit.leaves_over_tol},
                            {"max_depth_reached", ob.fit.max_depth_reached},
-                           {"max_local_error_px", ob.fit.max_local_error}};
+                           {"max_local_error_px", ob.fit.max_local_error},
+                           {"fallback_slices", ob.fit.fallback_slices}};
   }
   if (!o.quiet) {
     for (const auto& ob : objects)

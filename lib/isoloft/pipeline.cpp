@@ -151,7 +151,11 @@ Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind input, bool
 
 // marker2006 (paper 2.1-2.3): contour points + normals, MPU curve, narrow
 // band of exact distances to its zero set, extension to the whole grid, filter.
+// Fewer contour points than this cannot carry a conic fit (6 coefficients).
+constexpr std::size_t kMinMpuPoints = 6;
+
 struct MarkerSlice {
+  bool fallback = false;  // fitted no curve (too few points): exact pixel distances instead
   Grid2f field;
   double t_mpu = 0, t_dist = 0;
   MpuResult fit;
@@ -175,6 +179,12 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
     Grid2u8 contour, inside;
     rasterize_polygons(fine, W, H, contour, inside);
     r.points = contour_normals(contour, inside, p.normals);
+    if (r.points.size() < kMinMpuPoints) {
+      r.field = levin_field(m, b, p.input, polylines);
+      r.fallback = true;
+      if (keep) r.mpu = r.distance = r.field;
+      return r;
+    }
     MpuParams mp = p.mpu;
     mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(W - 0.5, H - 0.5));
     r.fit = fit_mpu(r.points, mp);
@@ -206,6 +216,15 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
     if (p.input != InputKind::Contours && p.mask_edge_offset != 0)
       for (std::size_t i = 0; i < r.points.size(); ++i) r.points.points[i] += p.mask_edge_offset * r.points.normals[i];
   }
+  if (r.points.size() < kMinMpuPoints) {
+    // Too few oriented points to fit a curve (e.g. a one-pixel island, whose
+    // normal is undefined): the slice keeps its exact pixel distance field.
+    r.field = levin_field(m, b, p.input, polylines);
+    r.fallback = true;
+    r.t_mpu = seconds_since(t0);
+    if (keep) r.mpu = r.distance = r.field;
+    return r;
+  }
   MpuParams mp = p.mpu;
   mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(b.width() - 0.5, b.height() - 0.5));
   r.fit = fit_mpu(r.points, mp);
@@ -222,6 +241,46 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
   }
   return r;
 }
+
+}  // namespace
+
+namespace detail {
+
+void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+  // Empty slices (no inside) are all outside. One next to a non-empty slice
+  // gets that neighbour's field lowered by (max + cap_depth) / cap_extent, so
+  // the object closes between them like an end cap (interp/spline.h): a dome
+  // reaching cap_extent of the gap at the contour's deepest point. With two
+  // non-empty neighbours it takes the lower of the two. Empty slices with no
+  // non-empty neighbour take the most negative value of the object's fields.
+  float most_negative = -1.0f;
+  for (const auto& f : fields)
+    if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
+  std::vector<Grid2f> out(fields.size());
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    if (!fields[k].empty()) continue;
+    Grid2f g;
+    for (std::size_t nb : {k - 1, k + 1}) {
+      if (nb >= fields.size() || fields[nb].empty()) continue;  // k - 1 wraps for k = 0
+      const Grid2f& f = fields[nb];
+      const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
+      const float drop = float((top + interp.cap_depth) / interp.cap_extent);
+      if (g.empty()) {
+        g = f;
+        for (float& v : g.data) v -= drop;
+      } else {
+        for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], f.data[i] - drop);
+      }
+    }
+    out[k] = g.empty() ? Grid2f(box.width(), box.height(), most_negative) : std::move(g);
+  }
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    if (fields[k].empty()) fields[k] = std::move(out[k]);
+}
+
+}  // namespace detail
+
+namespace {
 
 // Pads a field by one pixel of `outside` on every side so the surface closes
 // where an object is cut by the image border (within one pixel beyond it).
@@ -322,6 +381,12 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
         cpu_mpu += ms[k].t_mpu;
         cpu_dist += ms[k].t_dist;
         obj.fit.points += long(ms[k].points.size());
+        if (ms[k].fallback) {
+          ++obj.fit.fallback_slices;
+          std::lock_guard lock(warn_mutex);
+          result.warnings.push_back(stack.slices[k].source + ": " + what + " has fewer than " + std::to_string(kMinMpuPoints) +
+                                    " contour points with a defined normal; this slice uses exact pixel distances instead of an MPU curve");
+        }
         obj.fit.leaves += ms[k].fit.leaves;
         obj.fit.leaves_over_tol += ms[k].fit.leaves_over_tol;
         obj.fit.max_depth_reached = std::max(obj.fit.max_depth_reached, ms[k].fit.max_depth_reached);
@@ -349,14 +414,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
         }
     }
     t0 = Clock::now();
-    // Empty slices (no inside) are all outside: they take the most negative
-    // value of the object's other slices, so no spline sees an artificial jump
-    // larger than the data themselves.
-    float most_negative = -1.0f;
-    for (const auto& f : fields)
-      if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
-    for (auto& f : fields)
-      if (f.empty()) f = Grid2f(obj.box.width(), obj.box.height(), most_negative);
+    detail::fill_empty_slices(fields, obj.box, params.interp);
     result.times.dist += seconds_since(t0);
 
     // Stage: z splines with end caps (paper 2.4), streamed into Marching Cubes (paper 2.5).

@@ -86,6 +86,7 @@ struct ReconstructParams {
 
 struct FitStats {
   long points = 0, leaves = 0, leaves_over_tol = 0;
+  long fallback_slices = 0;    ///< slices with too few points for a curve (exact pixel distances used)
   int max_depth_reached = 0;
   double max_local_error = 0;  ///< px (Taubin distance)
 };
@@ -152,6 +153,10 @@ ReconstructParams params_from_json(const nlohmann::json&, const ReconstructParam
 namespace detail {
 /// Distinct non-zero values of all slice images, sorted.
 std::vector<std::uint32_t> distinct_labels(const SliceStack& stack);
+/// Gives every empty slice (empty grid) a field: next to a non-empty slice,
+/// that slice's field lowered by (max + cap_depth) / cap_extent, so the object
+/// closes in the gap like an end cap; otherwise the most negative value.
+void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp);
 /// Sample positions of the Marching Cubes planes between the cap slices.
 std::vector<double> sample_planes(double z_begin, double z_end, double step);
 }  // namespace detail

@@ -159,3 +159,47 @@ TEST(EndToEnd, PolylinesFitDirectlyAndRasterizedAtAFinerGrid) {
     EXPECT_LT(st.mean_distance, image_mean) << "raster " << raster;
   }
 }
+
+// A slice whose object is a single pixel has no normal to fit; marker2006
+// falls back to exact pixel distances there (and says so) instead of failing.
+TEST(EndToEnd, OnePixelSliceFallsBackToPixelDistances) {
+  SliceStack st;
+  st.width = st.height = 40;
+  for (int k = 0; k < 3; ++k) {
+    Slice s;
+    s.z = 4.0 * k;
+    s.source = "slice" + std::to_string(k);
+    s.image = Grid2u32(40, 40, 0);
+    if (k == 1) s.image(20, 20) = 3;
+    else
+      for (int y = 0; y < 40; ++y)
+        for (int x = 0; x < 40; ++x)
+          if ((x - 20) * (x - 20) + (y - 20) * (y - 20) < 100) s.image(x, y) = 3;
+    st.slices.push_back(std::move(s));
+  }
+  ReconstructParams p;
+  p.input = InputKind::Labels;
+  const auto r = reconstruct(st, p);
+  ASSERT_EQ(r.objects.size(), 1u);
+  EXPECT_EQ(r.objects[0].fit.fallback_slices, 1);
+  EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold);
+  EXPECT_FALSE(r.warnings.empty());
+}
+
+// An empty slice next to an object closes it like an end cap: the surface
+// reaches cap_extent (half) of the gap at the contour's deepest point.
+TEST(EmptySlices, CloseLikeAnEndCap) {
+  const InterpParams ip;
+  std::vector<Grid2f> fields{Grid2f(3, 1, -2.0f), Grid2f(), Grid2f(), Grid2f(3, 1, -1.0f)};
+  fields[0](1, 0) = 5.0f;  // deepest point
+  detail::fill_empty_slices(fields, PixelBox{0, 0, 3, 1}, ip);
+  const float drop = float((5.0 + ip.cap_depth) / ip.cap_extent);
+  EXPECT_FLOAT_EQ(fields[1](1, 0), 5.0f - drop);
+  EXPECT_FLOAT_EQ(fields[1](0, 0), -2.0f - drop);
+  // Slice 2's neighbours are slice 1 (empty) and slice 3, whose max is below 0:
+  EXPECT_FLOAT_EQ(fields[2](0, 0), -1.0f - float(ip.cap_depth / ip.cap_extent));
+  // Linear interpolation between slices 0 and 1 crosses zero at the deepest
+  // point at t = 5 / drop = cap_extent * M / (M + cap_depth): just under half the gap.
+  constexpr double kFloatTol = 1e-6;
+  EXPECT_NEAR(5.0 / drop, ip.cap_extent * 5.0 / (5.0 + ip.cap_depth), kFloatTol);
+}
