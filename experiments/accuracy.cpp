@@ -19,6 +19,7 @@
 
 #include "isoloft/pipeline.h"
 #include "isoloft/synth/synth.h"
+#include "experiment_util.h"
 #include "validation/hausdorff.h"
 
 using namespace isoloft;
@@ -33,13 +34,6 @@ struct Config {
   bool filter;
 };
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> v;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) v.push_back(item);
-  return v;
-}
 
 }  // namespace
 
@@ -55,8 +49,8 @@ int main(int argc, char** argv) {
     else if (a == "--threads") threads = std::stoi(v);
     else if (a == "--ratios") {
       ratios.clear();
-      for (const auto& r : split(v)) ratios.push_back(std::stod(r));
-    } else if (a == "--shapes") shapes = split(v);
+      for (const auto& r : experiments::split(v)) ratios.push_back(std::stod(r));
+    } else if (a == "--shapes") shapes = experiments::split(v);
     else {
       std::cerr << "unknown option " << a << "\n";
       return 2;

@@ -33,6 +33,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/io/metaimage.h"
+#include "experiment_util.h"
 #include "isoloft/pipeline.h"
 
 using namespace isoloft;
@@ -103,13 +104,6 @@ Volume read_nifti(const std::string& path) {
   return v;
 }
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> v;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) v.push_back(item);
-  return v;
-}
 
 double percentile(std::vector<double>& v, double q) {
   if (v.empty()) return std::nan("");
@@ -188,9 +182,9 @@ int main(int argc, char** argv) {
     else if (a == "--check-inputs") check_inputs = v == "1";
     else if (a == "--ks") {
       ks.clear();
-      for (const auto& s : split(v)) ks.push_back(std::stoi(s));
+      for (const auto& s : experiments::split(v)) ks.push_back(std::stoi(s));
     } else if (a == "--labels") {
-      for (const auto& s : split(v)) frog_only.push_back(std::uint32_t(std::stoul(s)));
+      for (const auto& s : experiments::split(v)) frog_only.push_back(std::uint32_t(std::stoul(s)));
     } else {
       std::cerr << "unknown option " << a << "\n";
       return 2;

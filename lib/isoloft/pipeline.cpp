@@ -167,46 +167,21 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
                             int stack_width, bool keep) {
   MarkerSlice r;
   auto t0 = Clock::now();
-  if (polylines && p.polyline_raster_width > 0) {
-    // Fit on a finer raster: working coordinate x maps to X = k (x + 0.5) - 0.5
-    // (pixel-centre convention at both resolutions); f is rescaled to working pixels.
-    const double k = double(p.polyline_raster_width) / stack_width;
-    auto to_fine = [&](const Vec2d& q) { return Vec2d(k * (q.x() - b.x0 + 0.5) - 0.5, k * (q.y() - b.y0 + 0.5) - 0.5); };
-    std::vector<Polygon> fine = s.polygons;
-    for (auto& poly : fine)
-      for (auto& q : poly.points) q = to_fine(q);
-    const int W = int(std::ceil(k * b.width())), H = int(std::ceil(k * b.height()));
+  // Polylines may be fitted on a finer raster (the paper's pelvis): working
+  // coordinate x maps to X = k (x + 0.5) - 0.5 (pixel-centre convention at
+  // both resolutions), and f is rescaled to working pixels. k = 1 otherwise.
+  const bool fine = polylines && p.polyline_raster_width > 0;
+  const double k = fine ? double(p.polyline_raster_width) / stack_width : 1.0;
+  int fit_w = b.width(), fit_h = b.height();
+  if (fine) {
+    std::vector<Polygon> polys = s.polygons;
+    for (auto& poly : polys)
+      for (auto& q : poly.points) q = Vec2d(k * (q.x() - b.x0 + 0.5) - 0.5, k * (q.y() - b.y0 + 0.5) - 0.5);
+    fit_w = int(std::ceil(k * b.width())), fit_h = int(std::ceil(k * b.height()));
     Grid2u8 contour, inside;
-    rasterize_polygons(fine, W, H, contour, inside);
+    rasterize_polygons(polys, fit_w, fit_h, contour, inside);
     r.points = contour_normals(contour, inside, p.normals);
-    if (r.points.size() < kMinMpuPoints) {
-      r.field = levin_field(m, b, p.input, polylines);
-      r.fallback = true;
-      if (keep) r.mpu = r.distance = r.field;
-      return r;
-    }
-    MpuParams mp = p.mpu;
-    mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(W - 0.5, H - 0.5));
-    r.fit = fit_mpu(r.points, mp);
-    for (std::size_t i = 0; i < r.points.size(); ++i)  // report points in working crop coordinates
-      r.points.points[i] = (r.points.points[i] + Vec2d(0.5, 0.5)) / k - Vec2d(0.5, 0.5);
-    const MpuCurve& curve = r.fit.curve;
-    const Grid2f fine_f = evaluate_on_grid(curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
-    Grid2f f = fine_f;
-    for (float& v : f.data) v = float(v / k);
-    r.t_mpu = seconds_since(t0);
-    t0 = Clock::now();
-    const NarrowBandResult band =
-        narrow_band_distance(f, [&curve, k](const Vec2d& q) { return curve.value(Vec2d(k * (q.x() + 0.5) - 0.5, k * (q.y() + 0.5) - 0.5)) / k; }, p.band);
-    r.field = extend_distance(band, p.extend);
-    r.t_dist = seconds_since(t0);
-    if (keep) {
-      r.mpu = std::move(f);
-      r.distance = r.field;
-    }
-    return r;
-  }
-  if (polylines) {
+  } else if (polylines) {
     std::vector<Polygon> shifted = s.polygons;
     for (auto& poly : shifted)
       for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
@@ -226,13 +201,18 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
     return r;
   }
   MpuParams mp = p.mpu;
-  mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(b.width() - 0.5, b.height() - 0.5));
+  mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(fit_w - 0.5, fit_h - 0.5));
   r.fit = fit_mpu(r.points, mp);
-  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height());
+  if (fine)  // report the points in working crop coordinates
+    for (auto& q : r.points.points) q = (q + Vec2d(0.5, 0.5)) / k - Vec2d(0.5, 0.5);
+  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
+  if (fine)
+    for (float& v : f.data) v = float(v / k);
   r.t_mpu = seconds_since(t0);
   t0 = Clock::now();
   const MpuCurve& curve = r.fit.curve;
-  const NarrowBandResult band = narrow_band_distance(f, [&curve](const Vec2d& q) { return curve.value(q); }, p.band);
+  const auto f_working = [&curve, k](const Vec2d& q) { return curve.value(k * (q + Vec2d(0.5, 0.5)) - Vec2d(0.5, 0.5)) / k; };
+  const NarrowBandResult band = narrow_band_distance(f, f_working, p.band);
   r.field = extend_distance(band, p.extend);
   r.t_dist = seconds_since(t0);
   if (keep) {

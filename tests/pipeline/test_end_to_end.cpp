@@ -26,6 +26,23 @@ Case run(const std::string& shape, Method method, int size, double ratio) {
   return c;
 }
 
+// A stack of `n` label images, size x size, slice k at z = dz * k; label(x, y, k) gives each pixel's value.
+template <class F>
+SliceStack label_stack(int n, int size, double dz, F&& label) {
+  SliceStack st;
+  st.width = st.height = size;
+  for (int k = 0; k < n; ++k) {
+    Slice s;
+    s.z = dz * k;
+    s.source = "slice" + std::to_string(k);
+    s.image = Grid2u32(size, size, 0);
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) s.image(x, y) = label(x, y, k);
+    st.slices.push_back(std::move(s));
+  }
+  return st;
+}
+
 }  // namespace
 
 // Levin baseline on a sphere of radius 44.8 px cut every 8 px. The contour
@@ -54,20 +71,11 @@ TEST(EndToEnd, LevinSphereAt8To1IsClosedAndNearTheTrueSphere) {
 }
 
 TEST(EndToEnd, LabelsGiveOneClosedMeshPerLabel) {
-  SliceStack st;
-  st.width = st.height = 40;
-  for (int k = 0; k < 4; ++k) {
-    Slice s;
-    s.z = 3.0 * k;
-    s.source = "slice" + std::to_string(k);
-    s.image = Grid2u32(40, 40, 0);
-    for (int y = 0; y < 40; ++y)
-      for (int x = 0; x < 40; ++x) {
-        if ((x - 12) * (x - 12) + (y - 20) * (y - 20) < 64) s.image(x, y) = 7;
-        if ((x - 28) * (x - 28) + (y - 20) * (y - 20) < 36 + 4 * k) s.image(x, y) = 9;
-      }
-    st.slices.push_back(std::move(s));
-  }
+  const SliceStack st = label_stack(4, 40, 3.0, [](int x, int y, int k) -> std::uint32_t {
+    if ((x - 12) * (x - 12) + (y - 20) * (y - 20) < 64) return 7;
+    if ((x - 28) * (x - 28) + (y - 20) * (y - 20) < 36 + 4 * k) return 9;
+    return 0;
+  });
   ReconstructParams p;
   p.method = Method::Levin;
   p.input = InputKind::Labels;
@@ -82,18 +90,9 @@ TEST(EndToEnd, LabelsGiveOneClosedMeshPerLabel) {
 }
 
 TEST(EndToEnd, EmptyMiddleSliceSplitsTheObject) {
-  SliceStack st;
-  st.width = st.height = 32;
-  for (int k = 0; k < 5; ++k) {
-    Slice s;
-    s.z = 4.0 * k;
-    s.image = Grid2u32(32, 32, 0);
-    if (k != 2)
-      for (int y = 0; y < 32; ++y)
-        for (int x = 0; x < 32; ++x)
-          if ((x - 16) * (x - 16) + (y - 16) * (y - 16) < 81) s.image(x, y) = 255;
-    st.slices.push_back(std::move(s));
-  }
+  const SliceStack st = label_stack(5, 32, 4.0, [](int x, int y, int k) -> std::uint32_t {
+    return k != 2 && (x - 16) * (x - 16) + (y - 16) * (y - 16) < 81 ? 255 : 0;
+  });
   ReconstructParams p;
   p.method = Method::Levin;
   p.input = InputKind::Masks;
@@ -163,20 +162,10 @@ TEST(EndToEnd, PolylinesFitDirectlyAndRasterizedAtAFinerGrid) {
 // A slice whose object is a single pixel has no normal to fit; marker2006
 // falls back to exact pixel distances there (and says so) instead of failing.
 TEST(EndToEnd, OnePixelSliceFallsBackToPixelDistances) {
-  SliceStack st;
-  st.width = st.height = 40;
-  for (int k = 0; k < 3; ++k) {
-    Slice s;
-    s.z = 4.0 * k;
-    s.source = "slice" + std::to_string(k);
-    s.image = Grid2u32(40, 40, 0);
-    if (k == 1) s.image(20, 20) = 3;
-    else
-      for (int y = 0; y < 40; ++y)
-        for (int x = 0; x < 40; ++x)
-          if ((x - 20) * (x - 20) + (y - 20) * (y - 20) < 100) s.image(x, y) = 3;
-    st.slices.push_back(std::move(s));
-  }
+  const SliceStack st = label_stack(3, 40, 4.0, [](int x, int y, int k) -> std::uint32_t {
+    if (k == 1) return x == 20 && y == 20 ? 3 : 0;
+    return (x - 20) * (x - 20) + (y - 20) * (y - 20) < 100 ? 3 : 0;
+  });
   ReconstructParams p;
   p.input = InputKind::Labels;
   const auto r = reconstruct(st, p);
