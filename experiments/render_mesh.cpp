@@ -27,6 +27,10 @@ int main(int argc, char** argv) {
   int W = 800, H = 800;
   double azim = 35, elev = 25;
   Rgb base{200, 180, 160};
+  bool base_given = false;
+  // Several meshes without vertex colours (e.g. one per structure) get one
+  // colour each from this palette unless --color is given.
+  const Rgb palette[] = {{200, 180, 160}, {120, 170, 220}, {230, 140, 120}, {140, 200, 140}, {210, 190, 90}, {180, 140, 210}};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -41,6 +45,7 @@ int main(int argc, char** argv) {
       int r, g, b;
       std::sscanf(next().c_str(), "%d,%d,%d", &r, &g, &b);
       base = {std::uint8_t(r), std::uint8_t(g), std::uint8_t(b)};
+      base_given = true;
     } else if (out.empty()) out = a;
     else meshes.push_back(a);
   }
@@ -80,7 +85,9 @@ int main(int argc, char** argv) {
     std::vector<double> zbuf(std::size_t(W) * H, -std::numeric_limits<double>::infinity());
     Grid2u32 img(W, H, 0xFFFFFFu);
     const Eigen::Vector3d light = Eigen::Vector3d(-0.4, 0.5, 1.0).normalized();
-    for (const auto& part : parts) {
+    for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+      const auto& part = parts[pi];
+      const Rgb part_colour = base_given || parts.size() == 1 ? base : palette[pi % std::size(palette)];
       for (const auto& t : part.m.triangles) {
         Eigen::Vector3d P[3], Wp[3];
         for (int k = 0; k < 3; ++k) Wp[k] = part.m.vertices[t[k]].cast<double>(), P[k] = project(Wp[k]);
@@ -88,7 +95,7 @@ int main(int argc, char** argv) {
         if (n.norm() == 0) continue;
         n.normalize();
         const double shade = 0.25 + 0.75 * std::abs(n.dot(light));
-        Rgb c = base;
+        Rgb c = part_colour;
         if (!part.c.empty()) c = part.c[t[0]];
         const std::uint32_t col = (std::uint32_t(c.r * shade) << 16) | (std::uint32_t(c.g * shade) << 8) | std::uint32_t(c.b * shade);
         const int x0 = std::max(0, int(std::floor(std::min({P[0].x(), P[1].x(), P[2].x()}))));
@@ -130,8 +137,12 @@ int main(int argc, char** argv) {
           const int steps = int(std::ceil((cur - prev).head<2>().norm())) + 1;
           for (int s = 0; s <= steps; ++s) {
             const Eigen::Vector3d q = prev + (cur - prev) * (double(s) / steps);
-            const int xi = int(q.x()), yi = int(q.y());
-            if (xi >= 0 && yi >= 0 && xi < W && yi < H) img(xi, yi) = 0x202020u;
+            // Two pixels wide, so contours stay visible on large renders.
+            for (int dy = 0; dy < 2; ++dy)
+              for (int dx = 0; dx < 2; ++dx) {
+                const int xi = int(q.x()) + dx, yi = int(q.y()) + dy;
+                if (xi >= 0 && yi >= 0 && xi < W && yi < H) img(xi, yi) = 0x202020u;
+              }
           }
         }
         prev = cur;

@@ -52,6 +52,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--tol", r_.tol, "marker2006: MPU error bound in pixels (max Taubin distance of a cell's points)")->check(CLI::PositiveNumber);
   R->add_option("--extend", r_.extend, "marker2006: distance extension: mcc (marching with a correctness criterion), fast-marching, fast-sweeping")
       ->check(CLI::IsMember({"mcc", "fast-marching", "fast-sweeping"}));
+  R->add_option("--sign-guard", r_.sign_guard, "marker2006: pixels farther than this (px) from the contour keep the contour fill's inside/outside where the MPU fit disagrees (0 = pure MPU sign)")->check(CLI::NonNegativeNumber);
   R->add_option("--raster-resolution", r_.raster_resolution, "marker2006, polyline input: rasterize the polygons at this many pixels across and fit there (0 = fit the polygons directly)")
       ->check(CLI::NonNegativeNumber);
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");

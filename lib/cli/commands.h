@@ -15,6 +15,7 @@ struct ReconstructOptions {
   std::string slice_z;
   std::string dump_stages, extend;
   int threads = 0, max_gap = -1, n_min = -1, raster_resolution = -1;
+  double sign_guard = -1;
   double tol = -1.0;
   bool print_params = false, quiet = false, binarize = false, ascii = false, no_filter = false;
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr;

@@ -127,6 +127,7 @@ int Commands::reconstruct() {
   if (o.binarize) params.binarize = true;
   if (o.no_filter) params.filter.enabled = false;
   if (o.raster_resolution >= 0) params.polyline_raster_width = o.raster_resolution;
+  if (o.sign_guard >= 0) params.sign_guard = o.sign_guard;
   if (o.n_min > 0) params.mpu.n_min = o.n_min;
   if (o.tol > 0) params.mpu.tol = o.tol;
   if (!o.extend.empty()) params.extend = params_from_json({{"extend", {{"method", o.extend}}}}, params).extend;
@@ -284,7 +285,9 @@ int Commands::reconstruct() {
                            {"leaves_over_tol", ob.fit.leaves_over_tol},
                            {"max_depth_reached", ob.fit.max_depth_reached},
                            {"max_local_error_px", ob.fit.max_local_error},
-                           {"fallback_slices", ob.fit.fallback_slices}};
+                           {"fallback_slices", ob.fit.fallback_slices},
+                           {"sign_guarded_pixels", ob.fit.sign_guarded_pixels},
+                           {"sign_guarded_slices", ob.fit.sign_guarded_slices}};
   }
   if (!o.quiet) {
     for (const auto& ob : objects)

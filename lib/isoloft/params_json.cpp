@@ -152,6 +152,7 @@ json params_to_json(const ReconstructParams& p) {
           {"binarize", p.binarize},
           {"crop_margin", p.crop_margin},
           {"mask_edge_offset", p.mask_edge_offset},
+          {"sign_guard", p.sign_guard},
           {"polyline_spacing", p.polyline_spacing},
           {"polyline_raster_width", p.polyline_raster_width},
           {"fill", stage_to_json(p.fill)},
@@ -174,6 +175,7 @@ ReconstructParams params_from_json(const json& j, const ReconstructParams& base)
     else if (k == "binarize") take(v, k, p.binarize);
     else if (k == "crop_margin") take(v, k, p.crop_margin);
     else if (k == "mask_edge_offset") take(v, k, p.mask_edge_offset);
+    else if (k == "sign_guard") take(v, k, p.sign_guard);
     else if (k == "polyline_spacing") take(v, k, p.polyline_spacing);
     else if (k == "polyline_raster_width") take(v, k, p.polyline_raster_width);
     else if (k == "fill") stage_from_json(v, k, p.fill);

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <sstream>
 #include <set>
 
 #include "isoloft/contour/fill.h"
@@ -156,6 +157,7 @@ constexpr std::size_t kMinMpuPoints = 6;
 
 struct MarkerSlice {
   bool fallback = false;  // fitted no curve (too few points): exact pixel distances instead
+  long sign_guarded = 0;  // pixels whose MPU sign the sign guard overruled
   Grid2f field;
   double t_mpu = 0, t_dist = 0;
   MpuResult fit;
@@ -208,6 +210,18 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
   Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
   if (fine)
     for (float& v : f.data) v = float(v / k);
+  if (keep) r.mpu = f;  // the raw fit, before the sign guard
+  if (p.sign_guard > 0) {
+    // Far from every contour pixel the fill's inside/outside is exact; where
+    // the fit disagrees there (a spurious zero crossing), the sample takes the
+    // signed pixel distance instead, so no curve piece survives out there.
+    const Grid2f trust = distance_to_contour_signed(crop(m.contour, b), crop(m.inside, b));
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (std::abs(trust.data[i]) > p.sign_guard && (f.data[i] > 0) != (trust.data[i] > 0)) {
+        f.data[i] = trust.data[i];
+        ++r.sign_guarded;
+      }
+  }
   r.t_mpu = seconds_since(t0);
   t0 = Clock::now();
   const MpuCurve& curve = r.fit.curve;
@@ -215,10 +229,7 @@ MarkerSlice marker_distance(const SliceMasks& m, const Slice& s, const PixelBox&
   const NarrowBandResult band = narrow_band_distance(f, f_working, p.band);
   r.field = extend_distance(band, p.extend);
   r.t_dist = seconds_since(t0);
-  if (keep) {
-    r.mpu = std::move(f);
-    r.distance = r.field;
-  }
+  if (keep) r.distance = r.field;
   return r;
 }
 
@@ -287,6 +298,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   validate(stack);
   if (params.crop_margin < 1) throw ParamError("crop_margin must be at least 1");
   if (params.polyline_raster_width < 0) throw ParamError("polyline_raster_width must be >= 0");
+  if (!(params.sign_guard >= 0)) throw ParamError("sign_guard must be >= 0");
   ReconstructResult result;
   std::mutex warn_mutex;
   const std::size_t n = stack.slices.size();
@@ -367,12 +379,24 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
           result.warnings.push_back(stack.slices[k].source + ": " + what + " has fewer than " + std::to_string(kMinMpuPoints) +
                                     " contour points with a defined normal; this slice uses exact pixel distances instead of an MPU curve");
         }
+        obj.fit.sign_guarded_pixels += ms[k].sign_guarded;
+        obj.fit.sign_guarded_slices += ms[k].sign_guarded > 0;
         obj.fit.leaves += ms[k].fit.leaves;
         obj.fit.leaves_over_tol += ms[k].fit.leaves_over_tol;
         obj.fit.max_depth_reached = std::max(obj.fit.max_depth_reached, ms[k].fit.max_depth_reached);
         obj.fit.max_local_error = std::max(obj.fit.max_local_error, ms[k].fit.max_local_error);
         fields[k] = std::move(ms[k].field);
       }
+      if (obj.fit.sign_guarded_pixels > 0)
+        result.warnings.push_back(what + ": the MPU fit was positive/negative against the contour fill on " +
+                                  std::to_string(obj.fit.sign_guarded_pixels) + " pixels farther than " +
+                                  [&] {
+                                    std::ostringstream o;
+                                    o << params.sign_guard;
+                                    return o.str();
+                                  }() + " px from the contour, in " +
+                                  std::to_string(obj.fit.sign_guarded_slices) +
+                                  " slice(s) (spurious zero crossings of the fit, e.g. on thin features); those pixels keep the fill's sign");
       const double share = cpu_mpu + cpu_dist > 0 ? cpu_mpu / (cpu_mpu + cpu_dist) : 0.5;
       result.times.mpu += wall * share;
       result.times.dist += wall * (1 - share);

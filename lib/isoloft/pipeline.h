@@ -75,6 +75,15 @@ struct ReconstructParams {
   /// pelvis contours at 2000x2000 and continued at 500x500), fits the MPU
   /// curve to those contour pixels, and resamples it onto the working grid.
   int polyline_raster_width = 0;
+  /// marker2006: pixels farther than this from every contour pixel of the
+  /// working grid take their inside/outside from the contour fill (the
+  /// input's own exact answer there) where the MPU sign disagrees. MPU
+  /// extrapolates each local quadratic over its grown support, and on thin
+  /// features (a sliver whose two sides fit one strip-shaped conic) the
+  /// blend can stay positive far from any data; the fitted curve itself lies
+  /// within tol + mask_edge_offset (1.25 px) of the contour pixels, so 2 px
+  /// never touches it. Pixels, 0 = off (the pure MPU sign, paper 2.1).
+  double sign_guard = 2.0;
   InterpParams interp;          ///< interp/: paper 2.4
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5 (quadric error decimation)
@@ -87,6 +96,8 @@ struct ReconstructParams {
 struct FitStats {
   long points = 0, leaves = 0, leaves_over_tol = 0;
   long fallback_slices = 0;    ///< slices with too few points for a curve (exact pixel distances used)
+  long sign_guarded_pixels = 0;  ///< pixels whose MPU sign the sign guard overruled (ReconstructParams::sign_guard)
+  long sign_guarded_slices = 0;  ///< slices with at least one such pixel
   int max_depth_reached = 0;
   double max_local_error = 0;  ///< px (Taubin distance)
 };
