@@ -77,7 +77,7 @@ def main():
     s.append("Regenerate everything on this page (tables, figures, this file) with\n\n```\nbash scripts/reproduce.sh\n```\n")
     s.append("Last run: isoloft `%s` on %s, %d threads%s. Timings are medians of %d runs.\n" % (
         git_describe(), machine(), threads,
-        "; the whole reproduction (build included) took %d s" % a.seconds if a.seconds else "", tables["repeats"]))
+        "; the experiments took %d s after the build" % a.seconds if a.seconds else "", tables["repeats"]))
     s.append("\n\nThe paper's datasets (Barequet's pelvis and jawbone polylines, the Drexel tumour segmentations) are "
              "not public. Each is replaced by data of the same size and kind: real clinical and biological contours "
              "where they exist, an analytic shape where a known truth is wanted (Table 1 says which).\n")
