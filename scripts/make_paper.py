@@ -117,7 +117,7 @@ def main():
     s.append("\n### Fig. 5: filtered field and difference image\n\n![fig5](figures/fig5_filter.png)\n\n"
              "The distance-dependent Gaussian filter (paper 2.3, equation 3). The difference image is non-zero only "
              "away from the curve, along the medial axes (the ridge inside each disc and the bisector between the "
-             "discs). Measured on this slice: largest change %.2f px, largest change within |d| <= 4 px: %.3g px, "
+             "discs), and along the crop border, where the stencil is clamped to the grid. Measured on this slice: largest change %.2f px, largest change within |d| <= 4 px: %.3g px, "
              "sign changes: %d of %d pixels.\n" % (f5["max_abs_change_px"], f5["max_abs_change_within_d_min_px"],
                                                     f5["sign_changes"], f5["pixels"]))
     rows = []
