@@ -1,486 +1,34 @@
 #include "isoloft/mesh/decimate.h"
 
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-// QuadricT.hh needs vector_traits from the mesh headers: keep it after them.
-#include <OpenMesh/Core/Geometry/QuadricT.hh>
-#include <OpenMesh/Tools/Decimater/BaseDecimaterT.hh>
-#include <OpenMesh/Tools/Decimater/ModBaseT.hh>
-#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <queue>
+#include <numbers>
+#include <numeric>
 #include <string>
-#include <tuple>
 #include <utility>
 #include <vector>
 
+#include <tbb/parallel_for.h>
+
 #include "isoloft/core/error.h"
+#include "isoloft/mesh/decimate_bound.h"
 
 namespace isoloft {
 
 namespace detail {
-namespace {
 
-struct OmTraits : OpenMesh::DefaultTraits {
-  using Point = OpenMesh::Vec3d;  // double: the error test must not lose to float rounding
-  using Normal = OpenMesh::Vec3d;
-  VertexAttributes(OpenMesh::Attributes::Status);
-  EdgeAttributes(OpenMesh::Attributes::Status);
-  FaceAttributes(OpenMesh::Attributes::Status | OpenMesh::Attributes::Normal);
-};
-
-// OpenMesh's mesh with two hot connectivity queries compiled here instead of
-// called in libOpenMeshCore: Debian's build keeps its assertions, and every
-// property access there compares type-name strings, which made these two
-// calls ~60% of the decimation time. BaseDecimaterT::is_collapse_legal calls
-// them through the mesh type, so these hide the library versions.
-struct OmMesh : OpenMesh::TriMesh_ArrayKernelT<OmTraits> {
-  /// Same test as OpenMesh's TriConnectivity::is_collapse_ok: collapsing
-  /// v0 -> v1 keeps a manifold iff the one-rings of v0 and v1 share only the
-  /// opposite vertices vl, vr (link condition), no face with two boundary
-  /// edges would be squashed, and an interior edge does not join two boundary
-  /// vertices.
-  bool is_collapse_ok(HalfedgeHandle v0v1) {
-    if (status(edge_handle(v0v1)).deleted()) return false;
-    const HalfedgeHandle v1v0 = opposite_halfedge_handle(v0v1);
-    const VertexHandle v0 = to_vertex_handle(v1v0), v1 = to_vertex_handle(v0v1);
-    if (status(v0).deleted() || status(v1).deleted()) return false;
-    VertexHandle vl, vr;
-    for (auto [h, side] : {std::pair{v0v1, &vl}, std::pair{v1v0, &vr}}) {
-      if (is_boundary(h)) continue;
-      const HalfedgeHandle h1 = next_halfedge_handle(h), h2 = next_halfedge_handle(h1);
-      *side = to_vertex_handle(h1);
-      if (is_boundary(opposite_halfedge_handle(h1)) && is_boundary(opposite_halfedge_handle(h2))) return false;
-    }
-    if (vl == vr) return false;
-    ring_.clear();
-    for (VertexHandle w : vv_range(v1)) ring_.push_back(w);
-    for (VertexHandle w : vv_range(v0))
-      if (w != vl && w != vr && std::find(ring_.begin(), ring_.end(), w) != ring_.end()) return false;
-    return !(is_boundary(v0) && is_boundary(v1) && !is_boundary(v0v1) && !is_boundary(v1v0));
-  }
-  HalfedgeHandle find_halfedge(VertexHandle from, VertexHandle to) const {
-    for (HalfedgeHandle h : voh_range(from))
-      if (to_vertex_handle(h) == to) return h;
-    return HalfedgeHandle();
-  }
-
- private:
-  std::vector<VertexHandle> ring_;
-};
-using OmPoint = OmMesh::Point;
-
-Vec3d to_vec(const OmPoint& p) { return {p[0], p[1], p[2]}; }
-
-// A triangle prepared for many squared-distance queries; exact also for
-// zero-area triangles (then the distance to the nearest side).
-struct PreparedTriangle {
-  Vec3d a, b, c, ab, bc, ca, n, in_ab, in_bc, in_ca;
-  double inv_n2, inv_ab2, inv_bc2, inv_ca2;
-
-  PreparedTriangle(const Vec3d& a_, const Vec3d& b_, const Vec3d& c_)
-      : a(a_), b(b_), c(c_), ab(b - a), bc(c - b), ca(a - c), n(ab.cross(c - a)) {
-    const double n2 = n.squaredNorm();
-    inv_n2 = n2 > 0 ? 1.0 / n2 : 0.0;
-    in_ab = n.cross(ab), in_bc = n.cross(bc), in_ca = n.cross(ca);  // point into the triangle
-    auto inv = [](const Vec3d& e) { return e.squaredNorm() > 0 ? 1.0 / e.squaredNorm() : 0.0; };
-    inv_ab2 = inv(ab), inv_bc2 = inv(bc), inv_ca2 = inv(ca);
-  }
-
-  [[nodiscard]] double distance_sq(const Vec3d& p) const {
-    const Vec3d pa = p - a, pb = p - b, pc = p - c;
-    if (inv_n2 > 0 && pa.dot(in_ab) >= 0 && pb.dot(in_bc) >= 0 && pc.dot(in_ca) >= 0) {
-      const double h = pa.dot(n);  // projection inside: distance to the plane
-      return h * h * inv_n2;
-    }
-    auto segment = [](const Vec3d& q, const Vec3d& e, double inv_len2) {  // q relative to the segment start
-      const double t = std::clamp(q.dot(e) * inv_len2, 0.0, 1.0);
-      return (q - t * e).squaredNorm();
-    };
-    return std::min({segment(pa, ab, inv_ab2), segment(pb, bc, inv_bc2), segment(pc, ca, inv_ca2)});
-  }
-};
-
-// A part of an original triangle: the whole triangle, or a piece of its
-// midpoint subdivision. Bit k of `original` marks corner k as an original
-// vertex, held to max_error itself (the other corners get the slack).
-// `path` holds the child indices (0-3, see split()) from the triangle down,
-// two bits per level, last level lowest.
-struct Piece {
-  std::array<Vec3d, 3> p;
-  std::uint32_t triangle = 0;
-  std::uint8_t original = 0;
-  std::uint8_t depth = 0;
-  std::uint64_t path = 0;
-};
-constexpr int kMaxPieceDepth = 31;  // 2 bits per level in Piece::path
-
-// The four pieces of q's midpoint subdivision (child k keeps corner k).
-std::array<Piece, 4> split(const Piece& q) {
-  const Vec3d m01 = 0.5 * (q.p[0] + q.p[1]), m12 = 0.5 * (q.p[1] + q.p[2]), m20 = 0.5 * (q.p[2] + q.p[0]);
-  const std::uint8_t d = q.depth + 1;
-  const std::uint64_t path = q.path << 2;
-  return {Piece{{q.p[0], m01, m20}, q.triangle, std::uint8_t(q.original & 1u), d, path},
-          Piece{{m01, q.p[1], m12}, q.triangle, std::uint8_t(q.original & 2u), d, path | 1u},
-          Piece{{m20, m12, q.p[2]}, q.triangle, std::uint8_t(q.original & 4u), d, path | 2u},
-          Piece{{m01, m12, m20}, q.triangle, 0u, d, path | 3u}};
-}
-
-// Replaces every complete set of four sibling pieces by their parent, bottom
-// up, so that splits made for creases that are gone are undone (the parent's
-// corners are corners of its children 0-2, bit for bit).
-void coarsen(std::vector<Piece>& pieces, std::vector<Piece>& scratch) {
-  auto order = [](const Piece& a, const Piece& b) {
-    return std::tie(a.triangle, a.depth, a.path) < std::tie(b.triangle, b.depth, b.path);
-  };
-  for (bool merged = true; merged;) {
-    merged = false;
-    std::sort(pieces.begin(), pieces.end(), order);
-    scratch.clear();
-    for (std::size_t i = 0; i < pieces.size();) {
-      const Piece& a = pieces[i];
-      auto sibling = [&](std::size_t k) {
-        const Piece& b = pieces[i + k];
-        return b.triangle == a.triangle && b.depth == a.depth && b.path == (a.path | k);
-      };
-      if (a.depth > 0 && (a.path & 3u) == 0 && i + 3 < pieces.size() && sibling(1) && sibling(2) && sibling(3)) {
-        scratch.push_back(Piece{{a.p[0], pieces[i + 1].p[1], pieces[i + 2].p[2]},
-                                a.triangle,
-                                std::uint8_t(a.original | pieces[i + 1].original | pieces[i + 2].original),
-                                std::uint8_t(a.depth - 1),
-                                a.path >> 2});
-        i += 4;
-        merged = true;
-      } else {
-        scratch.push_back(a);
-        ++i;
-      }
-    }
-    pieces.swap(scratch);
-  }
-}
-
-// The Decimater's one continuous module: Garland-Heckbert priority (the
-// area-weighted plane quadrics of OpenMesh's ModQuadricT) with the error bound
-// as a hard constraint. Bound scheme after OpenMesh's ModHausdorffT, but on
-// the original surface instead of its vertices: every original triangle (or
-// piece of one) is stored with one face of the current mesh that covers it,
-// i.e. every point of it is within the bound of that face, and it is
-// re-certified whenever that face changes. The distance to a triangle is
-// convex, so a piece is covered by a face iff its three corners are: an exact
-// test. A piece that no single face covers (it spans a crease of the current
-// mesh) is split into four at its edge midpoints. Differences, see decimate.h:
-// pieces go only to the faces that were around v0 (whose vertices the
-// decimation loop re-queues), and zero-area faces get their true distance.
-// The bound is not part of collapse_priority() (the quadric error): the loop,
-// LazyBoundDecimater, calls within_tolerance() only for the collapses it is
-// about to make.
-template <class MeshT>
-class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
- public:
-  DECIMATING_MODULE(ModBoundedQuadricT, MeshT, BoundedQuadric);
-  using Pieces = std::vector<Piece>;
-  using FaceHandle = typename MeshT::FaceHandle;
-  using VertexHandle = typename MeshT::VertexHandle;
-  using Quadric = OpenMesh::Geometry::QuadricT<double>;
-
-  explicit ModBoundedQuadricT(MeshT& mesh) : Base(mesh, false) {
-    mesh.add_property(pieces_);
-    mesh.add_property(quadrics_);
-  }
-  ~ModBoundedQuadricT() override {
-    Base::mesh().remove_property(pieces_);
-    Base::mesh().remove_property(quadrics_);
-  }
-  void set_tolerance(double tolerance) {
-    vertex_tol2_ = tolerance * tolerance;
-    surface_tol2_ = (tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack);
-  }
-
-  void initialize() override {
-    MeshT& m = Base::mesh();
-    for (auto v : m.vertices()) m.property(quadrics_, v).clear();
-    for (auto f : m.faces()) {
-      auto fv = m.cfv_iter(f);
-      const VertexHandle a = *fv, b = *++fv, c = *++fv;
-      m.property(pieces_, f).assign(1, Piece{{to_vec(m.point(a)), to_vec(m.point(b)), to_vec(m.point(c))}, std::uint32_t(f.idx()), 7u, 0u, 0u});
-      OmPoint n = (m.point(b) - m.point(a)) % (m.point(c) - m.point(a));
-      const double twice_area = n.norm();
-      if (twice_area <= 0) continue;  // no plane; contributes nothing
-      n /= twice_area;
-      Quadric q(n[0], n[1], n[2], -(m.point(a) | n));
-      q *= 0.5 * twice_area;
-      for (VertexHandle v : {a, b, c}) m.property(quadrics_, v) += q;
-    }
-  }
-
-  float collapse_priority(const CollapseInfo& ci) override {
-    MeshT& m = Base::mesh();
-    Quadric q = m.property(quadrics_, ci.v0);
-    q += m.property(quadrics_, ci.v1);
-    return float(std::max(0.0, q(ci.p1)));  // >= 0 up to rounding
-  }
-
-  // Every piece stored around v0 must be covered by the faces around v0 but
-  // fl, fr after v0 moves to p1; each is first tested against the face that
-  // holds it (usually enough).
-  bool within_tolerance(const CollapseInfo& ci) {
-    prepare(ci);
-    auto ignore = [](std::size_t, const Piece&) {};
-    for (auto [f, own] : around_)
-      for (const Piece& piece : Base::mesh().property(pieces_, f))
-        if (!(own >= 0 && covered_by(tris_[std::size_t(own)], piece)) && !cover(piece, own, false, ignore)) return false;
-    return true;
-  }
-
-  // Takes the pieces out of the faces around v0; within_tolerance() has
-  // accepted this collapse in the current mesh.
-  void preprocess_collapse(const CollapseInfo& ci) override {
-    prepare(ci);
-    moved_.clear();
-    for (auto [f, own] : around_) {
-      Pieces& stored = Base::mesh().property(pieces_, f);
-      moved_.insert(moved_.end(), stored.begin(), stored.end());
-      stored.clear();
-    }
-  }
-
-  // The faces that were around v0 (but fl, fr) now have v1 instead; each
-  // piece goes to the covering face with the most margin, split as in
-  // within_tolerance() (the same decisions, as they do not depend on order).
-  void postprocess_collapse(const CollapseInfo& ci) override {
-    MeshT& m = Base::mesh();
-    m.property(quadrics_, ci.v1) += m.property(quadrics_, ci.v0);
-    if (faces_.empty()) return;  // unreachable: within_tolerance() rejects it
-    auto store = [&](std::size_t k, const Piece& q) { m.property(pieces_, faces_[k]).push_back(q); };
-    coarsen(moved_, scratch_);
-    for (const Piece& piece : moved_) cover(piece, -1, true, store);
-  }
-
- private:
-  // Whether each corner of q is within its bound of t (the fast path of cover()).
-  [[nodiscard]] bool covered_by(const PreparedTriangle& t, const Piece& q) const {
-    for (std::size_t k = 0; k < 3; ++k)
-      if (t.distance_sq(q.p[k]) > ((q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_)) return false;
-    return true;
-  }
-
-  // Covers `piece` by faces of tris_, splitting it where no single face
-  // covers it, and calls place(k, part) for every covered part (k: the first
-  // covering face, `hint` tried first; with `best`, the one with the smallest
-  // largest corner distance). A face covers a part if each corner is within
-  // its bound of it (original vertices: max_error; other corners: max_error +
-  // kDecimateSurfaceSlack); the distance to a triangle is convex, so then
-  // every point of the part is. Returns false (the collapse is illegal) if a
-  // part no face covers has a corner farther than its bound from every face,
-  // or is small (longest side <= kDecimateSurfaceSlack, at most one original
-  // corner v): were every point within max_error, the face nearest to v would
-  // cover it (its corners are within max_error + that side of the face).
-  // Whether a part is split or rejected does not depend on hint and best, so
-  // postprocess_collapse() makes the same splits as within_tolerance(); there
-  // a rejected part (unreachable) goes to the nearest face, not lost.
-  template <class Place>
-  bool cover(const Piece& piece, int hint, bool best, Place&& place) {
-    constexpr double kInf = std::numeric_limits<double>::infinity();
-    const double smallest2 = kDecimateSurfaceSlack * kDecimateSurfaceSlack;
-    const std::size_t n = tris_.size();
-    stack_.assign(1, piece);
-    while (!stack_.empty()) {
-      const Piece q = stack_.back();
-      stack_.pop_back();
-      std::array<double, 3> bound{};
-      for (std::size_t k = 0; k < 3; ++k) bound[k] = (q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_;
-      unsigned reached = 0;      // bit k: corner k is within its bound of some face
-      tested_.assign(n, 0u);     // bit k of tested_[j]: corner k measured against face j
-      auto covers = [&](std::size_t j, double& worst) {
-        worst = 0;
-        for (std::size_t k = 0; k < 3; ++k) {
-          const double d = tris_[j].distance_sq(q.p[k]);
-          tested_[j] |= 1u << k;
-          if (d > bound[k]) return false;
-          reached |= 1u << k;
-          worst = std::max(worst, d);
-        }
-        return true;
-      };
-      std::size_t chosen = n;
-      double chosen_d = kInf, d = 0;
-      if (hint >= 0 && !best && covers(std::size_t(hint), d)) chosen = std::size_t(hint);
-      for (std::size_t j = 0; j < n && (best || chosen == n); ++j)
-        if (tested_[j] == 0 && covers(j, d) && d < chosen_d) chosen_d = d, chosen = j;
-      if (chosen < n) {
-        place(chosen, q);
-        continue;
-      }
-      bool rejected = false;
-      for (std::size_t k = 0; k < 3 && !rejected; ++k) {
-        if (reached >> k & 1u) continue;
-        rejected = true;
-        for (std::size_t j = 0; j < n && rejected; ++j)
-          if (!(tested_[j] >> k & 1u) && tris_[j].distance_sq(q.p[k]) <= bound[k]) rejected = false;
-      }
-      const double side2 =
-          std::max({(q.p[1] - q.p[0]).squaredNorm(), (q.p[2] - q.p[1]).squaredNorm(), (q.p[0] - q.p[2]).squaredNorm()});
-      if (rejected || (side2 <= smallest2 && std::popcount(unsigned(q.original)) <= 1) || q.depth == kMaxPieceDepth) {
-        if (!best) return false;
-        std::size_t nearest = 0;  // unreachable in postprocess: keep the part
-        double nearest_d = kInf;
-        for (std::size_t j = 0; j < n; ++j) {
-          double dj = 0;
-          for (const Vec3d& p : q.p) dj = std::max(dj, tris_[j].distance_sq(p));
-          if (dj < nearest_d) nearest_d = dj, nearest = j;
-        }
-        place(nearest, q);
-        continue;
-      }
-      for (const Piece& child : split(q)) stack_.push_back(child);
-    }
-    return true;
-  }
-
-  // around_: every face around v0 with the index of its surviving version in
-  // faces_/tris_ (-1 for fl, fr); tris_: those faces with v0 moved to p1.
-  void prepare(const CollapseInfo& ci) {
-    MeshT& m = Base::mesh();
-    faces_.clear();
-    tris_.clear();
-    around_.clear();
-    for (auto f : m.vf_range(ci.v0)) {
-      int own = -1;
-      if (f != ci.fl && f != ci.fr) {
-        own = int(faces_.size());
-        faces_.push_back(f);
-        std::array<Vec3d, 3> t;
-        int k = 0;
-        for (auto v : m.fv_range(f)) t[std::size_t(k++)] = to_vec(v == ci.v0 ? ci.p1 : m.point(v));
-        tris_.emplace_back(t[0], t[1], t[2]);
-      }
-      around_.emplace_back(f, own);
-    }
-  }
-
-  double vertex_tol2_ = 0.0, surface_tol2_ = 0.0;
-  OpenMesh::FPropHandleT<Pieces> pieces_;
-  OpenMesh::VPropHandleT<Quadric> quadrics_;
-  std::vector<FaceHandle> faces_;
-  std::vector<PreparedTriangle> tris_;
-  std::vector<std::pair<FaceHandle, int>> around_;
-  Pieces moved_, stack_, scratch_;
-  std::vector<unsigned> tested_;
-};
-
-using BoundedQuadric = ModBoundedQuadricT<OmMesh>;
-
-// OpenMesh's DecimaterT loop -- a heap of vertices, each keyed by its
-// cheapest legal halfedge collapse -- with the error bound tested lazily. A
-// vertex's key is the quadric error of its cheapest collapse that passes the
-// cheap tests (topology, normal deviation); the bound is tested only when the
-// vertex comes to the front. If the bound fails there, the vertex's
-// collapses are tested in order of error and it goes back on the heap keyed
-// by the first that passes, marked as tested. Keys only grow when a test
-// fails, so the collapses are those of testing every candidate up front (as
-// DecimaterT with the bound inside collapse_priority() would), with ~1/8 of
-// the bound tests.
-class LazyBoundDecimater : public OpenMesh::Decimater::BaseDecimaterT<OmMesh> {
- public:
-  explicit LazyBoundDecimater(OmMesh& mesh) : BaseDecimaterT(mesh) {}
-
-  /// Collapses until no collapse is legal; returns how many were made.
-  std::size_t decimate(BoundedQuadric& bound) {
-    OmMesh& m = mesh();
-    const std::size_t nv = m.n_vertices();
-    stamp_.assign(nv, 0u);
-    target_.assign(nv, OmMesh::HalfedgeHandle());
-    bound_tested_.assign(nv, 0);
-    heap_ = {};
-    for (auto v : m.vertices())
-      if (!m.status(v).deleted()) enqueue(v, nullptr);
-    std::size_t collapses = 0;
-    std::vector<OmMesh::VertexHandle> support;
-    while (!heap_.empty()) {
-      const Entry e = heap_.top();
-      heap_.pop();
-      const auto v = OmMesh::VertexHandle(e.vertex);
-      const auto i = std::size_t(e.vertex);
-      if (e.stamp != stamp_[i] || m.status(v).deleted()) continue;  // stale entry
-      ++stamp_[i];  // off the heap
-      CollapseInfo ci(m, target_[i]);
-      if (!is_collapse_legal(ci)) continue;  // as DecimaterT: topology checked again
-      if (!bound_tested_[i] && !bound.within_tolerance(ci)) {
-        enqueue(v, &bound, ci.v0v1);
-        continue;
-      }
-      support.clear();
-      for (auto w : m.vv_range(ci.v0)) support.push_back(w);
-      preprocess_collapse(ci);
-      m.collapse(ci.v0v1);
-      ++collapses;
-      for (auto f : m.vf_range(ci.v1)) m.set_normal(f, m.calc_face_normal(f));  // ModNormalFlippingT compares to these
-      postprocess_collapse(ci);
-      for (auto w : support) enqueue(w, nullptr);
-    }
-    return collapses;
-  }
-
- private:
-  struct Entry {
-    float priority;
-    int vertex;
-    unsigned stamp;  // valid while equal to stamp_[vertex]
-    bool operator<(const Entry& o) const {  // std::priority_queue pops the largest: invert
-      return priority > o.priority || (priority == o.priority && vertex > o.vertex);
-    }
-  };
-
-  // Keys v by its cheapest collapse that passes is_collapse_legal() and the
-  // modules' collapse_priority(); with `bound`, by its cheapest that also
-  // passes the bound (candidates tested in order of priority; `failed` has
-  // just failed it). Removes v from the heap if there is none.
-  void enqueue(OmMesh::VertexHandle v, BoundedQuadric* bound, OmMesh::HalfedgeHandle failed = OmMesh::HalfedgeHandle()) {
-    OmMesh& m = mesh();
-    const auto i = std::size_t(v.idx());
-    ++stamp_[i];
-    candidates_.clear();
-    for (auto h : m.voh_range(v)) {
-      CollapseInfo ci(m, h);
-      if (!is_collapse_legal(ci)) continue;
-      const float priority = collapse_priority(ci);
-      if (priority >= 0) candidates_.emplace_back(priority, h);
-    }
-    auto by_priority = [](const auto& a, const auto& b) { return a.first < b.first; };
-    std::stable_sort(candidates_.begin(), candidates_.end(), by_priority);
-    for (const auto& [priority, h] : candidates_) {
-      if (bound && (h == failed || !bound->within_tolerance(CollapseInfo(m, h)))) continue;
-      target_[i] = h;
-      bound_tested_[i] = bound != nullptr;
-      heap_.push(Entry{priority, v.idx(), stamp_[i]});
-      return;
-    }
-  }
-
-  std::priority_queue<Entry> heap_;
-  std::vector<unsigned> stamp_;
-  std::vector<OmMesh::HalfedgeHandle> target_;
-  std::vector<char> bound_tested_;  // the key's collapse passed within_tolerance()
-  std::vector<std::pair<float, OmMesh::HalfedgeHandle>> candidates_;
-};
-
-}  // namespace
-}  // namespace detail
-
-DecimateResult decimate(TriMesh& mesh, const DecimateParams& params) {
+void validate_decimate_input(const TriMesh& mesh, const DecimateParams& params) {
   if (!std::isfinite(params.max_error) || params.max_error < 0)
     throw ParamError("decimate: max_error = " + std::to_string(params.max_error) + " must be finite and >= 0 (pixels)");
   if (!(params.max_normal_deviation_deg > 0 && params.max_normal_deviation_deg < 90))
     throw ParamError("decimate: max_normal_deviation_deg = " + std::to_string(params.max_normal_deviation_deg) +
                      " must be in (0, 90)");
-  const std::size_t nv = mesh.vertices.size(), nf = mesh.triangles.size();
-  for (std::size_t f = 0; f < nf; ++f) {
+  const std::size_t nv = mesh.vertices.size();
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const auto& t = mesh.triangles[f];
     for (std::int32_t v : t)
       if (v < 0 || std::size_t(v) >= nv)
@@ -489,55 +37,336 @@ DecimateResult decimate(TriMesh& mesh, const DecimateParams& params) {
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
       throw InputError("", "decimate: triangle " + std::to_string(f) + " repeats a vertex");
   }
-  DecimateResult result{long(nf), long(nf)};
-  if (params.max_error == 0 || nf == 0) return result;
+}
 
-  using detail::OmMesh;
-  OmMesh om;
-  om.reserve(nv, 3 * nf / 2, nf);
-  std::vector<OmMesh::VertexHandle> handles(nv);
-  for (std::size_t v = 0; v < nv; ++v) {
-    const Vec3f& p = mesh.vertices[v];
-    handles[v] = om.add_vertex(detail::OmPoint(p.x(), p.y(), p.z()));
-  }
-  for (std::size_t f = 0; f < nf; ++f) {
-    const auto& t = mesh.triangles[f];
-    if (!om.add_face(handles[std::size_t(t[0])], handles[std::size_t(t[1])], handles[std::size_t(t[2])]).is_valid())
-      throw InputError("", "decimate: triangle " + std::to_string(f) +
-                               " shares an edge with two triangles, or runs along it the same way as its neighbour");
-  }
-  om.request_face_normals();
-  om.update_face_normals();
+namespace {
 
-  {
-    detail::LazyBoundDecimater decimater(om);
-    OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping;  // binary: runs first
-    detail::BoundedQuadric::Handle priority;
-    decimater.add(flipping);
-    decimater.module(flipping).set_max_normal_deviation(params.max_normal_deviation_deg);
-    decimater.add(priority);
-    decimater.module(priority).set_tolerance(params.max_error);
-    if (!decimater.initialize()) throw Error("decimate: OpenMesh decimater failed to initialise");
-    decimater.decimate(decimater.module(priority));
-  }
-  om.garbage_collection();
+// Vertex states.
+constexpr std::uint8_t kDead = 1;     // collapsed away
+constexpr std::uint8_t kFixed = 2;    // boundary or non-manifold vertex: never moved, never a target
+constexpr std::uint8_t kDirty = 4;    // its neighbourhood changed: its edges are candidates next round
+constexpr std::uint8_t kTouched = 8;  // target of a collapse this round: its costs are stale until the next
+constexpr std::uint8_t kBorder = 16;  // has a neighbour in another slab: fixed while the slabs run in parallel
 
-  TriMesh out;
-  out.vertices.reserve(om.n_vertices());
-  for (auto v : om.vertices()) {
-    const auto& p = om.point(v);
-    out.vertices.emplace_back(float(p[0]), float(p[1]), float(p[2]));
+// Large meshes are first decimated in z slabs concurrently, each slab's
+// vertices next to another slab held fixed (so no two slabs touch one face,
+// vertex or piece), then the seams serially. The slab count depends on the
+// mesh only, never on the thread count: the output is the same for any
+// --threads. One slab per this many triangles, at most kMaxSlabs.
+constexpr std::size_t kTrianglesPerSlab = 100000;
+constexpr std::size_t kMaxSlabs = 8;
+
+// Candidates are ordered by the top 16 bits of their float cost (sign 0,
+// 8 exponent, 7 mantissa bits): relative steps of < 1 %, a counting sort.
+constexpr int kCostKeyShift = 16;
+
+struct Candidate {
+  float cost;
+  std::int32_t from, to;  // collapse `from` into `to`; the reverse is tried if this one is illegal
+};
+
+// Working memory of one decimation loop (one per slab running concurrently).
+struct Scratch {
+  explicit Scratch(double tolerance) : cover(tolerance) {}
+  PieceCover cover;
+  unsigned stamp = 0;  // marks in mark_/mark_face_ equal to it are this collapse's
+  std::vector<Candidate> candidates, sorted;
+  std::vector<std::uint32_t> count;
+  std::vector<PreparedTriangle> tris;
+  std::vector<std::int32_t> kept, own;
+  std::vector<std::pair<std::int32_t, Piece>> placed;             // (face, part)
+  std::vector<std::pair<std::int32_t, std::uint32_t>> leaving;    // (index in kept, index in its pieces)
+  std::vector<Piece> pieces;
+};
+
+class FastDecimator {
+ public:
+  FastDecimator(const TriMesh& mesh, const DecimateParams& params)
+      : tolerance_(params.max_error), cos_max_(std::cos(params.max_normal_deviation_deg * std::numbers::pi / 180.0)) {
+    const std::size_t nv = mesh.vertices.size(), nf = mesh.triangles.size();
+    pos_.reserve(nv);
+    for (const Vec3f& p : mesh.vertices) pos_.emplace_back(p.cast<double>());
+    tri_ = mesh.triangles;
+    faces_of_.resize(nv);
+    {
+      std::vector<std::uint32_t> valence(nv, 0);
+      for (const auto& t : tri_)
+        for (std::int32_t v : t) ++valence[std::size_t(v)];
+      for (std::size_t v = 0; v < nv; ++v) faces_of_[v].reserve(valence[v]);
+    }
+    for (std::size_t f = 0; f < nf; ++f)
+      for (std::int32_t v : tri_[f]) faces_of_[std::size_t(v)].push_back(std::int32_t(f));
+    state_.assign(nv, 0);
+    mark_.assign(nv, 0);
+    for (std::size_t v = 0; v < nv; ++v) classify(std::int32_t(v));
+
+    quad_.assign(nv, Quadric{});
+    pieces_.resize(nf);
+    mark_face_.assign(nf, 0);
+    for (std::size_t f = 0; f < nf; ++f) {
+      const auto& t = tri_[f];
+      const Vec3d &a = pos_[std::size_t(t[0])], &b = pos_[std::size_t(t[1])], &c = pos_[std::size_t(t[2])];
+      pieces_[f].assign(1, Piece{{a, b, c}, std::uint32_t(f), 7u, 0u, 0u});
+      Vec3d n = (b - a).cross(c - a);
+      const double twice_area = n.norm();
+      if (twice_area <= 0) continue;  // no plane; contributes nothing
+      n /= twice_area;
+      const Quadric q = Quadric::plane(n, -a.dot(n), 0.5 * twice_area);
+      for (std::int32_t v : t) quad_[std::size_t(v)] += q;
+    }
   }
-  out.triangles.reserve(om.n_faces());
-  for (auto f : om.faces()) {
-    std::array<std::int32_t, 3> t{};
-    int k = 0;
-    for (auto v : om.fv_range(f)) t[std::size_t(k++)] = std::int32_t(v.idx());
-    out.triangles.push_back(t);
+
+  void run(std::size_t slabs) {
+    std::vector<std::int32_t> all(state_.size());
+    std::iota(all.begin(), all.end(), 0);
+    for (auto& s : state_)
+      if (!(s & kFixed)) s |= kDirty;
+    if (slabs > 1) {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (const Vec3d& p : pos_) lo = std::min(lo, p.z()), hi = std::max(hi, p.z());
+      std::vector<std::uint8_t> slab(pos_.size());
+      for (std::size_t v = 0; v < pos_.size(); ++v)
+        slab[v] = std::uint8_t(std::min<double>(double(slabs) - 1, std::floor((pos_[v].z() - lo) / (hi - lo) * double(slabs))));
+      for (const auto& t : tri_)
+        if (slab[std::size_t(t[0])] != slab[std::size_t(t[1])] || slab[std::size_t(t[1])] != slab[std::size_t(t[2])])
+          for (std::int32_t v : t) state_[std::size_t(v)] |= kBorder;
+      std::vector<std::vector<std::int32_t>> members(slabs);
+      for (std::int32_t v : all) members[slab[std::size_t(v)]].push_back(v);
+      tbb::parallel_for(std::size_t(0), slabs, [&](std::size_t k) {
+        Scratch scratch(tolerance_);
+        rounds(scratch, members[k]);
+      });
+      // The seams: former border vertices are candidates again.
+      for (auto& s : state_)
+        if (s & kBorder) s = std::uint8_t((s & ~kBorder) | kDirty);
+      std::fill(mark_.begin(), mark_.end(), 0u);
+      std::fill(mark_face_.begin(), mark_face_.end(), 0u);
+    }
+    Scratch scratch(tolerance_);
+    rounds(scratch, all);
   }
-  result.triangles_after = long(out.triangles.size());
-  mesh = std::move(out);
-  return result;
+
+  [[nodiscard]] TriMesh result() const {
+    TriMesh out;
+    std::vector<std::int32_t> index(pos_.size(), -1);
+    for (std::size_t v = 0; v < pos_.size(); ++v)
+      if (!(state_[v] & kDead)) {
+        index[v] = std::int32_t(out.vertices.size());
+        out.vertices.push_back(pos_[v].cast<float>());  // an input float: exact
+      }
+    for (const auto& t : tri_)
+      if (t[0] >= 0) out.triangles.push_back({index[std::size_t(t[0])], index[std::size_t(t[1])], index[std::size_t(t[2])]});
+    return out;
+  }
+
+ private:
+  // Rounds of collapses among `verts` until none is legal: each round lists
+  // the edges of the vertices whose neighbourhood changed, orders them by
+  // quadric error and makes every legal one.
+  void rounds(Scratch& s, const std::vector<std::int32_t>& verts) {
+    constexpr std::uint8_t kHeld = kFixed | kBorder;
+    for (;;) {
+      s.candidates.clear();
+      for (std::int32_t v : verts) {
+        if ((state_[std::size_t(v)] & (kDirty | kDead | kHeld)) != kDirty) continue;
+        for (std::int32_t f : faces_of_[std::size_t(v)]) {
+          const std::int32_t b = after(f, v);  // each neighbour once around a closed fan
+          const std::uint8_t sb = state_[std::size_t(b)];
+          if ((sb & kHeld) || ((sb & kDirty) && b < v)) continue;  // held, or listed from b
+          Quadric q = quad_[std::size_t(v)];
+          q += quad_[std::size_t(b)];
+          const double into_b = q(pos_[std::size_t(b)]), into_v = q(pos_[std::size_t(v)]);
+          s.candidates.push_back(into_b <= into_v ? Candidate{float(std::max(0.0, into_b)), v, b}
+                                                  : Candidate{float(std::max(0.0, into_v)), b, v});
+        }
+      }
+      for (std::int32_t v : verts) state_[std::size_t(v)] &= std::uint8_t(~kDirty);
+      if (s.candidates.empty()) return;
+
+      s.count.assign((1u << (31 - kCostKeyShift)) + 1, 0);
+      auto key = [](float c) { return std::bit_cast<std::uint32_t>(c) >> kCostKeyShift; };
+      for (const Candidate& c : s.candidates) ++s.count[key(c.cost) + 1];
+      for (std::size_t k = 1; k < s.count.size(); ++k) s.count[k] += s.count[k - 1];
+      s.sorted.resize(s.candidates.size());
+      for (const Candidate& c : s.candidates) s.sorted[s.count[key(c.cost)]++] = c;
+
+      for (const Candidate& c : s.sorted) {
+        if ((state_[std::size_t(c.from)] | state_[std::size_t(c.to)]) & (kDead | kTouched)) continue;
+        if (!collapse(s, c.from, c.to)) collapse(s, c.to, c.from);
+      }
+      for (std::int32_t v : verts) state_[std::size_t(v)] &= std::uint8_t(~kTouched);
+    }
+  }
+
+  // The vertex after v in face f (counter-clockwise).
+  [[nodiscard]] std::int32_t after(std::int32_t f, std::int32_t v) const {
+    const auto& t = tri_[std::size_t(f)];
+    return t[0] == v ? t[1] : t[1] == v ? t[2] : t[0];
+  }
+
+  // Throws for an edge used twice in one direction (decimate.h \throw); marks
+  // v kFixed unless its faces form one closed fan (boundary, or several fans).
+  void classify(std::int32_t v) {
+    const auto& fs = faces_of_[std::size_t(v)];
+    if (fs.empty()) return;
+    for (std::size_t i = 0; i < fs.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (after(fs[i], v) == after(fs[j], v))
+          throw InputError("", "decimate: triangle " + std::to_string(std::max(fs[i], fs[j])) + " uses the edge " +
+                                   std::to_string(v) + "->" + std::to_string(after(fs[i], v)) +
+                                   " in the same direction as triangle " + std::to_string(std::min(fs[i], fs[j])) +
+                                   " (an edge of three triangles, or a flipped triangle)");
+    // Walk the fan: from face (v, a, b) to the face starting with b.
+    std::size_t steps = 0;
+    std::int32_t f = fs.front();
+    do {
+      const std::int32_t b = after(f, after(f, v));
+      const auto it = std::find_if(fs.begin(), fs.end(), [&](std::int32_t g) { return after(g, v) == b; });
+      if (it == fs.end()) break;  // open fan: boundary vertex
+      f = *it;
+      ++steps;
+    } while (f != fs.front() && steps <= fs.size());
+    if (f != fs.front() || steps != fs.size()) state_[std::size_t(v)] |= kFixed;
+  }
+
+  static void erase(std::vector<std::int32_t>& v, std::int32_t x) {
+    const auto it = std::find(v.begin(), v.end(), x);
+    if (it != v.end()) {
+      *it = v.back();
+      v.pop_back();
+    }
+  }
+
+  // Collapses v0 into v1 if that is legal (decimate.h); returns whether it did.
+  bool collapse(Scratch& s, std::int32_t v0, std::int32_t v1) {
+    if (state_[std::size_t(v0)] & (kFixed | kBorder)) return false;
+    const auto& around = faces_of_[std::size_t(v0)];
+    std::int32_t fl = -1, fr = -1, vl = -1, vr = -1;
+    for (std::int32_t f : around) {
+      const auto& t = tri_[std::size_t(f)];
+      if (t[0] != v1 && t[1] != v1 && t[2] != v1) continue;
+      if (after(f, v0) == v1)
+        fl = f, vl = after(f, v1);
+      else
+        fr = f, vr = after(f, v0);
+    }
+    if (fl < 0 || fr < 0 || vl == vr) return false;
+    // A valence-3 vl or vr would be left with two faces on the same three vertices.
+    if (faces_of_[std::size_t(vl)].size() <= 3 || faces_of_[std::size_t(vr)].size() <= 3) return false;
+    // Link condition: the rings of v0 and v1 share only vl and vr.
+    ++s.stamp;
+    for (std::int32_t f : faces_of_[std::size_t(v1)])
+      for (std::int32_t w : tri_[std::size_t(f)]) mark_[std::size_t(w)] = s.stamp;
+    for (std::int32_t f : around)
+      for (std::int32_t w : tri_[std::size_t(f)])
+        if (w != v0 && w != v1 && w != vl && w != vr && mark_[std::size_t(w)] == s.stamp) return false;
+
+    // The surviving faces around v0 with v0 moved to v1: no normal turns by
+    // more than the limit, none loses its area.
+    const Vec3d& p1 = pos_[std::size_t(v1)];
+    s.tris.clear();
+    s.kept.clear();
+    s.own.clear();
+    for (std::int32_t f : around) {
+      if (f == fl || f == fr) {
+        s.own.push_back(-1);
+        continue;
+      }
+      const auto& t = tri_[std::size_t(f)];
+      std::array<Vec3d, 3> c{pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]};
+      const Vec3d n_old = (c[1] - c[0]).cross(c[2] - c[0]);
+      for (std::size_t k = 0; k < 3; ++k)
+        if (t[k] == v0) c[k] = p1;
+      const Vec3d n_new = (c[1] - c[0]).cross(c[2] - c[0]);
+      const double new2 = n_new.squaredNorm(), old2 = n_old.squaredNorm();
+      if (!(new2 > 0)) return false;
+      if (old2 > 0 && n_old.dot(n_new) < cos_max_ * std::sqrt(old2 * new2)) return false;
+      s.own.push_back(std::int32_t(s.tris.size()));
+      s.kept.push_back(f);
+      s.tris.emplace_back(c[0], c[1], c[2]);
+    }
+    // The bound: every piece held around v0 is covered by the new faces,
+    // first tried against the face that holds it (usually enough: such a
+    // piece stays where it is). The others are recorded with the face (or
+    // faces, split) that covers them, to be moved there if legal.
+    s.placed.clear();
+    s.leaving.clear();
+    auto record = [&](std::size_t k, const Piece& q) { s.placed.emplace_back(s.kept[k], q); };
+    for (std::size_t i = 0; i < around.size(); ++i) {
+      const auto& held = pieces_[std::size_t(around[i])];
+      const int own = s.own[i];
+      for (std::size_t j = 0; j < held.size(); ++j) {
+        if (own >= 0 && s.cover.covered_by(s.tris[std::size_t(own)], held[j])) continue;
+        if (!s.cover.cover(held[j], s.tris, own, false, record)) return false;
+        if (own >= 0) s.leaving.emplace_back(own, std::uint32_t(j));
+      }
+    }
+
+    // Legal: move the pieces that leave. Complete sets of four siblings held
+    // by one face merge back into their parent (covered by that face too:
+    // its corners are corners of the siblings), undoing splits for creases
+    // that are gone.
+    for (std::int32_t f : {fl, fr}) std::vector<Piece>().swap(pieces_[std::size_t(f)]);  // gone for good: free
+    for (auto it = s.leaving.rbegin(); it != s.leaving.rend(); ++it) {  // back to front: indices stay valid
+      auto& held = pieces_[std::size_t(s.kept[std::size_t(it->first)])];
+      held[it->second] = held.back();
+      held.pop_back();
+    }
+    ++s.stamp;
+    for (const auto& [f, q] : s.placed) {
+      pieces_[std::size_t(f)].push_back(q);
+      if (q.depth > 0) mark_face_[std::size_t(f)] = s.stamp;
+    }
+    for (std::int32_t f : s.kept)
+      if (mark_face_[std::size_t(f)] == s.stamp) coarsen(pieces_[std::size_t(f)], s.pieces);
+
+    // Connectivity.
+    for (std::int32_t f : {fl, fr}) {
+      for (std::int32_t w : tri_[std::size_t(f)])
+        if (w != v0) erase(faces_of_[std::size_t(w)], f);
+      tri_[std::size_t(f)] = {-1, -1, -1};
+    }
+    auto& faces1 = faces_of_[std::size_t(v1)];
+    for (std::int32_t f : s.kept) {
+      for (auto& w : tri_[std::size_t(f)])
+        if (w == v0) w = v1;
+      faces1.push_back(f);
+    }
+    faces_of_[std::size_t(v0)] = {};
+    quad_[std::size_t(v1)] += quad_[std::size_t(v0)];
+    state_[std::size_t(v0)] |= kDead;
+    state_[std::size_t(v1)] |= kTouched;
+    for (std::int32_t f : faces1)
+      for (std::int32_t w : tri_[std::size_t(f)]) state_[std::size_t(w)] |= kDirty;
+    return true;
+  }
+
+  std::vector<Vec3d> pos_;
+  std::vector<std::array<std::int32_t, 3>> tri_;  // {-1, -1, -1}: collapsed away
+  std::vector<std::vector<std::int32_t>> faces_of_;
+  std::vector<Quadric> quad_;
+  std::vector<std::uint8_t> state_;
+  std::vector<unsigned> mark_, mark_face_;  // == Scratch::stamp: marked in the current collapse
+  std::vector<std::vector<Piece>> pieces_;  // held by each face
+  double tolerance_, cos_max_;
+};
+
+}  // namespace
+}  // namespace detail
+
+DecimateResult detail::decimate_in_slabs(TriMesh& mesh, const DecimateParams& params, std::size_t slabs) {
+  validate_decimate_input(mesh, params);
+  const long before = long(mesh.triangles.size());
+  if (params.max_error == 0 || before == 0) return {before, before};
+  FastDecimator d(mesh, params);
+  d.run(std::max<std::size_t>(slabs, 1));
+  mesh = d.result();
+  return {before, long(mesh.triangles.size())};
+}
+
+DecimateResult decimate(TriMesh& mesh, const DecimateParams& params) {
+  const std::size_t slabs = std::clamp<std::size_t>(mesh.triangles.size() / detail::kTrianglesPerSlab, 1, detail::kMaxSlabs);
+  return detail::decimate_in_slabs(mesh, params, slabs);
 }
 
 }  // namespace isoloft

@@ -1,37 +1,39 @@
 // Mesh decimation with quadric error metrics (Garland & Heckbert 1997,
-// "Surface Simplification Using Quadric Error Metrics"), paper 2.5, on
-// OpenMesh's decimation framework (BaseDecimaterT and its modules, with our
-// own loop): halfedge collapses of a vertex into a neighbour, cheapest
-// quadric error first, allowed only if
-//  - the link condition holds (OpenMesh's is_collapse_ok test, no
-//    tetrahedron collapse), so a closed 2-manifold stays one, of the same
-//    topology;
+// "Surface Simplification Using Quadric Error Metrics"), paper 2.5: halfedge
+// collapses of a vertex into a neighbour, cheapest quadric error first,
+// allowed only if
+//  - the link condition holds (the one-rings of the two vertices share only
+//    the two opposite vertices; no tetrahedron collapse), so a closed
+//    2-manifold stays one, of the same topology;
 //  - no face normal turns by more than max_normal_deviation_deg in one
-//    collapse (ModNormalFlippingT): no fold-overs, no zero-area faces;
+//    collapse: no fold-overs, no zero-area faces;
 //  - every point of the original surface stays within max_error of the
 //    decimated surface (original vertices exactly; points inside original
 //    triangles up to kDecimateSurfaceSlack more): a real geometric bound on
 //    the one-sided Hausdorff distance original -> decimated, in pixels.
-// The bound follows OpenMesh's ModHausdorffT (each removed vertex is kept in
-// the list of its nearest face and re-tested whenever that face changes) but
-// lives in our own module (decimate.cpp), merged with the quadric priority:
-//  - It keeps the original TRIANGLES, not vertices: bounding only the
-//    vertices let points on original edges drift up to ~0.2 px past
-//    max_error where a triangle spans a crease of the result (torus at
-//    0.25 px: 0.34 px). Each original triangle, or a piece of its midpoint
-//    subdivision, is kept with one face to which all its corners are within
-//    the bound; the distance to a triangle is convex, so then all its points
-//    are. Pieces spanning a crease are split until one face covers each.
-//  - ModHausdorffT hands points to faces around v1 whose vertices the
-//    Decimater does not re-queue, so a cached "legal" verdict can go stale,
-//    and it counts any zero-area face as within tolerance (by inspection of
-//    OpenMesh 9). Ours hands pieces only to the faces that were around v0
-//    and measures zero-area faces properly.
-//  - The bound is tested lazily, only for the collapse at the front of the
-//    heap (the order is unchanged: a failed test only raises that vertex's
-//    key): ~1/8 of the tests DecimaterT would make.
+// The bound (decimate_bound.h) keeps the original TRIANGLES, not vertices:
+// each original triangle, or a piece of its midpoint subdivision, is held by
+// one current face to which all its corners are within the bound; the
+// distance to a triangle is convex, so then all its points are. A collapse
+// must re-cover the pieces of the faces it changes (after OpenMesh's
+// ModHausdorffT, which bounds only vertices: that let points on original
+// edges drift ~0.1 px past max_error where a triangle spans a crease).
+//
+// decimate() is the fast path (flat arrays, no halfedge structure): rounds
+// over the collapse candidates of the vertices whose neighbourhood changed,
+// each round in increasing quadric error (bucketed to ~1 %), every candidate
+// tested exactly and made at once if legal; vertices touched by a collapse
+// wait for the next round. Large meshes run first in z slabs concurrently
+// (vertices next to another slab held), then the seams: the slab count
+// depends on the mesh alone, so the output is the same for any thread count. detail::decimate_openmesh() is the strictly
+// greedy reference on OpenMesh's Decimater (one heap), ~15x slower, kept as
+// the test oracle: both obey the same bound and topology rules.
+// Boundary vertices (open input) and vertices whose faces do not form one
+// fan are never moved nor collapsed into in the fast path.
 // Collapses move no vertex: the output vertices are a subset of the input's.
 #pragma once
+
+#include <cstddef>
 
 #include "isoloft/core/mesh.h"
 
@@ -67,8 +69,16 @@ struct DecimateResult {
 /// \throw ParamError if max_error is negative or not finite, or
 ///        max_normal_deviation_deg is not in (0, 90).
 /// \throw InputError naming the triangle if an index is out of range, a
-///        triangle repeats a vertex, or OpenMesh cannot add it (its edge is
-///        already used twice or in the same direction).
+///        triangle repeats a vertex, or one of its edges is already used in
+///        the same direction (an edge of three triangles, or a flipped one).
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params);
+
+namespace detail {
+/// The reference: same contract, strictly greedy, on OpenMesh (decimate_openmesh.cpp).
+DecimateResult decimate_openmesh(TriMesh& mesh, const DecimateParams& params);
+/// decimate() with a given number of z slabs decimated concurrently before
+/// the seams (decimate() picks it from the triangle count; tests force it).
+DecimateResult decimate_in_slabs(TriMesh& mesh, const DecimateParams& params, std::size_t slabs);
+}  // namespace detail
 
 }  // namespace isoloft

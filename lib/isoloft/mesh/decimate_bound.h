@@ -1,0 +1,234 @@
+// The decimation error bound shared by both decimators (decimate.cpp, the
+// fast one, and decimate_openmesh.cpp, its reference): every original
+// triangle, or a piece of its midpoint subdivision, is kept with one face of
+// the current mesh that covers it (each corner within the bound of that face;
+// the distance to a triangle is convex, so then every point of it is). A
+// collapse is legal only if every piece held by the faces it changes is
+// covered again by the changed faces; a piece no single face covers (it spans
+// a crease) is split into four at its edge midpoints. See decimate.h.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <limits>
+#include <tuple>
+#include <vector>
+
+#include "isoloft/core/mesh.h"
+#include "isoloft/mesh/decimate.h"
+
+namespace isoloft::detail {
+
+// A triangle prepared for many squared-distance queries; exact also for
+// zero-area triangles (then the distance to the nearest side).
+struct PreparedTriangle {
+  Vec3d a, b, c, ab, bc, ca, n, in_ab, in_bc, in_ca;
+  double inv_n2, inv_ab2, inv_bc2, inv_ca2;
+
+  PreparedTriangle(const Vec3d& a_, const Vec3d& b_, const Vec3d& c_)
+      : a(a_), b(b_), c(c_), ab(b - a), bc(c - b), ca(a - c), n(ab.cross(c - a)) {
+    const double n2 = n.squaredNorm();
+    inv_n2 = n2 > 0 ? 1.0 / n2 : 0.0;
+    in_ab = n.cross(ab), in_bc = n.cross(bc), in_ca = n.cross(ca);  // point into the triangle
+    auto inv = [](const Vec3d& e) { return e.squaredNorm() > 0 ? 1.0 / e.squaredNorm() : 0.0; };
+    inv_ab2 = inv(ab), inv_bc2 = inv(bc), inv_ca2 = inv(ca);
+  }
+
+  [[nodiscard]] double distance_sq(const Vec3d& p) const {
+    const Vec3d pa = p - a, pb = p - b, pc = p - c;
+    if (inv_n2 > 0 && pa.dot(in_ab) >= 0 && pb.dot(in_bc) >= 0 && pc.dot(in_ca) >= 0) {
+      const double h = pa.dot(n);  // projection inside: distance to the plane
+      return h * h * inv_n2;
+    }
+    auto segment = [](const Vec3d& q, const Vec3d& e, double inv_len2) {  // q relative to the segment start
+      const double t = std::clamp(q.dot(e) * inv_len2, 0.0, 1.0);
+      return (q - t * e).squaredNorm();
+    };
+    return std::min({segment(pa, ab, inv_ab2), segment(pb, bc, inv_bc2), segment(pc, ca, inv_ca2)});
+  }
+};
+
+// A part of an original triangle: the whole triangle, or a piece of its
+// midpoint subdivision. Bit k of `original` marks corner k as an original
+// vertex, held to max_error itself (the other corners get the slack).
+// `path` holds the child indices (0-3, see split()) from the triangle down,
+// two bits per level, last level lowest.
+struct Piece {
+  std::array<Vec3d, 3> p;
+  std::uint32_t triangle = 0;
+  std::uint8_t original = 0;
+  std::uint8_t depth = 0;
+  std::uint64_t path = 0;
+};
+inline constexpr int kMaxPieceDepth = 31;  // 2 bits per level in Piece::path
+
+// The four pieces of q's midpoint subdivision (child k keeps corner k).
+inline std::array<Piece, 4> split(const Piece& q) {
+  const Vec3d m01 = 0.5 * (q.p[0] + q.p[1]), m12 = 0.5 * (q.p[1] + q.p[2]), m20 = 0.5 * (q.p[2] + q.p[0]);
+  const std::uint8_t d = q.depth + 1;
+  const std::uint64_t path = q.path << 2;
+  return {Piece{{q.p[0], m01, m20}, q.triangle, std::uint8_t(q.original & 1u), d, path},
+          Piece{{m01, q.p[1], m12}, q.triangle, std::uint8_t(q.original & 2u), d, path | 1u},
+          Piece{{m20, m12, q.p[2]}, q.triangle, std::uint8_t(q.original & 4u), d, path | 2u},
+          Piece{{m01, m12, m20}, q.triangle, 0u, d, path | 3u}};
+}
+
+// Replaces every complete set of four sibling pieces by their parent, bottom
+// up, so that splits made for creases that are gone are undone (the parent's
+// corners are corners of its children 0-2, bit for bit). Whole triangles
+// (depth 0, nearly all pieces) cannot merge: only the others are sorted.
+inline void coarsen(std::vector<Piece>& pieces, std::vector<Piece>& scratch) {
+  auto order = [](const Piece& a, const Piece& b) {
+    return std::tie(a.triangle, a.depth, a.path) < std::tie(b.triangle, b.depth, b.path);
+  };
+  const auto deep = std::partition(pieces.begin(), pieces.end(), [](const Piece& q) { return q.depth == 0; });
+  const std::size_t first = std::size_t(deep - pieces.begin());
+  for (bool merged = first + 4 <= pieces.size(); merged;) {
+    merged = false;
+    std::sort(pieces.begin() + std::ptrdiff_t(first), pieces.end(), order);
+    scratch.clear();
+    for (std::size_t i = first; i < pieces.size();) {
+      const Piece& a = pieces[i];
+      auto sibling = [&](std::size_t k) {
+        const Piece& b = pieces[i + k];
+        return b.triangle == a.triangle && b.depth == a.depth && b.path == (a.path | k);
+      };
+      if (a.depth > 0 && (a.path & 3u) == 0 && i + 3 < pieces.size() && sibling(1) && sibling(2) && sibling(3)) {
+        scratch.push_back(Piece{{a.p[0], pieces[i + 1].p[1], pieces[i + 2].p[2]},
+                                a.triangle,
+                                std::uint8_t(a.original | pieces[i + 1].original | pieces[i + 2].original),
+                                std::uint8_t(a.depth - 1),
+                                a.path >> 2});
+        i += 4;
+        merged = true;
+      } else {
+        scratch.push_back(a);
+        ++i;
+      }
+    }
+    pieces.resize(first);
+    pieces.insert(pieces.end(), scratch.begin(), scratch.end());
+  }
+}
+
+// Covers pieces by a set of candidate faces (the faces a collapse changes, in
+// their new shape), splitting a piece where no single face covers it.
+class PieceCover {
+ public:
+  explicit PieceCover(double tolerance)
+      : vertex_tol2_(tolerance * tolerance),
+        surface_tol2_((tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack)) {}
+
+  // Whether each corner of q is within its bound of t (the fast path of cover()).
+  [[nodiscard]] bool covered_by(const PreparedTriangle& t, const Piece& q) const {
+    for (std::size_t k = 0; k < 3; ++k)
+      if (t.distance_sq(q.p[k]) > ((q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_)) return false;
+    return true;
+  }
+
+  // Covers `piece` by faces of tris, splitting it where no single face
+  // covers it, and calls place(k, part) for every covered part (k: the first
+  // covering face, `hint` tried first; with `best`, the one with the smallest
+  // largest corner distance). A face covers a part if each corner is within
+  // its bound of it (original vertices: max_error; other corners: max_error +
+  // kDecimateSurfaceSlack). Returns false (the collapse is illegal) if a part
+  // no face covers has a corner farther than its bound from every face, or is
+  // small (longest side <= kDecimateSurfaceSlack, at most one original corner
+  // v): were every point within max_error, the face nearest to v would cover
+  // it (its corners are within max_error + that side of the face). Whether a
+  // part is split or rejected does not depend on hint and best, so placing
+  // (best) makes the same splits as testing; there a rejected part
+  // (unreachable) goes to the nearest face, not lost.
+  template <class Place>
+  bool cover(const Piece& piece, const std::vector<PreparedTriangle>& tris, int hint, bool best, Place&& place) {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    const double smallest2 = kDecimateSurfaceSlack * kDecimateSurfaceSlack;
+    const std::size_t n = tris.size();
+    stack_.assign(1, piece);
+    while (!stack_.empty()) {
+      const Piece q = stack_.back();
+      stack_.pop_back();
+      std::array<double, 3> bound{};
+      for (std::size_t k = 0; k < 3; ++k) bound[k] = (q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_;
+      unsigned reached = 0;   // bit k: corner k is within its bound of some face
+      tested_.assign(n, 0u);  // bit k of tested_[j]: corner k measured against face j
+      auto covers = [&](std::size_t j, double& worst) {
+        worst = 0;
+        for (std::size_t k = 0; k < 3; ++k) {
+          const double d = tris[j].distance_sq(q.p[k]);
+          tested_[j] |= 1u << k;
+          if (d > bound[k]) return false;
+          reached |= 1u << k;
+          worst = std::max(worst, d);
+        }
+        return true;
+      };
+      std::size_t chosen = n;
+      double chosen_d = kInf, d = 0;
+      if (hint >= 0 && !best && covers(std::size_t(hint), d)) chosen = std::size_t(hint);
+      for (std::size_t j = 0; j < n && (best || chosen == n); ++j)
+        if (tested_[j] == 0 && covers(j, d) && d < chosen_d) chosen_d = d, chosen = j;
+      if (chosen < n) {
+        place(chosen, q);
+        continue;
+      }
+      bool rejected = false;
+      for (std::size_t k = 0; k < 3 && !rejected; ++k) {
+        if (reached >> k & 1u) continue;
+        rejected = true;
+        for (std::size_t j = 0; j < n && rejected; ++j)
+          if (!(tested_[j] >> k & 1u) && tris[j].distance_sq(q.p[k]) <= bound[k]) rejected = false;
+      }
+      const double side2 =
+          std::max({(q.p[1] - q.p[0]).squaredNorm(), (q.p[2] - q.p[1]).squaredNorm(), (q.p[0] - q.p[2]).squaredNorm()});
+      if (rejected || (side2 <= smallest2 && std::popcount(unsigned(q.original)) <= 1) || q.depth == kMaxPieceDepth) {
+        if (!best) return false;
+        std::size_t nearest = 0;  // unreachable when placing: keep the part
+        double nearest_d = kInf;
+        for (std::size_t j = 0; j < n; ++j) {
+          double dj = 0;
+          for (const Vec3d& p : q.p) dj = std::max(dj, tris[j].distance_sq(p));
+          if (dj < nearest_d) nearest_d = dj, nearest = j;
+        }
+        place(nearest, q);
+        continue;
+      }
+      for (const Piece& child : split(q)) stack_.push_back(child);
+    }
+    return true;
+  }
+
+ private:
+  double vertex_tol2_, surface_tol2_;
+  std::vector<Piece> stack_;
+  std::vector<unsigned> tested_;
+};
+
+// Area-weighted plane quadric (Garland & Heckbert 1997): Q(p) is the sum over
+// planes of area * (n.p + d)^2; 10 coefficients of the symmetric 4x4 matrix.
+struct Quadric {
+  double a11 = 0, a12 = 0, a13 = 0, a14 = 0, a22 = 0, a23 = 0, a24 = 0, a33 = 0, a34 = 0, a44 = 0;
+  static Quadric plane(const Vec3d& n, double d, double weight) {
+    return {weight * n.x() * n.x(), weight * n.x() * n.y(), weight * n.x() * n.z(), weight * n.x() * d,
+            weight * n.y() * n.y(), weight * n.y() * n.z(), weight * n.y() * d,     weight * n.z() * n.z(),
+            weight * n.z() * d,     weight * d * d};
+  }
+  Quadric& operator+=(const Quadric& o) {
+    a11 += o.a11, a12 += o.a12, a13 += o.a13, a14 += o.a14, a22 += o.a22;
+    a23 += o.a23, a24 += o.a24, a33 += o.a33, a34 += o.a34, a44 += o.a44;
+    return *this;
+  }
+  [[nodiscard]] double operator()(const Vec3d& p) const {
+    const double x = p.x(), y = p.y(), z = p.z();
+    return x * (a11 * x + 2 * (a12 * y + a13 * z + a14)) + y * (a22 * y + 2 * (a23 * z + a24)) +
+           z * (a33 * z + 2 * a34) + a44;
+  }
+};
+
+/// Checks params and the mesh's indices (decimate.h \throw); shared by both decimators.
+void validate_decimate_input(const TriMesh& mesh, const DecimateParams& params);
+
+}  // namespace isoloft::detail
