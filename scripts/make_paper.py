@@ -99,8 +99,8 @@ def main():
 
     s.append("\n## Table 3: time per stage (seconds)\n")
     s.append("Median of %d runs per row, %d threads, Release build. MPU includes turning contour pixels into points "
-             "and normals; Mesh is Marching Cubes; decimation (OpenMesh, %.2f px error) is timed once per dataset in "
-             "its own column, because it alone costs more than all other stages together. The paper's totals are on "
+             "and normals; Mesh is Marching Cubes; decimation (bounded quadric, %.2f px error, mesh/decimate.h) is timed "
+             "once per dataset in its own column, because it alone costs more than all other stages together. The paper's totals are on "
              "a 2 GHz PowerPC G5; the speed-up compares them with our total including decimation.\n\n" % (
                  tables["repeats"], threads, tables["decimate_error_px"]))
     s.append(table(a.out, "table3"))

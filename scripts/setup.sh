@@ -5,7 +5,7 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 PACKAGES=(build-essential cmake git pkg-config time
   libcgal-dev libeigen3-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev
-  libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev libmeshoptimizer-dev libbenchmark-dev)
+  libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev libbenchmark-dev)
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.
 read -r -a extra <<< "${ISOLOFT_EXTRA_PACKAGES:-}"
 PACKAGES+=("${extra[@]}")
