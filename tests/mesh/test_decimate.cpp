@@ -313,6 +313,28 @@ TEST(Decimate, OpenSurfaceStaysManifold) {
       << "point (" << s.point.transpose() << ") of original triangle " << s.triangle;
 }
 
+// A mesh flat in z cannot be cut into z slabs: it is decimated whole.
+TEST(Decimate, FlatMeshInSlabsIsDecimatedWhole) {
+  constexpr int kSide = 12;  // vertices per side of a planar grid at z = 0
+  TriMesh grid;
+  for (int j = 0; j < kSide; ++j)
+    for (int i = 0; i < kSide; ++i) grid.vertices.emplace_back(float(i), float(j), 0.0f);
+  for (int j = 0; j + 1 < kSide; ++j)
+    for (int i = 0; i + 1 < kSide; ++i) {
+      const std::int32_t a = j * kSide + i, b = a + 1, c = a + kSide, d = c + 1;
+      grid.triangles.push_back({a, b, d});
+      grid.triangles.push_back({a, d, c});
+    }
+  const MeshCheck before = check_mesh(grid);
+  TriMesh mesh = grid;
+  const DecimateResult r = detail::decimate_in_slabs(mesh, {0.1}, 4);
+  EXPECT_LT(r.triangles_after, r.triangles_before);
+  const MeshCheck after = check_mesh(mesh);
+  EXPECT_TRUE(after.manifold && after.oriented);
+  EXPECT_EQ(after.euler, before.euler);
+  EXPECT_EQ(after.boundary_edges, before.boundary_edges);  // boundary vertices are never moved
+}
+
 TEST(Decimate, RejectsBadParametersAndMeshes) {
   TriMesh mesh = sphere_mesh(3.1, Vec3d(4.2, 4.1, 3.9), 9);
   EXPECT_THROW(decimate(mesh, {-0.1}), ParamError);

@@ -121,9 +121,10 @@ class FastDecimator {
     std::iota(all.begin(), all.end(), 0);
     for (auto& s : state_)
       if (!(s & kFixed)) s |= kDirty;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Vec3d& p : pos_) lo = std::min(lo, p.z()), hi = std::max(hi, p.z());
+    if (!(hi > lo)) slabs = 1;  // flat in z (or no vertices): nothing to cut
     if (slabs > 1) {
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      for (const Vec3d& p : pos_) lo = std::min(lo, p.z()), hi = std::max(hi, p.z());
       std::vector<std::uint8_t> slab(pos_.size());
       for (std::size_t v = 0; v < pos_.size(); ++v)
         slab[v] = std::uint8_t(std::min<double>(double(slabs) - 1, std::floor((pos_[v].z() - lo) / (hi - lo) * double(slabs))));
