@@ -426,30 +426,33 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
     std::vector<double> z(n);
     for (std::size_t k = 0; k < n; ++k) z[k] = stack.slices[k].z;
     add_end_caps(fields, z, params.interp);
-    const ZInterpolator interp(std::move(fields), z, params.interp.spline);
-    const std::vector<double> planes = detail::sample_planes(z.front(), z.back(), params.interp.z_step);
-    result.times.interp += seconds_since(t0);
+    {  // the slices, their tangents and the Marching Cubes state are freed before decimation
+      const ZInterpolator interp(std::move(fields), z, params.interp.spline);
+      const std::vector<double> planes = detail::sample_planes(z.front(), z.back(), params.interp.z_step);
+      result.times.interp += seconds_since(t0);
 
-    MarchingCubes mc(obj.box.width() + 2, obj.box.height() + 2, obj.box.x0 - 1.0, obj.box.y0 - 1.0, params.mc);
-    Grid2f plane;
-    const float outside = -float(params.interp.cap_depth);
-    double t_interp = 0, t_mesh = 0;
-    for (std::size_t j = 0; j < planes.size(); ++j) {
+      MarchingCubes mc(obj.box.width() + 2, obj.box.height() + 2, obj.box.x0 - 1.0, obj.box.y0 - 1.0, params.mc);
+      Grid2f plane;
+      const float outside = -float(params.interp.cap_depth);
+      double t_interp = 0, t_mesh = 0;
+      for (std::size_t j = 0; j < planes.size(); ++j) {
+        auto ta = Clock::now();
+        interp.evaluate(planes[j], plane);
+        Grid2f padded = pad(plane, outside);
+        t_interp += seconds_since(ta);
+        if (options.on_plane)
+          options.on_plane(label, padded, obj.box.x0 - 1.0, obj.box.y0 - 1.0, planes[j], int(j), int(planes.size()));
+        ta = Clock::now();
+        mc.add_plane(padded, planes[j]);
+        t_mesh += seconds_since(ta);
+        report("interpolate+mesh", long(j + 1), long(planes.size()));
+      }
       auto ta = Clock::now();
-      interp.evaluate(planes[j], plane);
-      Grid2f padded = pad(plane, outside);
-      t_interp += seconds_since(ta);
-      if (options.on_plane) options.on_plane(label, padded, obj.box.x0 - 1.0, obj.box.y0 - 1.0, planes[j], int(j), int(planes.size()));
-      ta = Clock::now();
-      mc.add_plane(padded, planes[j]);
+      obj.mesh = mc.finish();
       t_mesh += seconds_since(ta);
-      report("interpolate+mesh", long(j + 1), long(planes.size()));
+      result.times.interp += t_interp;
+      result.times.mesh += t_mesh;
     }
-    auto ta = Clock::now();
-    obj.mesh = mc.finish();
-    t_mesh += seconds_since(ta);
-    result.times.interp += t_interp;
-    result.times.mesh += t_mesh;
 
     // Stage: quadric error decimation (paper 2.5).
     t0 = Clock::now();

@@ -360,6 +360,7 @@ DecimateResult detail::decimate_in_slabs(TriMesh& mesh, const DecimateParams& pa
   const long before = long(mesh.triangles.size());
   if (params.max_error == 0 || before == 0) return {before, before};
   FastDecimator d(mesh, params);
+  mesh = {};  // d holds its own copy: free this one while decimating
   d.run(std::max<std::size_t>(slabs, 1));
   mesh = d.result();
   return {before, long(mesh.triangles.size())};
