@@ -40,10 +40,12 @@
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/io/atomic_file.h"
+#include "experiment_util.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/synth/synth.h"
 
 using namespace isoloft;
+using isoloft::experiments::median;
 
 namespace {
 
@@ -143,11 +145,6 @@ SynthResult make_stack(const Scale& sc) {
   if (int(r.stack.slices.size()) != sc.slices)
     throw Error("bench: synthesized " + std::to_string(r.stack.slices.size()) + " slices, wanted " + std::to_string(sc.slices));
   return r;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 double max_rss_mib() {

@@ -1,6 +1,7 @@
 // Small helpers shared by the experiment programs.
 #pragma once
 
+#include <algorithm>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,6 +15,12 @@ inline std::vector<std::string> split(const std::string& s) {
   std::string item;
   while (std::getline(ss, item, ',')) v.push_back(item);
   return v;
+}
+
+/// Median of repeated timings (0 for none).
+inline double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 }  // namespace isoloft::experiments

@@ -11,17 +11,12 @@
 #include <fstream>
 #include <iostream>
 
+#include "experiment_util.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/synth/synth.h"
 
 using namespace isoloft;
-
-namespace {
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
-}  // namespace
+using isoloft::experiments::median;
 
 int main(int argc, char** argv) {
   std::string shape = "branching-cylinders", out;

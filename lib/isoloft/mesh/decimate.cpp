@@ -69,13 +69,14 @@ struct Candidate {
 struct Scratch {
   explicit Scratch(double tolerance) : cover(tolerance) {}
   PieceCover cover;
-  unsigned stamp = 0;  // marks in mark_/mark_face_ equal to it are this collapse's
+  unsigned stamp = 0;  // marks in mark_ equal to it are this collapse's
   std::vector<Candidate> candidates, sorted;
   std::vector<std::uint32_t> count;
   std::vector<PreparedTriangle> tris;
   std::vector<std::int32_t> kept, own;
-  std::vector<std::pair<std::int32_t, Piece>> placed;             // (face, part)
+  std::vector<std::pair<std::int32_t, Piece>> placed;             // (index in kept, part)
   std::vector<std::pair<std::int32_t, std::uint32_t>> leaving;    // (index in kept, index in its pieces)
+  std::vector<char> deep;                                         // per kept face: received a split piece
   std::vector<Piece> pieces;
 };
 
@@ -102,7 +103,6 @@ class FastDecimator {
 
     quad_.assign(nv, Quadric{});
     pieces_.resize(nf);
-    mark_face_.assign(nf, 0);
     for (std::size_t f = 0; f < nf; ++f) {
       const auto& t = tri_[f];
       const Vec3d &a = pos_[std::size_t(t[0])], &b = pos_[std::size_t(t[1])], &c = pos_[std::size_t(t[2])];
@@ -140,8 +140,7 @@ class FastDecimator {
       // The seams: former border vertices are candidates again.
       for (auto& s : state_)
         if (s & kBorder) s = std::uint8_t((s & ~kBorder) | kDirty);
-      std::fill(mark_.begin(), mark_.end(), 0u);
-      std::fill(mark_face_.begin(), mark_face_.end(), 0u);
+      std::fill(mark_.begin(), mark_.end(), 0u);  // the seams' Scratch counts its stamps from 0 again
     }
     Scratch scratch(tolerance_);
     rounds(scratch, all);
@@ -292,7 +291,7 @@ class FastDecimator {
     // faces, split) that covers them, to be moved there if legal.
     s.placed.clear();
     s.leaving.clear();
-    auto record = [&](std::size_t k, const Piece& q) { s.placed.emplace_back(s.kept[k], q); };
+    auto record = [&](std::size_t k, const Piece& q) { s.placed.emplace_back(std::int32_t(k), q); };
     for (std::size_t i = 0; i < around.size(); ++i) {
       const auto& held = pieces_[std::size_t(around[i])];
       const int own = s.own[i];
@@ -313,13 +312,13 @@ class FastDecimator {
       held[it->second] = held.back();
       held.pop_back();
     }
-    ++s.stamp;
-    for (const auto& [f, q] : s.placed) {
-      pieces_[std::size_t(f)].push_back(q);
-      if (q.depth > 0) mark_face_[std::size_t(f)] = s.stamp;
+    s.deep.assign(s.kept.size(), 0);
+    for (const auto& [k, q] : s.placed) {
+      pieces_[std::size_t(s.kept[std::size_t(k)])].push_back(q);
+      s.deep[std::size_t(k)] |= q.depth > 0;
     }
-    for (std::int32_t f : s.kept)
-      if (mark_face_[std::size_t(f)] == s.stamp) coarsen(pieces_[std::size_t(f)], s.pieces);
+    for (std::size_t k = 0; k < s.kept.size(); ++k)
+      if (s.deep[k]) coarsen(pieces_[std::size_t(s.kept[k])], s.pieces);
 
     // Connectivity.
     for (std::int32_t f : {fl, fr}) {
@@ -347,7 +346,7 @@ class FastDecimator {
   std::vector<std::vector<std::int32_t>> faces_of_;
   std::vector<Quadric> quad_;
   std::vector<std::uint8_t> state_;
-  std::vector<unsigned> mark_, mark_face_;  // == Scratch::stamp: marked in the current collapse
+  std::vector<unsigned> mark_;  // == Scratch::stamp: marked in the current collapse
   std::vector<std::vector<Piece>> pieces_;  // held by each face
   double tolerance_, cos_max_;
 };

@@ -26,7 +26,7 @@
 // wait for the next round. Large meshes run first in z slabs concurrently
 // (vertices next to another slab held), then the seams: the slab count
 // depends on the mesh alone, so the output is the same for any thread count. detail::decimate_openmesh() is the strictly
-// greedy reference on OpenMesh's Decimater (one heap), ~15x slower, kept as
+// greedy reference on OpenMesh's Decimater (one heap), 3-6x slower, kept as
 // the test oracle: both obey the same bound and topology rules.
 // Boundary vertices (open input) and vertices whose faces do not form one
 // fan are never moved nor collapsed into in the fast path.

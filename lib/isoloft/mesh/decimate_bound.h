@@ -79,7 +79,7 @@ inline std::array<Piece, 4> split(const Piece& q) {
 // Replaces every complete set of four sibling pieces by their parent, bottom
 // up, so that splits made for creases that are gone are undone (the parent's
 // corners are corners of its children 0-2, bit for bit). Whole triangles
-// (depth 0, nearly all pieces) cannot merge: only the others are sorted.
+// (depth 0, most pieces) cannot merge: only the others are sorted.
 inline void coarsen(std::vector<Piece>& pieces, std::vector<Piece>& scratch) {
   auto order = [](const Piece& a, const Piece& b) {
     return std::tie(a.triangle, a.depth, a.path) < std::tie(b.triangle, b.depth, b.path);
