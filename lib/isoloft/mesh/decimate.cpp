@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "isoloft/core/error.h"
@@ -74,10 +75,8 @@ struct Scratch {
   std::vector<std::uint32_t> count;
   std::vector<PreparedTriangle> tris;
   std::vector<std::int32_t> kept, own;
-  std::vector<std::pair<std::int32_t, Piece>> placed;             // (index in kept, part)
+  std::vector<std::pair<std::int32_t, PieceKey>> placed;          // (index in kept, part)
   std::vector<std::pair<std::int32_t, std::uint32_t>> leaving;    // (index in kept, index in its pieces)
-  std::vector<char> deep;                                         // per kept face: received a split piece
-  std::vector<Piece> pieces;
 };
 
 class FastDecimator {
@@ -88,6 +87,7 @@ class FastDecimator {
     pos_.reserve(nv);
     for (const Vec3f& p : mesh.vertices) pos_.emplace_back(p.cast<double>());
     tri_ = mesh.triangles;
+    original_ = mesh.triangles;
     faces_of_.resize(nv);
     {
       std::vector<std::uint32_t> valence(nv, 0);
@@ -101,47 +101,35 @@ class FastDecimator {
     mark_.assign(nv, 0);
     for (std::size_t v = 0; v < nv; ++v) classify(std::int32_t(v));
 
+    // Each vertex sums the quadrics of its faces in face order (the same
+    // bits for any thread count).
     quad_.assign(nv, Quadric{});
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t v = r.begin(); v < r.end(); ++v)
+        for (std::int32_t f : faces_of_[v]) {
+          const auto& t = tri_[std::size_t(f)];
+          const Vec3d &a = pos_[std::size_t(t[0])], &b = pos_[std::size_t(t[1])], &c = pos_[std::size_t(t[2])];
+          Vec3d n = (b - a).cross(c - a);
+          const double twice_area = n.norm();
+          if (twice_area <= 0) continue;  // no plane; contributes nothing
+          n /= twice_area;
+          quad_[v] += Quadric::plane(n, -a.dot(n), 0.5 * twice_area);
+        }
+    });
     pieces_.resize(nf);
-    for (std::size_t f = 0; f < nf; ++f) {
-      const auto& t = tri_[f];
-      const Vec3d &a = pos_[std::size_t(t[0])], &b = pos_[std::size_t(t[1])], &c = pos_[std::size_t(t[2])];
-      pieces_[f].assign(1, Piece{{a, b, c}, std::uint32_t(f), 7u, 0u, 0u});
-      Vec3d n = (b - a).cross(c - a);
-      const double twice_area = n.norm();
-      if (twice_area <= 0) continue;  // no plane; contributes nothing
-      n /= twice_area;
-      const Quadric q = Quadric::plane(n, -a.dot(n), 0.5 * twice_area);
-      for (std::int32_t v : t) quad_[std::size_t(v)] += q;
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t f = r.begin(); f < r.end(); ++f) pieces_[f].assign(1, PieceKey{0u, std::uint32_t(f), 7u, 0u});
+    });
   }
 
   void run(std::size_t slabs) {
-    std::vector<std::int32_t> all(state_.size());
-    std::iota(all.begin(), all.end(), 0);
     for (auto& s : state_)
       if (!(s & kFixed)) s |= kDirty;
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const Vec3d& p : pos_) lo = std::min(lo, p.z()), hi = std::max(hi, p.z());
-    if (!(hi > lo)) slabs = 1;  // flat in z (or no vertices): nothing to cut
-    if (slabs > 1) {
-      std::vector<std::uint8_t> slab(pos_.size());
-      for (std::size_t v = 0; v < pos_.size(); ++v)
-        slab[v] = std::uint8_t(std::min<double>(double(slabs) - 1, std::floor((pos_[v].z() - lo) / (hi - lo) * double(slabs))));
-      for (const auto& t : tri_)
-        if (slab[std::size_t(t[0])] != slab[std::size_t(t[1])] || slab[std::size_t(t[1])] != slab[std::size_t(t[2])])
-          for (std::int32_t v : t) state_[std::size_t(v)] |= kBorder;
-      std::vector<std::vector<std::int32_t>> members(slabs);
-      for (std::int32_t v : all) members[slab[std::size_t(v)]].push_back(v);
-      tbb::parallel_for(std::size_t(0), slabs, [&](std::size_t k) {
-        Scratch scratch(tolerance_);
-        rounds(scratch, members[k]);
-      });
-      // The seams: former border vertices are candidates again.
-      for (auto& s : state_)
-        if (s & kBorder) s = std::uint8_t((s & ~kBorder) | kDirty);
-      std::fill(mark_.begin(), mark_.end(), 0u);  // the seams' Scratch counts its stamps from 0 again
-    }
+    if (slabs > 1 && hi > lo) in_slabs(slabs, lo, hi);  // not flat in z (nor empty): there is something to cut
+    std::vector<std::int32_t> all(state_.size());
+    std::iota(all.begin(), all.end(), 0);
     Scratch scratch(tolerance_);
     rounds(scratch, all);
   }
@@ -160,6 +148,27 @@ class FastDecimator {
   }
 
  private:
+  // Rounds over `count` z slabs concurrently (slab k: vertices with z in the
+  // k-th of `count` equal parts of [lo, hi]); the vertices of faces that span
+  // two slabs are held, then set free for the seams.
+  void in_slabs(std::size_t count, double lo, double hi) {
+    std::vector<std::uint8_t> slab(pos_.size());
+    for (std::size_t v = 0; v < pos_.size(); ++v)
+      slab[v] = std::uint8_t(std::min(double(count) - 1, std::floor((pos_[v].z() - lo) / (hi - lo) * double(count))));
+    for (const auto& t : tri_)
+      if (slab[std::size_t(t[0])] != slab[std::size_t(t[1])] || slab[std::size_t(t[1])] != slab[std::size_t(t[2])])
+        for (std::int32_t v : t) state_[std::size_t(v)] |= kBorder;
+    std::vector<std::vector<std::int32_t>> members(count);
+    for (std::size_t v = 0; v < pos_.size(); ++v) members[slab[v]].push_back(std::int32_t(v));
+    tbb::parallel_for(std::size_t(0), count, [&](std::size_t k) {
+      Scratch scratch(tolerance_);
+      rounds(scratch, members[k]);
+    });
+    for (auto& s : state_)  // held vertices are candidates again
+      if (s & kBorder) s = std::uint8_t((s & ~kBorder) | kDirty);
+    std::fill(mark_.begin(), mark_.end(), 0u);  // the next Scratch counts its stamps from 0 again
+  }
+
   // Rounds of collapses among `verts` until none is legal: each round lists
   // the edges of the vertices whose neighbourhood changed, orders them by
   // quadric error and makes every legal one.
@@ -291,34 +300,57 @@ class FastDecimator {
     // faces, split) that covers them, to be moved there if legal.
     s.placed.clear();
     s.leaving.clear();
-    auto record = [&](std::size_t k, const Piece& q) { s.placed.emplace_back(std::int32_t(k), q); };
+    auto record = [&](std::size_t k, const Piece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
     for (std::size_t i = 0; i < around.size(); ++i) {
       const auto& held = pieces_[std::size_t(around[i])];
       const int own = s.own[i];
       for (std::size_t j = 0; j < held.size(); ++j) {
-        if (own >= 0 && s.cover.covered_by(s.tris[std::size_t(own)], held[j])) continue;
-        if (!s.cover.cover(held[j], s.tris, own, false, record)) return false;
+        const auto& t = original_[held[j].triangle];
+        const Piece q = expand(held[j], pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
+        if (own >= 0 && s.cover.covered_by(s.tris[std::size_t(own)], q)) continue;
+        if (!s.cover.cover(q, s.tris, own, false, record)) return false;
         if (own >= 0) s.leaving.emplace_back(own, std::uint32_t(j));
       }
     }
 
-    // Legal: move the pieces that leave. Complete sets of four siblings held
-    // by one face merge back into their parent (covered by that face too:
-    // its corners are corners of the siblings), undoing splits for creases
-    // that are gone.
-    for (std::int32_t f : {fl, fr}) std::vector<Piece>().swap(pieces_[std::size_t(f)]);  // gone for good: free
-    for (auto it = s.leaving.rbegin(); it != s.leaving.rend(); ++it) {  // back to front: indices stay valid
-      auto& held = pieces_[std::size_t(s.kept[std::size_t(it->first)])];
-      held[it->second] = held.back();
-      held.pop_back();
+    // Legal: move the pieces that leave. Each face's pieces stay in
+    // pre-order, so complete sets of four siblings held by one face merge
+    // back into their parent in one pass (covered by that face too: its
+    // corners are corners of the siblings), undoing splits for creases that
+    // are gone.
+    for (std::int32_t f : {fl, fr}) std::vector<PieceKey>().swap(pieces_[std::size_t(f)]);  // gone for good: free
+    for (std::size_t i = 0; i < s.leaving.size();) {  // per face, ascending: compact in order
+      const std::int32_t k = s.leaving[i].first;
+      auto& held = pieces_[std::size_t(s.kept[std::size_t(k)])];
+      std::size_t w = s.leaving[i].second;
+      for (std::size_t r = w; r < held.size(); ++r)
+        if (i < s.leaving.size() && s.leaving[i].first == k && s.leaving[i].second == r)
+          ++i;
+        else
+          held[w++] = held[r];
+      held.resize(w);
     }
-    s.deep.assign(s.kept.size(), 0);
-    for (const auto& [k, q] : s.placed) {
-      pieces_[std::size_t(s.kept[std::size_t(k)])].push_back(q);
-      s.deep[std::size_t(k)] |= q.depth > 0;
+    std::sort(s.placed.begin(), s.placed.end(), [](const auto& x, const auto& y) {
+      return x.first != y.first ? x.first < y.first : preorder_less(x.second, y.second);
+    });
+    for (std::size_t i = 0; i < s.placed.size();) {  // per face: merge into its pieces from the back
+      const std::int32_t k = s.placed[i].first;
+      std::size_t end = i;
+      bool deep = false;
+      for (; end < s.placed.size() && s.placed[end].first == k; ++end) deep |= s.placed[end].second.depth > 0;
+      auto& held = pieces_[std::size_t(s.kept[std::size_t(k)])];
+      std::size_t old = held.size(), w = old + (end - i);
+      held.resize(w);
+      for (std::size_t j = end; j > i;) {
+        const PieceKey& q = s.placed[j - 1].second;
+        if (old > 0 && preorder_less(q, held[old - 1]))
+          held[--w] = held[--old];
+        else
+          held[--w] = q, --j;
+      }
+      if (deep) merge_complete_siblings(held, w);  // held[w] is the first arrival
+      i = end;
     }
-    for (std::size_t k = 0; k < s.kept.size(); ++k)
-      if (s.deep[k]) coarsen(pieces_[std::size_t(s.kept[k])], s.pieces);
 
     // Connectivity.
     for (std::int32_t f : {fl, fr}) {
@@ -347,7 +379,8 @@ class FastDecimator {
   std::vector<Quadric> quad_;
   std::vector<std::uint8_t> state_;
   std::vector<unsigned> mark_;  // == Scratch::stamp: marked in the current collapse
-  std::vector<std::vector<Piece>> pieces_;  // held by each face
+  std::vector<std::array<std::int32_t, 3>> original_;  // the input triangles: corners of the pieces
+  std::vector<std::vector<PieceKey>> pieces_;  // held by each face
   double tolerance_, cos_max_;
 };
 

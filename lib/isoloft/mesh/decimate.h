@@ -23,11 +23,15 @@
 // over the collapse candidates of the vertices whose neighbourhood changed,
 // each round in increasing quadric error (bucketed to ~1 %), every candidate
 // tested exactly and made at once if legal; vertices touched by a collapse
-// wait for the next round. Large meshes run first in z slabs concurrently
-// (vertices next to another slab held), then the seams: the slab count
-// depends on the mesh alone, so the output is the same for any thread count. detail::decimate_openmesh() is the strictly
-// greedy reference on OpenMesh's Decimater (one heap), 3-6x slower, kept as
-// the test oracle: both obey the same bound and topology rules.
+// wait for the next round. Pieces are stored as 16-byte keys (triangle,
+// subdivision path; corners recomputed bit for bit when tested), each face's
+// in pre-order, so sibling pieces merge back in one linear pass. Large
+// meshes run first in z slabs concurrently (vertices next to another slab
+// held), then the seams: the slab count depends on the mesh alone, so the
+// output is the same for any thread count. detail::decimate_openmesh() is
+// the strictly greedy reference on OpenMesh's Decimater (one heap), ~7x
+// slower on 0.58 M triangles (27.5 s vs 3.9 s, 2 threads), kept as the test
+// oracle: both obey the same bound and topology rules.
 // Boundary vertices (open input) and vertices whose faces do not form one
 // fan are never moved nor collapsed into in the fast path.
 // Collapses move no vertex: the output vertices are a subset of the input's.

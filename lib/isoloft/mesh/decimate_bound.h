@@ -65,53 +65,90 @@ struct Piece {
 };
 inline constexpr int kMaxPieceDepth = 31;  // 2 bits per level in Piece::path
 
-// The four pieces of q's midpoint subdivision (child k keeps corner k).
-inline std::array<Piece, 4> split(const Piece& q) {
+// Child k of q's midpoint subdivision (child k < 3 keeps corner k; child 3
+// is the middle one).
+inline Piece child(const Piece& q, unsigned k) {
   const Vec3d m01 = 0.5 * (q.p[0] + q.p[1]), m12 = 0.5 * (q.p[1] + q.p[2]), m20 = 0.5 * (q.p[2] + q.p[0]);
   const std::uint8_t d = q.depth + 1;
-  const std::uint64_t path = q.path << 2;
-  return {Piece{{q.p[0], m01, m20}, q.triangle, std::uint8_t(q.original & 1u), d, path},
-          Piece{{m01, q.p[1], m12}, q.triangle, std::uint8_t(q.original & 2u), d, path | 1u},
-          Piece{{m20, m12, q.p[2]}, q.triangle, std::uint8_t(q.original & 4u), d, path | 2u},
-          Piece{{m01, m12, m20}, q.triangle, 0u, d, path | 3u}};
+  const std::uint64_t path = q.path << 2 | k;
+  switch (k) {
+    case 0: return Piece{{q.p[0], m01, m20}, q.triangle, std::uint8_t(q.original & 1u), d, path};
+    case 1: return Piece{{m01, q.p[1], m12}, q.triangle, std::uint8_t(q.original & 2u), d, path};
+    case 2: return Piece{{m20, m12, q.p[2]}, q.triangle, std::uint8_t(q.original & 4u), d, path};
+    default: return Piece{{m01, m12, m20}, q.triangle, 0u, d, path};
+  }
+}
+
+// The four pieces of q's midpoint subdivision.
+inline std::array<Piece, 4> split(const Piece& q) { return {child(q, 0), child(q, 1), child(q, 2), child(q, 3)}; }
+
+// A piece without its corners (16 bytes instead of 88): the corners follow
+// bit for bit from the original triangle's corners and the path (expand()).
+// The fast decimator stores these; a jawbone-scale mesh holds ~1 M pieces.
+struct PieceKey {
+  std::uint64_t path = 0;
+  std::uint32_t triangle = 0;
+  std::uint8_t original = 0;
+  std::uint8_t depth = 0;
+};
+
+inline PieceKey key_of(const Piece& q) { return {q.path, q.triangle, q.original, q.depth}; }
+
+// The piece `key` names, of the original triangle (a, b, c).
+inline Piece expand(const PieceKey& key, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  Piece q{{a, b, c}, key.triangle, 7u, 0u, 0u};
+  for (int level = int(key.depth) - 1; level >= 0; --level) q = child(q, unsigned(key.path >> (2 * level)) & 3u);
+  return q;
+}
+
+// The parent of the siblings a (child 0), b (child 1) and c (child 2): its
+// corners are a.p[0], b.p[1], c.p[2].
+inline Piece parent_of(const Piece& a, const Piece& b, const Piece& c) {
+  return Piece{{a.p[0], b.p[1], c.p[2]}, a.triangle, std::uint8_t(a.original | b.original | c.original),
+               std::uint8_t(a.depth - 1), a.path >> 2};
+}
+inline PieceKey parent_of(const PieceKey& a, const PieceKey& b, const PieceKey& c) {
+  return PieceKey{a.path >> 2, a.triangle, std::uint8_t(a.original | b.original | c.original), std::uint8_t(a.depth - 1)};
+}
+
+// Pre-order of the pieces of one face: by triangle, then by the subdivision
+// path read from the top. A piece's children come right after where it
+// would be, and four siblings are adjacent once nothing below them is left.
+template <class P>  // Piece or PieceKey
+[[nodiscard]] bool preorder_less(const P& a, const P& b) {
+  auto top_down = [](const P& q) { return q.path << (2 * (kMaxPieceDepth - q.depth)); };
+  return a.triangle != b.triangle ? a.triangle < b.triangle : top_down(a) < top_down(b);
 }
 
 // Replaces every complete set of four sibling pieces by their parent, bottom
 // up, so that splits made for creases that are gone are undone (the parent's
-// corners are corners of its children 0-2, bit for bit). Whole triangles
-// (depth 0, most pieces) cannot merge: only the others are sorted.
-inline void coarsen(std::vector<Piece>& pieces, std::vector<Piece>& scratch) {
-  auto order = [](const Piece& a, const Piece& b) {
-    return std::tie(a.triangle, a.depth, a.path) < std::tie(b.triangle, b.depth, b.path);
-  };
-  const auto deep = std::partition(pieces.begin(), pieces.end(), [](const Piece& q) { return q.depth == 0; });
-  const std::size_t first = std::size_t(deep - pieces.begin());
-  for (bool merged = first + 4 <= pieces.size(); merged;) {
-    merged = false;
-    std::sort(pieces.begin() + std::ptrdiff_t(first), pieces.end(), order);
-    scratch.clear();
-    for (std::size_t i = first; i < pieces.size();) {
-      const Piece& a = pieces[i];
-      auto sibling = [&](std::size_t k) {
-        const Piece& b = pieces[i + k];
-        return b.triangle == a.triangle && b.depth == a.depth && b.path == (a.path | k);
+// corners are corners of its children 0-2, bit for bit). \pre `pieces` is in
+// pre-order (preorder_less), and no set is complete before `from`; it stays
+// so. One pass: a parent made here can only complete a set with the three
+// pieces before it.
+template <class P>
+void merge_complete_siblings(std::vector<P>& pieces, std::size_t from = 0) {  // pieces before `from`: done
+  std::size_t w = from;
+  for (std::size_t r = from; r < pieces.size(); ++r) {
+    pieces[w++] = pieces[r];
+    while (w >= 4) {
+      const P &a = pieces[w - 4], &b = pieces[w - 3], &c = pieces[w - 2], &d = pieces[w - 1];
+      auto sibling = [&](const P& q, std::uint64_t k) {
+        return q.triangle == d.triangle && q.depth == d.depth && q.path == ((d.path & ~std::uint64_t(3)) | k);
       };
-      if (a.depth > 0 && (a.path & 3u) == 0 && i + 3 < pieces.size() && sibling(1) && sibling(2) && sibling(3)) {
-        scratch.push_back(Piece{{a.p[0], pieces[i + 1].p[1], pieces[i + 2].p[2]},
-                                a.triangle,
-                                std::uint8_t(a.original | pieces[i + 1].original | pieces[i + 2].original),
-                                std::uint8_t(a.depth - 1),
-                                a.path >> 2});
-        i += 4;
-        merged = true;
-      } else {
-        scratch.push_back(a);
-        ++i;
-      }
+      if (d.depth == 0 || (d.path & 3u) != 3u || !sibling(a, 0) || !sibling(b, 1) || !sibling(c, 2)) break;
+      pieces[w - 4] = parent_of(a, b, c);
+      w -= 3;
     }
-    pieces.resize(first);
-    pieces.insert(pieces.end(), scratch.begin(), scratch.end());
   }
+  pieces.resize(w);
+}
+
+// merge_complete_siblings() on pieces in any order (the reference decimator).
+template <class P>
+void coarsen(std::vector<P>& pieces) {
+  std::sort(pieces.begin(), pieces.end(), preorder_less<P>);
+  merge_complete_siblings(pieces);
 }
 
 // Covers pieces by a set of candidate faces (the faces a collapse changes, in
@@ -196,7 +233,7 @@ class PieceCover {
         place(nearest, q);
         continue;
       }
-      for (const Piece& child : split(q)) stack_.push_back(child);
+      for (const Piece& part : split(q)) stack_.push_back(part);
     }
     return true;
   }

@@ -170,7 +170,7 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
     m.property(quadrics_, ci.v1) += m.property(quadrics_, ci.v0);
     if (faces_.empty()) return;  // unreachable: within_tolerance() rejects it
     auto store = [&](std::size_t k, const Piece& q) { m.property(pieces_, faces_[k]).push_back(q); };
-    coarsen(moved_, scratch_);
+    coarsen(moved_);
     for (const Piece& piece : moved_) cover_->cover(piece, tris_, -1, true, store);
   }
 
@@ -202,7 +202,7 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
   std::vector<FaceHandle> faces_;
   std::vector<PreparedTriangle> tris_;
   std::vector<std::pair<FaceHandle, int>> around_;
-  Pieces moved_, scratch_;
+  Pieces moved_;
 };
 
 using BoundedQuadric = ModBoundedQuadricT<OmMesh>;
