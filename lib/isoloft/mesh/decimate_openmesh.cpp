@@ -1,8 +1,8 @@
 // The reference decimator (decimate.h, detail::decimate_openmesh): the same
 // bounded quadric decimation on OpenMesh's decimation framework, strictly
-// greedy (one heap of collapses). 3-6x slower than decimate.cpp (measured:
-// 38k triangles 798 vs 258 ms; 0.58 M triangles 27.5 vs 4.7 s); kept as its
-// test oracle and for comparison (experiments/bench_pipeline).
+// greedy (one heap of collapses). 3.5-7x slower than decimate.cpp (measured:
+// 38k triangles 1264 vs 360 ms; 0.58 M triangles 27.5 vs 3.9 s, 2 threads);
+// kept as its test oracle and for comparison (experiments/bench_pipeline).
 #include "isoloft/mesh/decimate.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
