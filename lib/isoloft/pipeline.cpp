@@ -3,9 +3,11 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <sstream>
 #include <set>
@@ -275,11 +277,17 @@ namespace {
 
 // Pads a field by one pixel of `outside` on every side so the surface closes
 // where an object is cut by the image border (within one pixel beyond it).
-Grid2f pad(const Grid2f& g, float outside) {
-  Grid2f out(g.width + 2, g.height + 2, outside);
+template <class T>
+Grid2<T> pad(const Grid2<T>& g, T outside) {
+  Grid2<T> out(g.width + 2, g.height + 2, outside);
   for (int y = 0; y < g.height; ++y) std::copy_n(&g(0, y), g.width, &out(1, y + 1));
   return out;
 }
+
+// Pixels count as keeping one side of iso over a knot interval only if both
+// knot values are this far (pixels) beyond it: far above the float rounding
+// of a spline value (~1e-4 px at 500 px distances), far below a pixel.
+constexpr float kSideMargin = 1e-2f;
 
 void validate(const SliceStack& stack) {
   if (stack.slices.empty()) throw InputError("", "no slices");
@@ -435,6 +443,25 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
       Grid2f plane;
       const float outside = -float(params.interp.cap_depth);
       double t_interp = 0, t_mesh = 0;
+      // Marching Cubes skips the cells that cannot hold the surface
+      // (layer_cells_to_visit); the sides of the last two knot intervals are kept.
+      const float iso = params.mc.iso;
+      const std::int8_t outside_side = outside > iso + kSideMargin ? 1 : outside < iso - kSideMargin ? -1 : 0;
+      constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+      std::array<std::size_t, 2> sides_of{kNone, kNone};  // the interval in each slot (k % 2)
+      std::array<Grid2<std::int8_t>, 2> sides;
+      Grid2<std::int8_t> knot_sides;
+      auto sides_for = [&](std::size_t k) -> const Grid2<std::int8_t>& {
+        if (sides_of[k % 2] != k) {
+          interp.sides(k, iso, kSideMargin, knot_sides);
+          sides[k % 2] = pad(knot_sides, outside_side);
+          sides_of[k % 2] = k;
+        }
+        return sides[k % 2];
+      };
+      std::vector<std::uint8_t> active;
+      std::array<std::size_t, 2> active_for{kNone, kNone};
+      std::size_t k_prev = kNone;
       for (std::size_t j = 0; j < planes.size(); ++j) {
         auto ta = Clock::now();
         interp.evaluate(planes[j], plane);
@@ -443,7 +470,15 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
         if (options.on_plane)
           options.on_plane(label, padded, obj.box.x0 - 1.0, obj.box.y0 - 1.0, planes[j], int(j), int(planes.size()));
         ta = Clock::now();
-        mc.add_plane(padded, planes[j]);
+        const std::size_t k = interp.interval(planes[j]);
+        const bool skip = j > 0 && k - k_prev <= 1;  // planes in one or two adjacent intervals
+        if (skip && active_for != std::array<std::size_t, 2>{k_prev, k}) {
+          const Grid2<std::int8_t>& a = sides_for(k_prev);
+          layer_cells_to_visit(a, sides_for(k), active);  // k_prev and k use different slots, or are equal
+          active_for = {k_prev, k};
+        }
+        mc.add_plane(std::move(padded), planes[j], skip ? &active : nullptr);
+        k_prev = k;
         t_mesh += seconds_since(ta);
         report("interpolate+mesh", long(j + 1), long(planes.size()));
       }

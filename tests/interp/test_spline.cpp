@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "isoloft/core/error.h"
@@ -149,6 +150,51 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
           EXPECT_NEAR(out(x, y), Spline1D(z, f, kind)(q), kFloatTol) << to_string(kind) << " pixel (" << x << ", " << y << ") z=" << q;
         }
     }
+  }
+}
+
+// ZInterpolator::sides(): a pixel said to keep one side of iso over a knot
+// interval does so at every height in it (monotone and linear), and the side
+// is given exactly when both knots are beyond iso by more than the margin.
+// Values in 0.1 px steps around iso, so many knots sit within the margin.
+RC_GTEST_PROP(ZInterpolatorProperty, SidesHoldOverTheirInterval, ()) {
+  constexpr float kMargin = 1e-2f;  // pixels; far above the float rounding of values below 10 px
+  const int n = *rc::gen::inRange(2, 7), w = *rc::gen::inRange(1, 9);
+  const float iso = *rc::gen::element(0.0f, 0.3f, -1.0f);
+  const auto kind = *rc::gen::element(SplineKind::Monotone, SplineKind::Linear);
+  const auto gaps = *rc::gen::container<std::vector<double>>(std::size_t(n - 1), rc::gen::map(rc::gen::inRange(1, 100), [](int v) { return v / 10.0; }));
+  const auto z = knots(gaps);
+  std::vector<Grid2f> slices;
+  for (int k = 0; k < n; ++k) {
+    Grid2f g(w, 1);
+    for (int x = 0; x < w; ++x) g(x, 0) = float(*rc::gen::inRange(-30, 30)) / 10.0f + iso;
+    slices.push_back(g);
+  }
+  const ZInterpolator zi(slices, z, kind);
+  Grid2<std::int8_t> side;
+  Grid2f out;
+  for (int k = 0; k + 1 < n; ++k) {
+    zi.sides(std::size_t(k), iso, kMargin, side);
+    for (int x = 0; x < w; ++x) {
+      const float lo = std::min(slices[k](x, 0), slices[k + 1](x, 0)), hi = std::max(slices[k](x, 0), slices[k + 1](x, 0));
+      RC_ASSERT(side(x, 0) == (lo > iso + kMargin ? 1 : hi < iso - kMargin ? -1 : 0));
+    }
+    for (int i = 0; i <= kScan; ++i) {
+      const double q = z[k] + (z[k + 1] - z[k]) * i / kScan;
+      zi.evaluate(q, out);
+      for (int x = 0; x < w; ++x)
+        if (side(x, 0) != 0) RC_ASSERT((out(x, 0) > iso) == (side(x, 0) > 0));
+    }
+  }
+}
+
+TEST(ZInterpolator, CatmullRomAndNaturalKnowNoSides) {  // they overshoot their knots
+  const std::vector<double> z{0, 1, 2, 3};
+  const std::vector<Grid2f> slices(4, Grid2f(2, 2, 5.0f));
+  for (auto kind : {SplineKind::CatmullRom, SplineKind::Natural}) {
+    Grid2<std::int8_t> side;
+    ZInterpolator(slices, z, kind).sides(1, 0.0f, 1e-2f, side);
+    EXPECT_EQ(std::count(side.data.begin(), side.data.end(), std::int8_t(0)), 4) << to_string(kind);
   }
 }
 

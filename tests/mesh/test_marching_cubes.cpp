@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "isoloft/core/error.h"
+#include "isoloft/interp/spline.h"
 #include "isoloft/mesh/marching_cubes.h"
 #include "isoloft/mesh/mesh_check.h"
 
@@ -236,9 +237,49 @@ TEST(MarchingCubes, RejectsBadInput) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("(2, 1)"), std::string::npos) << e.what();
   }
+  std::vector<std::uint8_t> visit(5, 1);  // a 4 x 3 plane has 3 x 2 cells
+  EXPECT_THROW(mc.add_plane(Grid2f(4, 3, -1.0f), 3.0, &visit), ParamError);
+  EXPECT_THROW(layer_cells_to_visit(Grid2<std::int8_t>(4, 3), Grid2<std::int8_t>(3, 3), visit), ParamError);
   EXPECT_THROW(marching_cubes({Grid2f(4, 3)}, {0.0, 1.0}), ParamError);
   EXPECT_THROW(marching_cubes({Grid2f(4, 3), Grid2f(3, 3)}, {0.0, 1.0}), ParamError);
   EXPECT_TRUE(marching_cubes({}, {}).empty());
+}
+
+// Skipping the cells whose corners keep one side of iso (known from the
+// monotone spline's knots, as the pipeline does) changes no byte of the mesh:
+// the full builder is the oracle. Planes every 0.5 px between slices 4 px
+// apart, so most layers share their knot interval and some straddle two.
+TEST(MarchingCubes, VisitingOnlyCellsThatMayHoldTheSurfaceGivesTheSameMesh) {
+  constexpr float kMargin = 1e-2f;  // pixels; far above the float rounding of a spline value here
+  const Vec3d c(11.3, 9.7, 10.4);
+  const auto sdf = [&](const Vec3d& p) { return 7.5 - (p - c).norm(); };
+  const std::vector<double> knots{0, 4, 8, 12, 16, 20};
+  const ZInterpolator interp(sample(sdf, 23, 21, knots), knots, SplineKind::Monotone);
+  MarchingCubes full(23, 21), skipping(23, 21);
+  Grid2f plane;
+  Grid2<std::int8_t> below, above;
+  std::vector<std::uint8_t> visit;
+  std::size_t cells = 0, visited = 0;
+  for (int j = 0; j <= 40; ++j) {
+    const double z = 0.5 * j;
+    interp.evaluate(z, plane);
+    full.add_plane(plane, z);
+    if (j == 0) {
+      skipping.add_plane(plane, z);
+      continue;
+    }
+    interp.sides(interp.interval(z - 0.5), 0.0f, kMargin, below);
+    interp.sides(interp.interval(z), 0.0f, kMargin, above);
+    layer_cells_to_visit(below, above, visit);
+    cells += visit.size();
+    visited += std::size_t(std::count(visit.begin(), visit.end(), std::uint8_t(1)));
+    skipping.add_plane(plane, z, &visit);
+  }
+  const TriMesh a = full.finish(), b = skipping.finish();
+  ASSERT_FALSE(a.empty());
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_LT(visited, cells / 2) << "the test should skip most cells";
 }
 
 // Random fields on small grids, border samples outside: many exact zeros (at

@@ -153,11 +153,27 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   });
 }
 
+std::size_t ZInterpolator::interval(double q) const { return interval_of(z_, std::clamp(q, z_.front(), z_.back())); }
+
+void ZInterpolator::sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const {
+  const int w = width(), h = height();
+  if (out.width != w || out.height != h) out = Grid2<std::int8_t>(w, h);
+  if (kind_ != SplineKind::Monotone && kind_ != SplineKind::Linear) {
+    std::fill(out.data.begin(), out.data.end(), std::int8_t(0));
+    return;
+  }
+  const Grid2f &f0 = slices_.at(k), &f1 = slices_.at(k + 1);
+  for (std::size_t p = 0; p < out.data.size(); ++p) {
+    const float lo = std::min(f0.data[p], f1.data[p]), hi = std::max(f0.data[p], f1.data[p]);
+    out.data[p] = lo > iso + margin ? 1 : hi < iso - margin ? -1 : 0;
+  }
+}
+
 void ZInterpolator::evaluate(double q, Grid2f& out) const {
   const int w = width(), h = height();
   if (out.width != w || out.height != h) out = Grid2f(w, h);
   q = std::clamp(q, z_.front(), z_.back());
-  const std::size_t k = interval_of(z_, q);
+  const std::size_t k = interval(q);
   const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
   const double z0 = z_[k], z1 = z_[k + 1];
   tbb::parallel_for(0, h, [&](int y) {

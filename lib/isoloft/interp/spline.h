@@ -72,6 +72,15 @@ class ZInterpolator {
   [[nodiscard]] const std::vector<double>& z() const { return z_; }
   [[nodiscard]] int width() const { return slices_.front().width; }
   [[nodiscard]] int height() const { return slices_.front().height; }
+  /// The knot interval k (z[k] <= z <= z[k + 1]) that evaluate(z) uses.
+  [[nodiscard]] std::size_t interval(double z) const;
+  /// Per pixel, the side of `iso` the field keeps over all of knot interval
+  /// k: +1 above iso + margin at both knots, -1 below iso - margin at both, 0
+  /// otherwise. Exact for the kinds that stay between their knot values
+  /// (monotone: Hyman's tangents keep each cubic monotone, Fritsch & Carlson
+  /// 1980 alpha, beta <= 3; linear); all 0 for the others, which overshoot.
+  /// margin (pixels) must exceed the float rounding of evaluate().
+  void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const;
 
  private:
   std::vector<Grid2f> slices_, tangents_;

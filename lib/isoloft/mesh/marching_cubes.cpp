@@ -163,7 +163,7 @@ MarchingCubes::MarchingCubes(int width, int height, double x0, double y0, Marchi
   (void)detail::mc_case_triangles(0);  // build the table outside the hot loop
 }
 
-void MarchingCubes::add_plane(const Grid2f& values, double z) {
+void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active) {
   const std::string where = "marching cubes: plane " + std::to_string(planes_);
   if (values.width != width_ || values.height != height_ || values.size() != std::size_t(width_) * std::size_t(height_))
     throw ParamError(where + " is " + std::to_string(values.width) + "x" + std::to_string(values.height) + ", expected " +
@@ -177,20 +177,29 @@ void MarchingCubes::add_plane(const Grid2f& values, double z) {
       if (!std::isfinite(values(i, j)))
         throw InputError("", where + " (z = " + std::to_string(z) + "): value at pixel (" + std::to_string(i) + ", " +
                                  std::to_string(j) + ") is not finite");
+  if (active && active->size() != std::size_t(width_ - 1) * std::size_t(height_ - 1))
+    throw ParamError(where + ": " + std::to_string(active->size()) + " active-cell flags, expected " +
+                     std::to_string(std::size_t(width_ - 1) * std::size_t(height_ - 1)));
   if (planes_ > 0) {
-    triangulate_layer(values, z);
+    triangulate_layer(values, z, active);
+    auto clear = [](std::vector<std::int32_t>& edges, std::vector<std::size_t>& set) {
+      for (std::size_t e : set) edges[e] = -1;
+      set.clear();
+    };
+    clear(xedge_bottom_, set_x_bottom_);  // then the top plane's become the bottom's
+    clear(yedge_bottom_, set_y_bottom_);
+    clear(zedge_, set_z_);
     std::swap(xedge_bottom_, xedge_top_);
     std::swap(yedge_bottom_, yedge_top_);
-    std::fill(xedge_top_.begin(), xedge_top_.end(), -1);
-    std::fill(yedge_top_.begin(), yedge_top_.end(), -1);
-    std::fill(zedge_.begin(), zedge_.end(), -1);
+    std::swap(set_x_bottom_, set_x_top_);
+    std::swap(set_y_bottom_, set_y_top_);
   }
-  prev_ = values;
+  prev_ = std::move(values);
   prev_z_ = z;
   ++planes_;
 }
 
-void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top) {
+void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std::vector<std::uint8_t>* active) {
   const int W = width_, H = height_;
   const float iso = params_.iso;
   const double z_bottom = prev_z_;
@@ -199,7 +208,9 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top) {
     const float* b1 = b0 + W;
     const float* t0 = top.data.data() + std::size_t(j) * std::size_t(W);
     const float* t1 = t0 + W;
+    const std::uint8_t* on = active ? active->data() + std::size_t(j) * std::size_t(W - 1) : nullptr;
     for (int i = 0; i + 1 < W; ++i) {
+      if (on && !on[i]) continue;
       const std::array<float, 8> v{b0[i], b0[i + 1], b1[i], b1[i + 1], t0[i], t0[i + 1], t1[i], t1[i + 1]};
       int mask = 0;
       for (int c = 0; c < 8; ++c) mask |= int(v[c] > iso) << c;
@@ -207,13 +218,18 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top) {
 
       const std::size_t xi = std::size_t(j) * std::size_t(W - 1) + std::size_t(i);
       const std::size_t yi = std::size_t(j) * std::size_t(W) + std::size_t(i);
-      std::int32_t* slot[12] = {&xedge_bottom_[xi], &xedge_bottom_[xi + std::size_t(W - 1)], &xedge_top_[xi],
-                                &xedge_top_[xi + std::size_t(W - 1)], &yedge_bottom_[yi], &yedge_bottom_[yi + 1],
-                                &yedge_top_[yi], &yedge_top_[yi + 1], &zedge_[yi], &zedge_[yi + 1],
-                                &zedge_[yi + std::size_t(W)], &zedge_[yi + std::size_t(W) + 1]};
+      const std::size_t index[12] = {xi, xi + std::size_t(W - 1), xi, xi + std::size_t(W - 1), yi, yi + 1, yi, yi + 1,
+                                     yi, yi + 1, yi + std::size_t(W), yi + std::size_t(W) + 1};
+      std::vector<std::int32_t>* edges[12] = {&xedge_bottom_, &xedge_bottom_, &xedge_top_, &xedge_top_,
+                                              &yedge_bottom_, &yedge_bottom_, &yedge_top_, &yedge_top_,
+                                              &zedge_,        &zedge_,        &zedge_,     &zedge_};
+      std::vector<std::size_t>* set[12] = {&set_x_bottom_, &set_x_bottom_, &set_x_top_, &set_x_top_,
+                                           &set_y_bottom_, &set_y_bottom_, &set_y_top_, &set_y_top_,
+                                           &set_z_,        &set_z_,        &set_z_,     &set_z_};
       auto vertex = [&](int e) {
-        std::int32_t& id = *slot[e];
+        std::int32_t& id = (*edges[e])[index[e]];
         if (id >= 0) return id;
+        set[e]->push_back(index[e]);
         if (mesh_.vertices.size() >= std::size_t(std::numeric_limits<std::int32_t>::max()))
           throw Error("marching cubes: more than 2^31 - 1 vertices");
         const int a = detail::kCubeEdgeCorners[e][0], b = detail::kCubeEdgeCorners[e][1];
@@ -239,7 +255,29 @@ TriMesh MarchingCubes::finish() {
   planes_ = 0;
   prev_ = Grid2f{};
   for (auto* m : {&xedge_bottom_, &xedge_top_, &yedge_bottom_, &yedge_top_, &zedge_}) std::fill(m->begin(), m->end(), -1);
+  for (auto* s : {&set_x_bottom_, &set_x_top_, &set_y_bottom_, &set_y_top_, &set_z_}) s->clear();
   return out;
+}
+
+void layer_cells_to_visit(const Grid2<std::int8_t>& bottom, const Grid2<std::int8_t>& top,
+                          std::vector<std::uint8_t>& visit) {
+  if (bottom.width != top.width || bottom.height != top.height || bottom.width < 1 || bottom.height < 1)
+    throw ParamError("marching cubes: side maps of " + std::to_string(bottom.width) + "x" +
+                     std::to_string(bottom.height) + " and " + std::to_string(top.width) + "x" +
+                     std::to_string(top.height));
+  const int w = bottom.width, h = bottom.height;
+  std::vector<std::int8_t> both(bottom.data.size());  // the side known in both planes, else 0
+  for (std::size_t p = 0; p < both.size(); ++p) both[p] = bottom.data[p] == top.data[p] ? bottom.data[p] : 0;
+  visit.resize(std::size_t(w - 1) * std::size_t(h - 1));
+  for (int y = 0; y + 1 < h; ++y) {
+    const std::int8_t* r0 = both.data() + std::size_t(y) * std::size_t(w);
+    const std::int8_t* r1 = r0 + w;
+    std::uint8_t* out = visit.data() + std::size_t(y) * std::size_t(w - 1);
+    for (int x = 0; x + 1 < w; ++x) {
+      const std::int8_t s = r0[x];
+      out[x] = !(s != 0 && r0[x + 1] == s && r1[x] == s && r1[x + 1] == s);
+    }
+  }
 }
 
 TriMesh marching_cubes(const std::vector<Grid2f>& planes, const std::vector<double>& z, double x0, double y0,

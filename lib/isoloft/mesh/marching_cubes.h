@@ -65,12 +65,15 @@ class MarchingCubes {
   MarchingCubes(int width, int height, double x0 = 0, double y0 = 0, MarchingCubesParams params = {});
 
   /// Adds the plane at `z` and triangulates the cube layer between it and the
-  /// previous plane. Planes need not be evenly spaced.
+  /// previous plane. Planes need not be evenly spaced. With `active` (one
+  /// byte per cell of the layer, (width - 1) x (height - 1), row by row),
+  /// cells marked 0 are skipped: the caller knows their corners lie on one
+  /// side of iso (e.g. ZInterpolator::sides()), so the mesh is the same.
   /// \pre values.width == width, values.height == height, all values finite.
-  /// \throw ParamError if the size is wrong or z is not finite and strictly
-  ///        greater than the previous plane's z; InputError naming the pixel if
-  ///        a value is not finite.
-  void add_plane(const Grid2f& values, double z);
+  /// \throw ParamError if the size is wrong (of values or active) or z is not
+  ///        finite and strictly greater than the previous plane's z;
+  ///        InputError naming the pixel if a value is not finite.
+  void add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active = nullptr);
 
   /// Returns the mesh (pixel units, welded) and resets the builder so it can
   /// take a new volume of the same size.
@@ -79,7 +82,7 @@ class MarchingCubes {
   [[nodiscard]] int planes_added() const { return planes_; }
 
  private:
-  void triangulate_layer(const Grid2f& top, double z_top);
+  void triangulate_layer(const Grid2f& top, double z_top, const std::vector<std::uint8_t>* active);
 
   int width_, height_;
   double x0_, y0_;
@@ -91,8 +94,20 @@ class MarchingCubes {
   // height, y edges: width x (height-1), of the previous (bottom) and current
   // (top) plane; z edges: width x height between them.
   std::vector<std::int32_t> xedge_bottom_, yedge_bottom_, xedge_top_, yedge_top_, zedge_;
+  // The entries set in each (cleared one by one instead of whole arrays:
+  // the surface meets a small part of the cells).
+  std::vector<std::size_t> set_x_bottom_, set_y_bottom_, set_x_top_, set_y_top_, set_z_;
   TriMesh mesh_;
 };
+
+/// The cells of a layer add_plane() must visit, given for each of its two
+/// planes the side of iso every pixel is known to be on (+1 above, -1 below,
+/// 0 unknown; e.g. ZInterpolator::sides() over the planes' knot intervals):
+/// all but those whose four corner pixels have one known side, the same in
+/// both planes. One byte per cell, (width - 1) x (height - 1), row by row.
+/// \pre bottom and top are the same size, at least 1 x 1.
+void layer_cells_to_visit(const Grid2<std::int8_t>& bottom, const Grid2<std::int8_t>& top,
+                          std::vector<std::uint8_t>& visit);
 
 /// Marching Cubes over a whole stack of planes (convenience wrapper of the
 /// streaming builder).
