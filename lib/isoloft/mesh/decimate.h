@@ -29,7 +29,7 @@
 // meshes run first in z slabs concurrently (vertices next to another slab
 // held), then the seams: the slab count depends on the mesh alone, so the
 // output is the same for any thread count. detail::decimate_openmesh() is
-// the strictly greedy reference on OpenMesh's Decimater (one heap), 3.5-7x
+// the strictly greedy reference on OpenMesh's Decimater (one heap), 3.3-7x
 // slower (decimate_openmesh.cpp), kept as the test oracle: both obey the
 // same bound and topology rules.
 // Boundary vertices (open input) and vertices whose faces do not form one

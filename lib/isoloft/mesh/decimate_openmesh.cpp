@@ -1,7 +1,7 @@
 // The reference decimator (decimate.h, detail::decimate_openmesh): the same
 // bounded quadric decimation on OpenMesh's decimation framework, strictly
-// greedy (one heap of collapses). 3.5-7x slower than decimate.cpp (measured:
-// 38k triangles 1264 vs 360 ms; 0.58 M triangles 27.5 vs 3.9 s, 2 threads);
+// greedy (one heap of collapses). 3.3-7x slower than decimate.cpp (measured:
+// 38k triangles 888 vs 272 ms; 0.58 M triangles 27.5 vs 3.9 s, 2 threads);
 // kept as its test oracle and for comparison (experiments/bench_pipeline).
 #include "isoloft/mesh/decimate.h"
 
