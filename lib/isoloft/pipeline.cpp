@@ -285,8 +285,9 @@ Grid2<T> pad(const Grid2<T>& g, T outside) {
 }
 
 // Pixels count as keeping one side of iso over a knot interval only if both
-// knot values are this far (pixels) beyond it: far above the float rounding
-// of a spline value (~1e-4 px at 500 px distances), far below a pixel.
+// knot values are this far (pixels) beyond it: floats near 500 px are 6e-5 px
+// apart, so the few roundings of a spline value (float knots and tangents,
+// the float result) stay far below it; and it is far below a pixel.
 constexpr float kSideMargin = 1e-2f;
 
 void validate(const SliceStack& stack) {

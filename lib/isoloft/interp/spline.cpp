@@ -172,8 +172,8 @@ void ZInterpolator::sides(std::size_t k, float iso, float margin, Grid2<std::int
 void ZInterpolator::evaluate(double q, Grid2f& out) const {
   const int w = width(), h = height();
   if (out.width != w || out.height != h) out = Grid2f(w, h);
-  q = std::clamp(q, z_.front(), z_.back());
   const std::size_t k = interval(q);
+  q = std::clamp(q, z_.front(), z_.back());
   const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
   const double z0 = z_[k], z1 = z_[k + 1];
   tbb::parallel_for(0, h, [&](int y) {

@@ -182,17 +182,14 @@ void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::ui
                      std::to_string(std::size_t(width_ - 1) * std::size_t(height_ - 1)));
   if (planes_ > 0) {
     triangulate_layer(values, z, active);
-    auto clear = [](std::vector<std::int32_t>& edges, std::vector<std::size_t>& set) {
-      for (std::size_t e : set) edges[e] = -1;
-      set.clear();
-    };
-    clear(xedge_bottom_, set_x_bottom_);  // then the top plane's become the bottom's
-    clear(yedge_bottom_, set_y_bottom_);
-    clear(zedge_, set_z_);
-    std::swap(xedge_bottom_, xedge_top_);
+    for (std::size_t a : {kXBottom, kYBottom, kZ}) {  // then the top plane's become the bottom's
+      for (std::int32_t* id : set_[a]) *id = -1;
+      set_[a].clear();
+    }
+    std::swap(xedge_bottom_, xedge_top_);  // swapping moves the buffers: the pointers in set_ stay valid
     std::swap(yedge_bottom_, yedge_top_);
-    std::swap(set_x_bottom_, set_x_top_);
-    std::swap(set_y_bottom_, set_y_top_);
+    std::swap(set_[kXBottom], set_[kXTop]);
+    std::swap(set_[kYBottom], set_[kYTop]);
   }
   prev_ = std::move(values);
   prev_z_ = z;
@@ -218,18 +215,14 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
 
       const std::size_t xi = std::size_t(j) * std::size_t(W - 1) + std::size_t(i);
       const std::size_t yi = std::size_t(j) * std::size_t(W) + std::size_t(i);
-      const std::size_t index[12] = {xi, xi + std::size_t(W - 1), xi, xi + std::size_t(W - 1), yi, yi + 1, yi, yi + 1,
-                                     yi, yi + 1, yi + std::size_t(W), yi + std::size_t(W) + 1};
-      std::vector<std::int32_t>* edges[12] = {&xedge_bottom_, &xedge_bottom_, &xedge_top_, &xedge_top_,
-                                              &yedge_bottom_, &yedge_bottom_, &yedge_top_, &yedge_top_,
-                                              &zedge_,        &zedge_,        &zedge_,     &zedge_};
-      std::vector<std::size_t>* set[12] = {&set_x_bottom_, &set_x_bottom_, &set_x_top_, &set_x_top_,
-                                           &set_y_bottom_, &set_y_bottom_, &set_y_top_, &set_y_top_,
-                                           &set_z_,        &set_z_,        &set_z_,     &set_z_};
+      std::int32_t* slot[12] = {&xedge_bottom_[xi], &xedge_bottom_[xi + std::size_t(W - 1)], &xedge_top_[xi],
+                                &xedge_top_[xi + std::size_t(W - 1)], &yedge_bottom_[yi], &yedge_bottom_[yi + 1],
+                                &yedge_top_[yi], &yedge_top_[yi + 1], &zedge_[yi], &zedge_[yi + 1],
+                                &zedge_[yi + std::size_t(W)], &zedge_[yi + std::size_t(W) + 1]};
       auto vertex = [&](int e) {
-        std::int32_t& id = (*edges[e])[index[e]];
+        std::int32_t& id = *slot[e];
         if (id >= 0) return id;
-        set[e]->push_back(index[e]);
+        set_[kEdgeArray[std::size_t(e)]].push_back(&id);
         if (mesh_.vertices.size() >= std::size_t(std::numeric_limits<std::int32_t>::max()))
           throw Error("marching cubes: more than 2^31 - 1 vertices");
         const int a = detail::kCubeEdgeCorners[e][0], b = detail::kCubeEdgeCorners[e][1];
@@ -255,7 +248,7 @@ TriMesh MarchingCubes::finish() {
   planes_ = 0;
   prev_ = Grid2f{};
   for (auto* m : {&xedge_bottom_, &xedge_top_, &yedge_bottom_, &yedge_top_, &zedge_}) std::fill(m->begin(), m->end(), -1);
-  for (auto* s : {&set_x_bottom_, &set_x_top_, &set_y_bottom_, &set_y_top_, &set_z_}) s->clear();
+  for (auto& set : set_) set.clear();
   return out;
 }
 

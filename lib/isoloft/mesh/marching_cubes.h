@@ -94,9 +94,13 @@ class MarchingCubes {
   // height, y edges: width x (height-1), of the previous (bottom) and current
   // (top) plane; z edges: width x height between them.
   std::vector<std::int32_t> xedge_bottom_, yedge_bottom_, xedge_top_, yedge_top_, zedge_;
-  // The entries set in each (cleared one by one instead of whole arrays:
-  // the surface meets a small part of the cells).
-  std::vector<std::size_t> set_x_bottom_, set_y_bottom_, set_x_top_, set_y_top_, set_z_;
+  // The entries set in each of those arrays, cleared one by one instead of
+  // whole arrays (the surface meets a small part of the cells); cube edge e
+  // is in array kEdgeArray[e] (edge order of kCubeEdgeCorners).
+  enum EdgeArray : std::size_t { kXBottom, kXTop, kYBottom, kYTop, kZ };
+  static constexpr std::array<std::size_t, 12> kEdgeArray{kXBottom, kXBottom, kXTop, kXTop, kYBottom, kYBottom,
+                                                          kYTop,    kYTop,    kZ,    kZ,    kZ,       kZ};
+  std::array<std::vector<std::int32_t*>, 5> set_;
   TriMesh mesh_;
 };
 
