@@ -40,7 +40,7 @@ STAGES = [("MPU", ("contour", "mpu")), ("Dist", ("dist",)), ("Fltr", ("filter",)
 # kept: a quarter pixel keeps the surface within the input's own quantisation
 # while removing most Marching Cubes triangles (the paper's last step). The
 # timed repetitions run without it: the bounded decimation alone takes longer
-# than every other stage together (~5 s per 0.6 M triangles), so it is timed
+# than every other stage together (~3-5 s per 0.6 M triangles), so it is timed
 # once per dataset and reported in its own column.
 DECIMATE_ERROR_PX = 0.25
 

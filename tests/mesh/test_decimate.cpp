@@ -186,6 +186,20 @@ TEST(Decimate, WholeOriginalSurfaceStaysWithinBound) {
 // fast / reference triangles 0.99-1.06 (4 slabs: 0.98-1.07).
 constexpr double kFastVsGreedyTriangleRatio = 1.10;  // rounds reorder collapses; allow 10 % more triangles
 
+// `mesh`, decimated from `original` (checked as `before`), is still a closed
+// oriented manifold of the same Euler characteristic, and every sampled point
+// of the original surface is within the bound of it.
+void expect_closed_and_bounded(const TriMesh& original, const MeshCheck& before, const TriMesh& mesh, double max_error,
+                               const std::string& what) {
+  const MeshCheck after = check_mesh(mesh);
+  EXPECT_TRUE(after.closed && after.manifold && after.oriented) << what << " at " << max_error;
+  EXPECT_EQ(after.euler, before.euler) << what << " at " << max_error;
+  const SurfaceDistance s = max_surface_distance(original, mesh, kSurfaceSampleSteps);
+  EXPECT_LE(s.worst, max_error + kDecimateSurfaceSlack + kDistanceRounding)
+      << what << ": point (" << s.point.transpose() << ") of original triangle " << s.triangle << " at max_error "
+      << max_error;
+}
+
 TEST(Decimate, FastMatchesGreedyReference) {
   for (const std::string name : {"torus", "two-blobs"}) {
     const TriMesh original = shape_mesh(*make_default_shape(name, 48));
@@ -194,15 +208,8 @@ TEST(Decimate, FastMatchesGreedyReference) {
       TriMesh fast = original, greedy = original;
       const DecimateResult rf = decimate(fast, {max_error});
       const DecimateResult rg = detail::decimate_openmesh(greedy, {max_error});
-      for (const auto& [which, mesh] : {std::pair{"fast", &fast}, std::pair{"reference", &greedy}}) {
-        const MeshCheck after = check_mesh(*mesh);
-        EXPECT_TRUE(after.closed && after.manifold && after.oriented) << which << " " << name << " at " << max_error;
-        EXPECT_EQ(after.euler, before.euler) << which << " " << name << " at " << max_error;
-        const SurfaceDistance s = max_surface_distance(original, *mesh, kSurfaceSampleSteps);
-        EXPECT_LE(s.worst, max_error + kDecimateSurfaceSlack + kDistanceRounding)
-            << which << " " << name << ": point (" << s.point.transpose() << ") of original triangle " << s.triangle
-            << " at max_error " << max_error;
-      }
+      for (const auto& [which, mesh] : {std::pair{"fast", &fast}, std::pair{"reference", &greedy}})
+        expect_closed_and_bounded(original, before, *mesh, max_error, std::string(which) + " " + name);
       EXPECT_LE(double(rf.triangles_after), kFastVsGreedyTriangleRatio * double(rg.triangles_after))
           << name << " at " << max_error << ": fast " << rf.triangles_after << ", reference " << rg.triangles_after;
     }
@@ -233,13 +240,7 @@ TEST(Decimate, SlabsKeepBoundTopologyAndDeterminism) {
       const long reference = detail::decimate_openmesh(greedy, {max_error}).triangles_after;
       EXPECT_LE(double(one.triangles.size()), kFastVsGreedyTriangleRatio * double(reference))
           << name << " at " << max_error << ": slabs " << one.triangles.size() << ", reference " << reference;
-      const MeshCheck after = check_mesh(one);
-      EXPECT_TRUE(after.closed && after.manifold && after.oriented) << name << " at " << max_error;
-      EXPECT_EQ(after.euler, before.euler) << name << " at " << max_error;
-      const SurfaceDistance s = max_surface_distance(original, one, kSurfaceSampleSteps);
-      EXPECT_LE(s.worst, max_error + kDecimateSurfaceSlack + kDistanceRounding)
-          << name << ": point (" << s.point.transpose() << ") of original triangle " << s.triangle << " at max_error "
-          << max_error;
+      expect_closed_and_bounded(original, before, one, max_error, "slabs " + name);
     }
   }
 }
