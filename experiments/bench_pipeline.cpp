@@ -43,6 +43,7 @@
 #include "experiment_util.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/synth/synth.h"
+#include "validation/decimate_openmesh.h"
 
 using namespace isoloft;
 using isoloft::experiments::median;
@@ -139,7 +140,7 @@ SynthResult make_stack(const Scale& sc) {
   SynthParams sp;
   sp.size = sc.size;
   sp.z_spacing = sc.z_spacing;
-  sp.polylines = sc.raster_width > 0;
+  sp.kind = sc.raster_width > 0 ? InputKind::Polylines : InputKind::Contours;
   const double s = sc.z_spacing * (sc.slices - 1 + 2 * sp.first_offset) / (z_hi - z_lo);
   SynthResult r = synthesize(ZScaled(base, s, z_lo, z_hi), sp);
   if (int(r.stack.slices.size()) != sc.slices)

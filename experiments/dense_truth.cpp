@@ -233,6 +233,7 @@ int main(int argc, char** argv) {
       stack.width = v.nx;
       stack.height = v.ny;
       stack.max_value = ds.max_value;
+      stack.kind = InputKind::Labels;
       std::vector<int> input;
       for (int j = 0; j < v.nz; j += k) input.push_back(j);
       for (int j : input) {
@@ -250,7 +251,6 @@ int main(int argc, char** argv) {
         if ((j - j_first) % k != 0) left_out.push_back(j);
 
       ReconstructParams base;
-      base.input = InputKind::Labels;
       base.interp.z_step = ds.z_unit;  // planes on original slices...
       // ...provided the lower cap (z_first - cap_extent * k * z_unit) lies a
       // whole number of slices below the first slice.

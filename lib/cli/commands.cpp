@@ -34,35 +34,19 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl or .off; with labels also one file per label");
   R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
       ->check(CLI::IsMember({"contours", "masks", "labels"}));
-  R->add_option("--method", r_.method, "marker2006 (the paper) or levin (per-slice exact EDT baseline)")
-      ->check(CLI::IsMember({"marker2006", "levin"}));
-  R->add_option("--spline", r_.spline, "z interpolation: monotone (default), catmull-rom, natural, linear")
-      ->check(CLI::IsMember({"monotone", "catmull-rom", "natural", "linear"}));
   r_.z_spacing_opt = R->add_option("--z-spacing", r_.z_spacing, "Slice spacing in pixel units (default 1)")->check(CLI::PositiveNumber);
   r_.slice_z_opt = R->add_option("--slice-z", r_.slice_z, "Comma-separated z of every slice, pixel units (non-uniform spacing)");
   r_.pixel_size_opt = R->add_option("--pixel-size", r_.pixel_size, "Physical size of a pixel; scales x, y and z of the outputs")->check(CLI::PositiveNumber);
   R->add_option("--volume", r_.volume, "Write the interpolated signed distance volume (.nrrd, float, positive inside)");
-  R->add_option("--decimate-error", r_.decimate_error, "Quadric decimation to this geometric error in pixels (0 = off)")->check(CLI::NonNegativeNumber);
   R->add_option("--labels", r_.labels, "With --input labels: comma-separated labels to reconstruct (default all)");
-  R->add_option("--open-contours", r_.open_contours, "Open contours: repair (close gaps <= --max-gap, warn), error, ignore")
-      ->check(CLI::IsMember({"repair", "error", "ignore"}));
-  R->add_option("--max-gap", r_.max_gap, "Largest gap (pixels) closed in an open contour")->check(CLI::NonNegativeNumber);
-  R->add_flag("--no-filter", r_.no_filter, "marker2006: skip the distance-dependent filter (paper 2.3)");
-  R->add_option("--n-min", r_.n_min, "marker2006: MPU N_min, points per local fit (paper: 100-300)")->check(CLI::PositiveNumber);
-  R->add_option("--tol", r_.tol, "marker2006: MPU error bound in pixels (max Taubin distance of a cell's points)")->check(CLI::PositiveNumber);
-  R->add_option("--extend", r_.extend, "marker2006: distance extension: mcc (marching with a correctness criterion), fast-marching, fast-sweeping")
-      ->check(CLI::IsMember({"mcc", "fast-marching", "fast-sweeping"}));
-  R->add_option("--sign-guard", r_.sign_guard, "marker2006: pixels farther than this (px) from the contour keep the contour fill's inside/outside where the MPU fit disagrees (0 = pure MPU sign)")->check(CLI::NonNegativeNumber);
-  R->add_option("--raster-resolution", r_.raster_resolution, "marker2006, polyline input: rasterize the polygons at this many pixels across and fit there (0 = fit the polygons directly)")
-      ->check(CLI::NonNegativeNumber);
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
-  R->add_flag("--binarize", r_.binarize, "Threshold non-binary contour/mask images at half range instead of rejecting them");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
-  R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON and exit");
+  R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON with its unit, range and doc, and exit");
   R->add_option("--report", r_.report, "Write a JSON report: per-stage wall times, counts, parameters, version");
   R->add_option("--threads", r_.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
   R->add_flag("--ascii", r_.ascii, "ASCII instead of binary PLY/STL");
   R->add_flag("-q,--quiet", r_.quiet, "No progress display and no warnings on stderr");
+  param_flags_.add_to(*R);
 
   synth_ = app.add_subcommand("synth", "Write an analytic test stack (contour PNGs + truth JSON)");
   synth_->add_option("shape", s_.shape, "sphere, ellipsoid, torus, tilted-torus, branching-cylinders, two-blobs");
@@ -80,6 +64,46 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   eval_->add_option("--threshold", e_.threshold, "Hausdorff threshold for a pass/fail/undecided verdict, pixels")->check(CLI::PositiveNumber);
   eval_->add_option("--pixel-size", e_.pixel_size, "Pixel size the mesh was written with")->check(CLI::PositiveNumber);
   eval_->add_option("--report", e_.report, "Write the metrics as JSON");
+}
+
+void ParamFlags::add_to(CLI::App& app) {
+  for (const auto& row : params_table<ReconstructParams>().rows()) {
+    if (row.flag.empty()) continue;
+    auto f = std::make_unique<Flag>();
+    f->key = row.key;
+    if (row.type == ParamType::Bool) {
+      f->option = app.add_flag(row.flag, f->set,
+                               "Sets " + row.key + " = " + (row.flag_sets ? "true" : "false") + " (" + row.doc + ")");
+    } else {
+      f->option = app.add_option(row.flag, f->text, describe(row) + " [" + row.key + "]");
+      f->option->type_name(row.type == ParamType::Int ? "INT" : row.type == ParamType::Number ? "FLOAT" : "TEXT");
+      // Checked at parse time (a usage error) by the same rule as a params file.
+      const std::string key = row.key, flag = row.flag;
+      f->option->check(CLI::Validator(
+          [key, flag](std::string& text) -> std::string {
+            const auto& r = *params_table<ReconstructParams>().find(key);
+            try {
+              ReconstructParams scratch;
+              r.set(scratch, parse_value(r.type, text, flag), flag);
+            } catch (const ParamError& e) {
+              return e.what();
+            }
+            return {};
+          },
+          row.type == ParamType::Enum ? "{" + CLI::detail::join(row.choices, ",") + "}" : "", ""));
+    }
+    flags_.push_back(std::move(f));
+  }
+}
+
+void ParamFlags::apply(ReconstructParams& params) const {
+  const auto& table = params_table<ReconstructParams>();
+  for (const auto& f : flags_) {
+    if (f->option->count() == 0) continue;
+    const auto& row = *table.find(f->key);
+    row.set(params, row.type == ParamType::Bool ? nlohmann::json(row.flag_sets) : parse_value(row.type, f->text, row.flag),
+            row.flag);
+  }
 }
 
 int Commands::run() {

@@ -3,22 +3,44 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "isoloft/pipeline.h"
+
 namespace isoloft::cli {
 
-struct ReconstructOptions {
+/// The flags of `isoloft reconstruct` that are not reconstruction parameters
+/// (inputs, outputs, run options); the parameters' flags come from the
+/// parameter table (ParamFlags).
+struct ReconstructArgs {
   std::vector<std::string> inputs;
-  std::string output, volume, params_file, report, input_kind = "contours", method, spline, open_contours, labels;
-  double z_spacing = 1.0, pixel_size = 1.0, decimate_error = -1.0;
+  std::string output, volume, params_file, report, input_kind, labels;
+  double z_spacing = 1.0, pixel_size = 1.0;
   std::string slice_z;
-  std::string dump_stages, extend;
-  int threads = 0, max_gap = -1, n_min = -1, raster_resolution = -1;
-  double sign_guard = -1;
-  double tol = -1.0;
-  bool print_params = false, quiet = false, binarize = false, ascii = false, no_filter = false;
+  std::string dump_stages;
+  int threads = 0;
+  bool print_params = false, quiet = false, ascii = false;
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr;
+};
+
+/// One CLI11 option per parameter-table row that has a flag, and applying
+/// the given ones to a ReconstructParams (after any --params file).
+class ParamFlags {
+ public:
+  void add_to(CLI::App& app);
+  /// \throw ParamError naming the flag if a value is out of range.
+  void apply(isoloft::ReconstructParams& params) const;
+
+ private:
+  struct Flag {
+    std::string key;
+    CLI::Option* option = nullptr;
+    std::string text;  // value of a valued option
+    bool set = false;  // a bare bool flag was given
+  };
+  std::vector<std::unique_ptr<Flag>> flags_;
 };
 
 struct SynthOptions {
@@ -43,7 +65,8 @@ class Commands {
   int synth();
   int eval();
   CLI::App *reconstruct_ = nullptr, *synth_ = nullptr, *eval_ = nullptr;
-  ReconstructOptions r_;
+  ReconstructArgs r_;
+  ParamFlags param_flags_;
   SynthOptions s_;
   EvalOptions e_;
   std::string command_line_;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -100,42 +101,29 @@ class Progress {
 
 int Commands::reconstruct() {
   const auto t_start = std::chrono::steady_clock::now();
-  ReconstructOptions& o = r_;
+  const ReconstructArgs& o = r_;
 
   // Parameters: defaults < --params file < flags.
   ReconstructParams params;
-  nlohmann::json params_file_json;
   if (!o.params_file.empty()) {
     std::ifstream in(o.params_file);
     if (!in) throw InputError(o.params_file, "cannot open parameter file");
+    nlohmann::json file_json;
     try {
-      params_file_json = nlohmann::json::parse(in);
+      file_json = nlohmann::json::parse(in, nullptr, true, /*ignore_comments=*/true);
     } catch (const nlohmann::json::exception& e) {
       throw InputError(o.params_file, std::string("not valid JSON: ") + e.what());
     }
     try {
-      params = params_from_json(params_file_json, params);
+      params = params_from_json(file_json, params);
     } catch (const ParamError& e) {
       throw InputError(o.params_file, e.what());
     }
   }
-  if (reconstruct_->count("--input")) params.input = input_kind_from_string(o.input_kind);
-  if (!o.method.empty()) params.method = method_from_string(o.method);
-  if (!o.spline.empty()) params.interp.spline = spline_kind_from_string(o.spline);
-  if (o.decimate_error >= 0) params.decimate.max_error = o.decimate_error;
-  if (o.max_gap >= 0) params.fill.max_gap = o.max_gap;
-  if (o.binarize) params.binarize = true;
-  if (o.no_filter) params.filter.enabled = false;
-  if (o.raster_resolution >= 0) params.polyline_raster_width = o.raster_resolution;
-  if (o.sign_guard >= 0) params.sign_guard = o.sign_guard;
-  if (o.n_min > 0) params.mpu.n_min = o.n_min;
-  if (o.tol > 0) params.mpu.tol = o.tol;
-  if (!o.extend.empty()) params.extend = params_from_json({{"extend", {{"method", o.extend}}}}, params).extend;
-  if (o.open_contours == "repair") params.fill.open_policy = OpenContourPolicy::Repair;
-  if (o.open_contours == "error") params.fill.open_policy = OpenContourPolicy::Error;
-  if (o.open_contours == "ignore") params.fill.open_policy = OpenContourPolicy::Ignore;
+  param_flags_.apply(params);
+  params_table<ReconstructParams>().validate(params);
   if (o.print_params) {
-    std::cout << params_to_json(params).dump(2) << "\n";
+    std::cout << commented_json(params_table<ReconstructParams>(), params);
     return 0;
   }
   if (o.inputs.empty()) throw ParamError("reconstruct: no INPUT given (PNG files, a directory, or a polyline file)");
@@ -156,8 +144,10 @@ int Commands::reconstruct() {
     stack = read_polylines(o.inputs[0]);
     if (o.z_spacing_opt->count() || o.slice_z_opt->count())
       throw ParamError("--z-spacing/--slice-z: a polyline file carries the z of its slices");
+    if (!o.input_kind.empty()) throw ParamError("--input: a polyline file holds polygons, not images");
   } else {
     stack = read_slice_images(list_slice_files(o.inputs));
+    if (!o.input_kind.empty()) stack.kind = enum_from_string<InputKind>(o.input_kind, "--input");
     if (o.slice_z_opt->count()) {
       if (o.z_spacing_opt->count()) throw ParamError("give either --z-spacing or --slice-z, not both");
       const auto z = parse_list(o.slice_z, "--slice-z");
@@ -175,14 +165,16 @@ int Commands::reconstruct() {
   if (!o.labels.empty())
     for (double v : parse_list(o.labels, "--labels")) {
       if (v < 1 || v != std::floor(v)) throw ParamError("--labels: " + std::to_string(v) + " is not a positive integer label");
+      if (v > double(std::numeric_limits<std::uint32_t>::max())) throw ParamError("--labels: " + std::to_string(v) + " is too large for a label");
       ropt.labels.push_back(std::uint32_t(v));
     }
+  if (!o.labels.empty() && stack.kind != InputKind::Labels) throw ParamError("--labels: only with --input labels");
   const bool show_progress = !o.quiet && isatty(2);
   Progress progress(show_progress);
   ropt.progress = [&](const std::string& stage, long done, long total) { progress(stage, done, total); };
 
   // Volume: one NRRD per object, streamed plane by plane.
-  const bool labels_mode = params.input == InputKind::Labels && !polylines;
+  const bool labels_mode = stack.kind == InputKind::Labels;
   std::unique_ptr<NrrdWriter> volume;
   std::vector<std::string> volume_files;
   if (!o.volume.empty()) {
@@ -304,7 +296,7 @@ int Commands::reconstruct() {
         {"command", command_line_},
         {"input",
          {{"files", o.inputs},
-          {"kind", polylines ? "polylines" : to_string(params.input)},
+          {"kind", to_string(stack.kind)},
           {"slices", stack.slices.size()},
           {"width", stack.width},
           {"height", stack.height},

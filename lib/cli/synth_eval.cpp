@@ -32,11 +32,10 @@ int Commands::synth() {
   SynthParams p;
   p.size = s_.size;
   p.z_spacing = s_.z_spacing;
-  p.kind = s_.kind == "masks" ? InputKind::Masks : InputKind::Contours;
-  p.polylines = s_.kind == "polylines";
+  p.kind = enum_from_string<InputKind>(s_.kind, "--kind");
   SynthResult r = synthesize(*shape, p);
   fs::create_directories(s_.out);
-  if (p.polylines) {
+  if (p.kind == InputKind::Polylines) {
     const std::string path = (fs::path(s_.out) / "stack.txt").string();
     write_polylines(path, r.stack);
     r.description["stack"]["files"] = "stack.txt";

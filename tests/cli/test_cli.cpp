@@ -92,12 +92,15 @@ TEST_F(Cli, ReconstructsASynthesizedSphereWithAReport) {
 TEST_F(Cli, PrintParamsRoundTripsThroughParamsFile) {
   const CliRun r = run("reconstruct --print-params --spline natural");
   ASSERT_EQ(r.code, 0) << r.err;
-  const auto j = nlohmann::json::parse(r.out);
+  // JSON with a // comment (unit, valid values, doc) above every value.
+  const auto j = nlohmann::json::parse(r.out, nullptr, true, /*ignore_comments=*/true);
   EXPECT_EQ(j["interp"]["spline"], "natural");
-  std::ofstream(p("params.json")) << j.dump();
+  EXPECT_NE(r.out.find("// points, integer >= 1: N_min"), std::string::npos) << r.out;
+  std::ofstream(p("params.json")) << r.out;  // the commented text itself is a params file
   const CliRun again = run("reconstruct --print-params --params " + p("params.json"));
   ASSERT_EQ(again.code, 0) << again.err;
-  EXPECT_EQ(nlohmann::json::parse(again.out), j);
+  EXPECT_EQ(nlohmann::json::parse(again.out, nullptr, true, true), j);
+  EXPECT_EQ(again.out, r.out);
   std::ofstream(p("bad.json")) << R"({"interp": {"splin": "linear"}})";
   const CliRun bad = run("reconstruct --print-params --params " + p("bad.json"));
   EXPECT_NE(bad.code, 0);

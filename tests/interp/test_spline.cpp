@@ -78,8 +78,8 @@ TEST(Spline, MonotoneIsFlatAtLocalExtremaOfTheData) {
 
 TEST(Spline, RejectsNonIncreasingKnotsAndUnknownNames) {
   EXPECT_THROW(Spline1D({0, 1, 1}, {0, 1, 2}, SplineKind::Monotone), ParamError);
-  EXPECT_THROW(spline_kind_from_string("cubic"), ParamError);
-  EXPECT_EQ(spline_kind_from_string("catmull-rom"), SplineKind::CatmullRom);
+  EXPECT_THROW(enum_from_string<SplineKind>("cubic", "spline"), ParamError);
+  EXPECT_EQ(enum_from_string<SplineKind>("catmull-rom", "spline"), SplineKind::CatmullRom);
 }
 
 // On any data, every interval of the monotone spline is monotone and stays

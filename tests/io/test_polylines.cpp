@@ -16,7 +16,7 @@ using isoloft::test::TempDir;
 namespace {
 
 void expect_same_stack(const SliceStack& got, const SliceStack& want) {
-  EXPECT_TRUE(got.polylines);
+  EXPECT_TRUE(got.has_polygons());
   EXPECT_EQ(got.width, want.width);
   EXPECT_EQ(got.height, want.height);
   EXPECT_EQ(got.pixel_size, want.pixel_size);
@@ -76,7 +76,7 @@ TEST(Polylines, ReadsTheDocumentedFormat) {
                             "499.5 -0.5\n"
                             "499.5 469.5\n");
   const SliceStack s = read_polylines(path);
-  EXPECT_TRUE(s.polylines);
+  EXPECT_TRUE(s.has_polygons());
   EXPECT_EQ(s.width, 500);
   EXPECT_EQ(s.height, 470);
   EXPECT_EQ(s.pixel_size, 0.8);
@@ -101,7 +101,7 @@ TEST(Polylines, PixelSizeDefaultsToOne) {
 TEST(Polylines, RoundTrip) {
   TempDir dir;
   SliceStack s;
-  s.polylines = true;
+  s.kind = isoloft::InputKind::Polylines;
   s.width = 64;
   s.height = 48;
   s.pixel_size = 0.1 + 0.2;  // not a short decimal
@@ -160,7 +160,7 @@ TEST(Polylines, EachErrorNamesFileAndLine) {
 TEST(Polylines, WriterRejectsWhatTheReaderWould) {
   TempDir dir;
   SliceStack s;
-  s.polylines = true;
+  s.kind = isoloft::InputKind::Polylines;
   s.width = s.height = 8;
   s.slices.resize(2);
   s.slices[0].z = 1;
@@ -172,14 +172,14 @@ TEST(Polylines, WriterRejectsWhatTheReaderWould) {
   s.slices[1].polygons = {Polygon{{{0, 0}, {9, 1}, {1, 2}}}};
   EXPECT_THROW(write_polylines(dir.file("a.txt"), s), isoloft::ParamError);
   s.slices[1].polygons.clear();
-  s.polylines = false;
+  s.kind = isoloft::InputKind::Contours;
   EXPECT_THROW(write_polylines(dir.file("a.txt"), s), isoloft::ParamError);
   EXPECT_TRUE(dir.entries().empty());
 }
 
 RC_GTEST_PROP(PolylinesProperty, RandomStacksRoundTripExactly, ()) {
   SliceStack s;
-  s.polylines = true;
+  s.kind = isoloft::InputKind::Polylines;
   s.width = *rc::gen::inRange(1, 2000);
   s.height = *rc::gen::inRange(1, 2000);
   s.pixel_size = *rc::gen::inRange(1, 100000) * 1e-3;

@@ -91,7 +91,7 @@ TEST(SliceImages, ReadsStack) {
   EXPECT_EQ(st.width, 6);
   EXPECT_EQ(st.height, 4);
   EXPECT_EQ(st.max_value, 255u);
-  EXPECT_FALSE(st.polylines);
+  EXPECT_FALSE(st.has_polygons());
   EXPECT_EQ(st.pixel_size, 1.0);
   ASSERT_EQ(st.slices.size(), 5u);
   for (int k = 0; k < 5; ++k) {

@@ -19,6 +19,7 @@
 #include "isoloft/mesh/marching_cubes.h"
 #include "isoloft/mesh/mesh_check.h"
 #include "isoloft/synth/shapes.h"
+#include "validation/decimate_openmesh.h"
 
 namespace isoloft {
 namespace {

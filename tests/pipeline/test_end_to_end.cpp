@@ -8,6 +8,7 @@
 #include "isoloft/eval/metrics.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/pipeline/slice_fields.h"
 #include "isoloft/synth/synth.h"
 
 using namespace isoloft;
@@ -75,14 +76,14 @@ TEST(EndToEnd, LevinSphereAt8To1IsClosedAndNearTheTrueSphere) {
 }
 
 TEST(EndToEnd, LabelsGiveOneClosedMeshPerLabel) {
-  const SliceStack st = label_stack(4, 40, 3.0, [](int x, int y, int k) -> std::uint32_t {
+  SliceStack st = label_stack(4, 40, 3.0, [](int x, int y, int k) -> std::uint32_t {
     if ((x - 12) * (x - 12) + (y - 20) * (y - 20) < 64) return 7;
     if ((x - 28) * (x - 28) + (y - 20) * (y - 20) < 36 + 4 * k) return 9;
     return 0;
   });
   ReconstructParams p;
   p.method = Method::Levin;
-  p.input = InputKind::Labels;
+  st.kind = InputKind::Labels;
   const auto r = reconstruct(st, p);
   ASSERT_EQ(r.objects.size(), 2u);
   EXPECT_EQ(r.objects[0].label, 7u);
@@ -94,12 +95,12 @@ TEST(EndToEnd, LabelsGiveOneClosedMeshPerLabel) {
 }
 
 TEST(EndToEnd, EmptyMiddleSliceSplitsTheObject) {
-  const SliceStack st = label_stack(5, 32, 4.0, [](int x, int y, int k) -> std::uint32_t {
+  SliceStack st = label_stack(5, 32, 4.0, [](int x, int y, int k) -> std::uint32_t {
     return k != 2 && (x - 16) * (x - 16) + (y - 16) * (y - 16) < 81 ? 255 : 0;
   });
   ReconstructParams p;
   p.method = Method::Levin;
-  p.input = InputKind::Masks;
+  st.kind = InputKind::Masks;
   const auto r = reconstruct(st, p);
   ASSERT_EQ(r.objects.size(), 1u);
   EXPECT_TRUE(r.objects[0].check.closed);
@@ -141,9 +142,9 @@ TEST(EndToEnd, PolylinesFitDirectlyAndRasterizedAtAFinerGrid) {
   sp.size = 96;
   sp.z_spacing = 2;
   const SynthResult images = synthesize(*make_default_shape("sphere", sp.size), sp);
-  sp.polylines = true;
+  sp.kind = InputKind::Polylines;
   const SynthResult syn = synthesize(*make_default_shape("sphere", sp.size), sp);
-  ASSERT_TRUE(syn.stack.polylines);
+  ASSERT_TRUE(syn.stack.has_polygons());
   const double z0 = syn.stack.slices.front().z, z1 = syn.stack.slices.back().z;
   const auto ri = reconstruct(images.stack, ReconstructParams{});
   const double image_mean = mesh_to_shape_stats(ri.objects.at(0).mesh, *images.shape, z0, z1).in_range.mean_distance;
@@ -166,12 +167,12 @@ TEST(EndToEnd, PolylinesFitDirectlyAndRasterizedAtAFinerGrid) {
 // A slice whose object is a single pixel has no normal to fit; marker2006
 // falls back to exact pixel distances there (and says so) instead of failing.
 TEST(EndToEnd, OnePixelSliceFallsBackToPixelDistances) {
-  const SliceStack st = label_stack(3, 40, 4.0, [](int x, int y, int k) -> std::uint32_t {
+  SliceStack st = label_stack(3, 40, 4.0, [](int x, int y, int k) -> std::uint32_t {
     if (k == 1) return x == 20 && y == 20 ? 3 : 0;
     return (x - 20) * (x - 20) + (y - 20) * (y - 20) < 100 ? 3 : 0;
   });
   ReconstructParams p;
-  p.input = InputKind::Labels;
+  st.kind = InputKind::Labels;
   const auto r = reconstruct(st, p);
   ASSERT_EQ(r.objects.size(), 1u);
   EXPECT_EQ(r.objects[0].fit.fallback_slices, 1);
@@ -207,7 +208,7 @@ TEST(EndToEnd, SignGuardRemovesSpuriousSurfaceBesideAThinSliver) {
     const double ex = (x - 100) / 25.0, ey = (y - 100) / 1.2;  // the sliver: semi-axes 25 x 1.2 px
     return ex * ex + ey * ey <= 1.0 || (x - 150) * (x - 150) + (y - 150) * (y - 150) < 225;
   };
-  const SliceStack st = label_stack(3, kSize, 4.0, [&](int x, int y, int) -> std::uint32_t { return inside(x, y) ? 1 : 0; });
+  SliceStack st = label_stack(3, kSize, 4.0, [&](int x, int y, int) -> std::uint32_t { return inside(x, y) ? 1 : 0; });
   Grid2u8 mask(kSize, kSize, 0);
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) mask(x, y) = inside(x, y);
@@ -222,7 +223,7 @@ TEST(EndToEnd, SignGuardRemovesSpuriousSurfaceBesideAThinSliver) {
     return worst;
   };
   ReconstructParams p;
-  p.input = InputKind::Labels;
+  st.kind = InputKind::Labels;
   const auto guarded = reconstruct(st, p);
   p.sign_guard = 0;
   const auto raw = reconstruct(st, p);

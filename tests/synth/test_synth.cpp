@@ -96,9 +96,9 @@ TEST(Synth, PolylinesTraceTheExactCutAsClosedLoops) {
   SynthParams p;
   p.size = 96;
   p.z_spacing = 6;
-  p.polylines = true;
+  p.kind = InputKind::Polylines;
   const SynthResult r = synthesize(*make_default_shape("torus", p.size), p);
-  ASSERT_TRUE(r.stack.polylines);
+  ASSERT_TRUE(r.stack.has_polygons());
   std::size_t max_loops = 0;
   for (std::size_t k = 0; k < r.stack.slices.size(); ++k) {
     const auto& s = r.stack.slices[k];

@@ -186,8 +186,7 @@ void draw_segment(Grid2u8& image, int x0, int y0, int x1, int y1) {
 }  // namespace detail
 
 FillResult fill_even_odd(const Grid2u8& contour, const FillParams& params) {
-  if (params.max_gap < 0)
-    throw ParamError("max_gap: must be >= 0 pixels, got " + std::to_string(params.max_gap));
+  params_table<FillParams>().validate(params);
   FillResult res;
   res.contour = Grid2u8(contour.width, contour.height);
   for (std::size_t i = 0; i < contour.size(); ++i) res.contour.data[i] = contour.data[i] ? 1 : 0;

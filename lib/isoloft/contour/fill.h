@@ -26,10 +26,12 @@
 // longer than max_gap is "repaired" onto itself and still has no interior.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
 #include "isoloft/core/grid.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
 
@@ -40,14 +42,28 @@ enum class OpenContourPolicy {
   Ignore,  ///< change nothing; report every open contour as unrepaired
 };
 
+inline constexpr std::array<EnumName<OpenContourPolicy>, 3> kOpenContourPolicyNames{
+    {{OpenContourPolicy::Repair, "repair"}, {OpenContourPolicy::Error, "error"}, {OpenContourPolicy::Ignore, "ignore"}}};
+constexpr std::span<const EnumName<OpenContourPolicy>> enum_names(OpenContourPolicy) { return kOpenContourPolicyNames; }
+
+/// Even-odd fill parameters (not in the paper, which assumes closed contours).
 struct FillParams {
-  /// Largest gap closed, in pixels of the working grid (Euclidean distance
-  /// between the two endpoint pixel centres). Not in the paper, which assumes
-  /// closed contours; 3 px closes the one- or two-pixel dropouts of hand
-  /// tracing and thresholding without bridging separate structures.
   int max_gap = 3;
   OpenContourPolicy open_policy = OpenContourPolicy::Repair;
 };
+
+template <>
+inline const ParamTable<FillParams>& params_table<FillParams>() {
+  static const ParamTable<FillParams> t({
+      field("max_gap", &FillParams::max_gap, "px",
+            "largest gap closed in an open contour (distance of the two end pixel centres)", at_least(0))
+          .cli("--max-gap"),
+      field("open_contours", &FillParams::open_policy, "",
+            "open contours: repair (close gaps <= max_gap, warn), error, or ignore (a curve without inside)")
+          .cli("--open-contours"),
+  });
+  return t;
+}
 
 /// One open contour component found in the input.
 struct OpenContour {

@@ -69,8 +69,7 @@ bool inside_even_odd(const std::vector<Polygon>& polygons, const Vec2d& p) {
 }  // namespace detail
 
 OrientedPoints contour_normals(const Grid2u8& contour, const Grid2u8& filled_mask, const NormalsParams& params) {
-  if (!(params.sigma > 0.0) || !std::isfinite(params.sigma))
-    throw ParamError("contour normals: sigma must be a finite number > 0 (got " + std::to_string(params.sigma) + ")");
+  params_table<NormalsParams>().validate(params);
   if (contour.width != filled_mask.width || contour.height != filled_mask.height)
     throw ParamError("contour normals: contour image " + std::to_string(contour.width) + "x" +
                      std::to_string(contour.height) + " and filled mask " + std::to_string(filled_mask.width) + "x" +

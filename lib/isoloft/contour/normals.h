@@ -20,21 +20,27 @@
 
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 #include "isoloft/core/slice_stack.h"
 
 namespace isoloft {
 
+/// Largest Gaussian of the normals, pixels: a (6 sigma + 1)^2 stencil per contour pixel.
+inline constexpr double kMaxNormalsSigma = 64.0;
+
 struct NormalsParams {
-  /// Standard deviation of the Gaussian on the filled mask, pixels (paper 2.1;
-  /// the paper gives no value). 1.5 px: the kernel (radius ceil(3 sigma) = 5
-  /// px) averages the staircase of a digitised edge (measured on digitised
-  /// circles of radius 10-100 px: mean error 2.4 degrees, max 11; worst case a
-  /// lone step in a nearly axis-parallel edge, 14 degrees; sigma 1 gives 21),
-  /// while structures ~3 px apart barely see each other and the normals of a
-  /// 90 degree corner turn within ~3 px of it. The normals only orient and
-  /// cluster the fit (fit/mpu.h), they do not place the curve.
   double sigma = 1.5;
 };
+
+template <>
+inline const ParamTable<NormalsParams>& params_table<NormalsParams>() {
+  static const ParamTable<NormalsParams> t({
+      field("sigma", &NormalsParams::sigma, "px",
+            "Gaussian on the filled mask whose gradient gives the contour normals (paper 2.1)",
+            Range{0.0, kMaxNormalsSigma, true, false}),
+  });
+  return t;
+}
 
 /// Points with outward unit normals (pixel units, x = column, y = row).
 struct OrientedPoints {

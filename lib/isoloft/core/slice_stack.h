@@ -1,23 +1,36 @@
-// The input of a reconstruction: parallel planar slices, each a raster image
-// or a set of closed polygons, at known z. Units are pixels of the working
-// grid; `pixel_size` is applied only by the writers (io/).
+// @file core/slice_stack.h
+// @brief The input of a reconstruction: parallel planar slices at known z,
+// each a raster image or a set of closed polygons, and what they hold.
+//
+// Units are pixels of the working grid (pixel (i, j) of slice k is at
+// (i, j, z_k)); `pixel_size` is applied only by the writers (io/).
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
 
-/// How to read the pixel values of a slice image.
+/// What the slices hold, and so how the pipeline reads them.
 enum class InputKind {
-  Contours,  ///< white pixels (> half range) are contour curves
-  Masks,     ///< white pixels are filled regions
-  Labels,    ///< every distinct non-zero value is its own object
+  Contours,   ///< images: white pixels (> half range) are contour curves, inside by even-odd nesting
+  Masks,      ///< images: white pixels are filled regions
+  Labels,     ///< images: every distinct non-zero value is its own object
+  Polylines,  ///< closed polygons per slice (Slice::polygons), inside by even-odd nesting
 };
+
+inline constexpr std::array<EnumName<InputKind>, 4> kInputKindNames{{{InputKind::Contours, "contours"},
+                                                                     {InputKind::Masks, "masks"},
+                                                                     {InputKind::Labels, "labels"},
+                                                                     {InputKind::Polylines, "polylines"}}};
+constexpr std::span<const EnumName<InputKind>> enum_names(InputKind) { return kInputKindNames; }
 
 /// One closed polygon, vertices in pixel units (x = column, y = row); the
 /// closing edge from back() to front() is implied.
@@ -37,8 +50,10 @@ struct SliceStack {
   int height = 0;
   std::uint32_t max_value = 255;  ///< full range of image values (255, 65535, 0xFFFFFF)
   double pixel_size = 1.0;        ///< physical size of one pixel (applied at output)
-  bool polylines = false;         ///< slices carry polygons instead of images
+  InputKind kind = InputKind::Contours;  ///< images of contours, masks or labels, or polygons
   std::vector<Slice> slices;      ///< strictly increasing z
+
+  [[nodiscard]] bool has_polygons() const { return kind == InputKind::Polylines; }
 };
 
 }  // namespace isoloft

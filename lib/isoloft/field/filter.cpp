@@ -15,21 +15,6 @@
 namespace isoloft {
 namespace {
 
-void check_params(const FilterParams& p) {
-  auto bad = [](const std::string& what) { throw ParamError("distance filter: " + what); };
-  if (!std::isfinite(p.d_min) || !std::isfinite(p.d_max) || !std::isfinite(p.sigma_min) ||
-      !std::isfinite(p.sigma_max))
-    bad("d_min, d_max, sigma_min and sigma_max must be finite");
-  if (!(p.d_min >= 0.0)) bad("d_min " + std::to_string(p.d_min) + " must be >= 0");
-  if (!(p.d_max > p.d_min))
-    bad("d_max " + std::to_string(p.d_max) + " must exceed d_min " + std::to_string(p.d_min));
-  if (!(p.sigma_min >= 0.0)) bad("sigma_min " + std::to_string(p.sigma_min) + " must be >= 0");
-  if (!(p.sigma_max >= p.sigma_min))
-    bad("sigma_max " + std::to_string(p.sigma_max) + " must be >= sigma_min " + std::to_string(p.sigma_min));
-  if (!(p.sigma_max <= kMaxFilterSigma))
-    bad("sigma_max " + std::to_string(p.sigma_max) + " must be <= " + std::to_string(kMaxFilterSigma));
-}
-
 void check_field(const Grid2f& d) {
   for (int y = 0; y < d.height; ++y)
     for (int x = 0; x < d.width; ++x)
@@ -56,7 +41,7 @@ double filter_sigma(double abs_d, const FilterParams& p) {
 }
 
 Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
-  check_params(p);
+  params_table<FilterParams>().validate(p);
   if (!p.enabled || d.empty()) return d;
   check_field(d);
   // 1D weights per quantized sigma: kernel k has sigma k * kSigmaQuantum.
@@ -150,7 +135,7 @@ namespace detail {
 double quantized_sigma(double sigma) { return double(std::lround(sigma / kSigmaQuantum)) * kSigmaQuantum; }
 
 Grid2f distance_filter_naive(const Grid2f& d, const FilterParams& p) {
-  check_params(p);
+  params_table<FilterParams>().validate(p);
   if (!p.enabled || d.empty()) return d;
   check_field(d);
   Grid2f out(d.width, d.height);

@@ -27,21 +27,44 @@
 #pragma once
 
 #include "isoloft/core/grid.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
-
-struct FilterParams {
-  double d_min = 4.0;      ///< px; paper 2.3: no filtering within d_min of the curve
-  double d_max = 15.0;     ///< px; paper 2.3: sigma_max from here on
-  double sigma_min = 0.5;  ///< px; paper 2.3: sigma just beyond d_min
-  double sigma_max = 3.0;  ///< px; paper 2.3: sigma far from the curve
-  bool enabled = true;     ///< false: distance_filter returns its input
-};
 
 /// Sigma quantum of the precomputed kernels, pixels.
 inline constexpr double kSigmaQuantum = 1.0 / 256.0;
 /// Largest accepted sigma_max, pixels (a 385 x 385 stencil per pixel).
 inline constexpr double kMaxFilterSigma = 64.0;
+
+struct FilterParams {
+  double d_min = 4.0;
+  double d_max = 15.0;
+  double sigma_min = 0.5;
+  double sigma_max = 3.0;
+  bool enabled = true;
+};
+
+template <>
+inline const ParamTable<FilterParams>& params_table<FilterParams>() {
+  static const ParamTable<FilterParams> t(
+      {
+          field("enabled", &FilterParams::enabled, "", "apply the distance-dependent Gaussian filter (paper 2.3)")
+              .cli("--no-filter", false),
+          field("d_min", &FilterParams::d_min, "px", "no filtering within d_min of the curve (paper 2.3, eq. 3)", at_least(0)),
+          field("d_max", &FilterParams::d_max, "px", "sigma_max from this distance on (paper 2.3, eq. 3)", at_least(0)),
+          field("sigma_min", &FilterParams::sigma_min, "px", "sigma just beyond d_min (paper 2.3, eq. 3)", at_least(0)),
+          field("sigma_max", &FilterParams::sigma_max, "px", "sigma far from the curve (paper 2.3, eq. 3)",
+                between(0, kMaxFilterSigma)),
+      },
+      {[](const FilterParams& p, const std::string& at) {
+         if (!(p.d_max > p.d_min))
+           throw ParamError(at + "d_max: must exceed d_min (" + std::to_string(p.d_min) + "), got " + std::to_string(p.d_max));
+         if (!(p.sigma_max >= p.sigma_min))
+           throw ParamError(at + "sigma_max: must be >= sigma_min (" + std::to_string(p.sigma_min) + "), got " +
+                            std::to_string(p.sigma_max));
+       }});
+  return t;
+}
 
 /// Equation 3 of the paper: the Gaussian's standard deviation at |d| = abs_d.
 /// \pre params valid (see distance_filter).

@@ -257,9 +257,7 @@ Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update) {
 }
 
 Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params) {
-  if (params.max_sweep_cycles < 1)
-    throw ParamError("distance extension: max_sweep_cycles " + std::to_string(params.max_sweep_cycles) +
-                     " must be >= 1");
+  params_table<ExtendParams>().validate(params);
   switch (params.method) {
     case ExtendMethod::FastMarching: return extend_fast_marching(band, params.update);
     case ExtendMethod::MarchingCorrectness: return extend_marching_cc(band, params.update);

@@ -48,6 +48,7 @@
 
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 #include "isoloft/field/narrow_band.h"
 
 namespace isoloft {
@@ -55,16 +56,37 @@ namespace isoloft {
 enum class ExtendMethod { FastMarching, MarchingCorrectness, FastSweeping };
 enum class ExtendUpdate { ClosestPoint, Eikonal };
 
+inline constexpr std::array<EnumName<ExtendMethod>, 3> kExtendMethodNames{{{ExtendMethod::FastMarching, "fast-marching"},
+                                                                           {ExtendMethod::MarchingCorrectness, "mcc"},
+                                                                           {ExtendMethod::FastSweeping, "fast-sweeping"}}};
+constexpr std::span<const EnumName<ExtendMethod>> enum_names(ExtendMethod) { return kExtendMethodNames; }
+inline constexpr std::array<EnumName<ExtendUpdate>, 2> kExtendUpdateNames{
+    {{ExtendUpdate::ClosestPoint, "closest-point"}, {ExtendUpdate::Eikonal, "eikonal"}}};
+constexpr std::span<const EnumName<ExtendUpdate>> enum_names(ExtendUpdate) { return kExtendUpdateNames; }
+
+/// Most fast-sweeping cycles accepted (a cycle per bend of the characteristics, ~2-4 in practice).
+inline constexpr int kMaxSweepCycles = 10000;
+
 struct ExtendParams {
-  /// Chosen by measurement (500 x 500, one circle r = 150, ClosestPoint,
-  /// CPU time, -O3, shared machine): MCC 31 ms, fast sweeping 47 ms, FMM
-  /// 67 ms; MCC and FMM give identical fields here, sweeping within 0.01 px.
   ExtendMethod method = ExtendMethod::MarchingCorrectness;
-  ExtendUpdate update = ExtendUpdate::ClosestPoint;  ///< nearly exact Euclidean (paper 2.2)
-  /// Fast sweeping: cycles of 4 sweeps stop when a cycle changes no value;
-  /// this caps them (a cycle per bend of the characteristics, ~2-4 in practice).
+  ExtendUpdate update = ExtendUpdate::ClosestPoint;
   int max_sweep_cycles = 64;
 };
+
+template <>
+inline const ParamTable<ExtendParams>& params_table<ExtendParams>() {
+  static const ParamTable<ExtendParams> t({
+      field("method", &ExtendParams::method, "",
+            "extension of the narrow band to the whole grid: mcc (marching with a correctness criterion, paper 2.2), "
+            "fast-marching, fast-sweeping (the paper's future work)")
+          .cli("--extend"),
+      field("update", &ExtendParams::update, "",
+            "update rule: closest-point (nearly exact Euclidean) or eikonal (first-order upwind)"),
+      field("max_sweep_cycles", &ExtendParams::max_sweep_cycles, "cycles",
+            "fast sweeping: cap on 4-sweep cycles (it stops when a cycle changes nothing)", between(1, kMaxSweepCycles)),
+  });
+  return t;
+}
 
 /// Signed Euclidean distance on the whole grid (positive inside).
 /// \pre `band` comes from narrow_band_distance (all grids the same size).

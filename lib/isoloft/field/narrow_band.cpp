@@ -202,12 +202,7 @@ Grid2d distance_to_segments_brute(const std::vector<Segment2d>& segments, int wi
 }  // namespace detail
 
 NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn& f, const NarrowBandParams& params) {
-  if (!(params.band_width >= kSqrt2) || !std::isfinite(params.band_width))
-    throw ParamError("narrow band: band_width " + std::to_string(params.band_width) + " must be finite and >= sqrt(2) px");
-  if (params.refine_iterations < 0)
-    throw ParamError("narrow band: refine_iterations " + std::to_string(params.refine_iterations) + " must be >= 0");
-  if (params.segment_splits < 1)
-    throw ParamError("narrow band: segment_splits " + std::to_string(params.segment_splits) + " must be >= 1");
+  params_table<NarrowBandParams>().validate(params);
   if (f_samples.empty()) throw InputError("implicit samples", "grid is empty");
   const int w = f_samples.width, h = f_samples.height;
   for (int y = 0; y < h; ++y)

@@ -23,6 +23,7 @@
 
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
 
@@ -34,22 +35,29 @@ using ImplicitFn = std::function<double(const Vec2d&)>;
 using Segment2d = std::array<Vec2d, 2>;
 
 struct NarrowBandParams {
-  /// Half-width of the band of exact distances, pixels. Default 4 = the
-  /// distance filter's d_min (paper 2.3, FilterParams::d_min): every pixel the
-  /// filter leaves untouched then holds a distance computed directly from the
-  /// curve, not a propagated one. Must be >= sqrt(2) so the band holds all four
-  /// corners of every cell the curve crosses (the front the extension starts from).
   double band_width = 4.0;
-  /// Illinois regula-falsi steps per cell-edge vertex (only when f is given);
-  /// superlinear convergence: 8 steps reach ~1e-9 px for a smooth f.
   int refine_iterations = 8;
-  /// Pieces per cell segment (only when f is given). 1 = straight chords,
-  /// whose distance from the true curve is at most L^2 / (8 R) <= 1 / (4 R) px
-  /// for a cell chord L <= sqrt(2) and curvature radius R (0.01 px at
-  /// R = 25). k > 1 projects k - 1 interior points onto f = 0 (Newton steps,
-  /// central-difference gradient, 5 evaluations of f per step).
   int segment_splits = 1;
 };
+
+/// Most regula-falsi steps and pieces per cell segment accepted (each far past
+/// where they change anything: 8 steps reach ~1e-9 px).
+inline constexpr int kMaxRefineIterations = 64, kMaxSegmentSplits = 64;
+
+template <>
+inline const ParamTable<NarrowBandParams>& params_table<NarrowBandParams>() {
+  static const ParamTable<NarrowBandParams> t({
+      field("band_width", &NarrowBandParams::band_width, "px",
+            "half-width of the band of exact distances to the curve (paper 2.2); >= sqrt(2): every crossed cell's corners",
+            at_least(1.4142135623730951)),
+      field("refine_iterations", &NarrowBandParams::refine_iterations, "steps",
+            "Illinois regula-falsi steps placing each cell-edge vertex on the curve", between(0, kMaxRefineIterations)),
+      field("segment_splits", &NarrowBandParams::segment_splits, "pieces",
+            "pieces per cell segment, interior points projected onto the curve (1 = straight chords)",
+            between(1, kMaxSegmentSplits)),
+  });
+  return t;
+}
 
 struct NarrowBandResult {
   /// Signed distance (positive inside) where `known`; elsewhere

@@ -545,22 +545,9 @@ class MpuBuilder {
 };
 
 MpuResult fit_mpu(const OrientedPoints& in, const MpuParams& p) {
-  auto bad = [](const std::string& what) { throw ParamError("MPU fit: " + what); };
-  if (p.n_min < 1) bad("n_min must be >= 1 (got " + std::to_string(p.n_min) + ")");
-  if (p.n_floor < 1) bad("n_floor must be >= 1 (got " + std::to_string(p.n_floor) + ")");
-  if (!(p.tol > 0.0) || !std::isfinite(p.tol))
-    bad("tol must be a finite number > 0 (got " + std::to_string(p.tol) + ")");
-  if (!(p.alpha > 0.5) || !std::isfinite(p.alpha))
-    bad("alpha must be a finite number > 0.5 (got " + std::to_string(p.alpha) + ")");
-  if (!(p.lambda > 0.0) || !std::isfinite(p.lambda))
-    bad("lambda must be a finite number > 0 (got " + std::to_string(p.lambda) + ")");
-  if (p.max_depth < 0 || p.max_depth > 24)
-    bad("max_depth must be in [0, 24] (got " + std::to_string(p.max_depth) + ")");
-  if (!(p.corner_angle > 0.0 && p.corner_angle < 180.0))
-    bad("corner_angle must be in (0, 180) degrees (got " + std::to_string(p.corner_angle) + ")");
-  if (!(p.component_link >= 0.0) || !std::isfinite(p.component_link))
-    bad("component_link must be a finite number >= 0 (got " + std::to_string(p.component_link) + ")");
-  if (!p.domain.isEmpty() && !(p.domain.min().allFinite() && p.domain.max().allFinite())) bad("domain is not finite");
+  params_table<MpuParams>().validate(p);
+  if (!p.domain.isEmpty() && !(p.domain.min().allFinite() && p.domain.max().allFinite()))
+    throw ParamError("MPU fit: domain is not finite");
   if (in.points.empty()) throw InputError("", "MPU fit: no contour points");
   if (in.points.size() != in.normals.size())
     throw InputError("", "MPU fit: " + std::to_string(in.points.size()) + " points but " +

@@ -113,53 +113,53 @@
 #include "isoloft/contour/normals.h"
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 #include "isoloft/fit/mpu_local.h"
 #include "isoloft/fit/point_grid.h"
 
 namespace isoloft {
 
 struct MpuParams {
-  /// Minimum number of points per local fit, N_min (paper 2.1: 100-300; MPU
-  /// used 15 for dense 3D scans; a 2D contour needs a longer arc per fit).
   int n_min = 150;
-  /// Smallest N_min a support-bound cell falls back to when its fit with
-  /// n_min points misses tol (file comment; not in MPU or the paper). 20: a
-  /// conic has 6 coefficients, and 20 digitised points (~20 px of contour)
-  /// still average the pixel staircase.
   int n_floor = 20;
-  /// Error bound epsilon_0 of MPU 2, pixels: maximum Taubin distance of a
-  /// leaf's support points from its local zero set (see the file comment).
-  /// 0.75 px: digitised contour points scatter by up to ~0.7 px about a
-  /// smooth curve, so much tighter bounds force smaller supports that follow
-  /// the pixel staircase (on a 100 px disk: zero set 0.8 px from the true
-  /// circle at tol 0.5, 0.5 px at tol 1); looser ones under-fit curved
-  /// slices (synthesized tilted torus at 8:1, two-sided mean surface error:
-  /// 0.164 px at tol 1, 0.142 px at 0.75, 0.144 px at 0.5; sphere and
-  /// branching cylinders within 0.003 px of each other at all three).
   double tol = 0.75;
-  /// Support radius over cell diagonal (MPU 2: 0.75). Must be > 0.5 so every
-  /// cell lies inside its own support circle.
   double alpha = 0.75;
-  /// Relative growth step of a support radius short of N_min points (MPU 2: 0.1).
   double lambda = 0.1;
-  /// Deepest quadtree level (root = 0). Not in MPU (its bound is tol alone);
-  /// a safety net: 10 levels take a 500 px root to 0.5 px cells, while the
-  /// stall rule stops digitised data at depth 6-8 (measured).
   int max_depth = 10;
-  /// Least angle between neighbouring normal clusters of a corner fit,
-  /// degrees (MPU 3 sharp features; not given there). 25.8 = acos(0.9): above
-  /// the scatter of digitised normals along a straight edge (at most 14
-  /// degrees, contour/normals.h), far below a 90 degree corner.
   double corner_angle = 25.8;
-  /// Points closer than this many median nearest-neighbour spacings form one
-  /// connected piece (component rule in the file comment). 2: an 8-connected
-  /// contour (spacing 1, diagonal steps 1.41) stays one piece.
   double component_link = 2.0;
-  /// Region the curve will be evaluated on, pixels (e.g. [-0.5, w - 0.5] x
-  /// [-0.5, h - 0.5] for a w x h grid); the root square covers it and the
-  /// points. Empty: the points' bounding box alone.
+  /// Not a user parameter: the region the curve will be evaluated on, pixels
+  /// (e.g. [-0.5, w - 0.5] x [-0.5, h - 0.5] for a w x h grid); the root
+  /// square covers it and the points. Empty: the points' bounding box alone.
   Eigen::AlignedBox2d domain;
 };
+
+/// Deepest quadtree level accepted (2^-24 of the root cell).
+inline constexpr int kMaxMpuDepth = 24;
+
+template <>
+inline const ParamTable<MpuParams>& params_table<MpuParams>() {
+  static const ParamTable<MpuParams> t({
+      field("n_min", &MpuParams::n_min, "points", "N_min: points per local fit (paper 2.1, Table 2; MPU 2)", at_least(1))
+          .cli("--n-min"),
+      field("n_floor", &MpuParams::n_floor, "points",
+            "smallest N_min a support-bound cell falls back to when it misses tol (not in MPU)", at_least(1)),
+      field("tol", &MpuParams::tol, "px",
+            "error bound: largest Taubin distance of a leaf's support points from its local curve (paper 2.1; MPU 2)",
+            above(0)).cli("--tol"),
+      field("alpha", &MpuParams::alpha, "", "support radius over cell diagonal (MPU 2); > 0.5 so a cell lies in its support",
+            above(0.5)),
+      field("lambda", &MpuParams::lambda, "", "relative growth step of a support short of N_min points (MPU 2)", above(0)),
+      field("max_depth", &MpuParams::max_depth, "levels", "deepest quadtree level, root = 0 (a safety net; not in MPU)",
+            between(0, kMaxMpuDepth)),
+      field("corner_angle", &MpuParams::corner_angle, "deg",
+            "least angle between neighbouring normal clusters of a corner fit (MPU 3, sharp features)",
+            open_between(0, 180)),
+      field("component_link", &MpuParams::component_link, "spacings",
+            "points closer than this many median point spacings form one connected piece", at_least(0)),
+  });
+  return t;
+}
 
 /// The fitted curve: an immutable function, safe to evaluate from many threads.
 /// A default-constructed one holds no data and is -kEmpty (outside) everywhere.

@@ -28,7 +28,7 @@ void HeightFn::eval(const Vec2d& x, double& value, Vec2d& grad) const {
   grad = (2.0 * a * s + b) * t - n;
 }
 
-void Piece::eval(const Vec2d& x, double& value, Vec2d& grad) const {
+void CurvePiece::eval(const Vec2d& x, double& value, Vec2d& grad) const {
   if (!conic) {
     h.eval(x, value, grad);
     return;
@@ -128,7 +128,7 @@ HeightFn fit_height(const std::vector<Vec2d>& points, const std::vector<int>& id
   return h;
 }
 
-Piece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& normals, const std::vector<int>& idx,
+CurvePiece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& normals, const std::vector<int>& idx,
                 const std::vector<double>& w, const Vec2d& centre, double scale) {
   using Vec6 = Eigen::Matrix<double, 6, 1>;
   using Mat6 = Eigen::Matrix<double, 6, 6>;
@@ -160,7 +160,7 @@ Piece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& norm
       add(0.5 * (row(p - kOffSurfaceDelta * n) - row(p + kOffSurfaceDelta * n)), kOffSurfaceDelta, wk);
     }
   const Vec6 x = solve_normal_equations<6>(m, v);
-  Piece fn;
+  CurvePiece fn;
   fn.conic = true;
   fn.centre = centre;
   fn.scale = scale;
@@ -266,7 +266,7 @@ Vec2d mean_normal(const FitInput& in, const std::vector<int>& ids, const std::ve
 }
 }  // namespace
 
-Piece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error) {
+CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error) {
   std::vector<double> w(ids.size());
   for (std::size_t k = 0; k < ids.size(); ++k) w[k] = in.weight(in.points[ids[k]]);
   Group g;

@@ -33,7 +33,7 @@ struct HeightFn {
 };
 
 /// A single smooth piece: a height function or a general conic.
-struct Piece {
+struct CurvePiece {
   bool conic = false;
   HeightFn h;  ///< when !conic
   /// When conic: Q(x) = S (q0 s_x^2 + q1 s_x s_y + q2 s_y^2 + q3 s_x + q4 s_y + q5),
@@ -54,7 +54,7 @@ struct Group {
     MaxOfMin,  ///< max(piece[lone], min(the other two))
     MinOfMax,  ///< min(piece[lone], max(the other two))
   };
-  std::array<Piece, 3> piece{};
+  std::array<CurvePiece, 3> piece{};
   int count = 1;  ///< pieces used (1 to 3)
   Op op = Op::Min;
   int lone = 0;  ///< the piece outside the inner min / max (three pieces, mixed ops)
@@ -126,7 +126,7 @@ inline constexpr double kOffSurfaceDelta = 1.0;
 /// off-surface pairs (MPU's 3D quadric fit with the auxiliary values moved
 /// out to sign checks, see fit/mpu.h):
 ///   sum w_k [Q(p_k)^2 + ((Q(p_k - delta n_k) - Q(p_k + delta n_k)) / 2 - delta)^2].
-Piece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& normals, const std::vector<int>& idx,
+CurvePiece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& normals, const std::vector<int>& idx,
                 const std::vector<double>& w, const Vec2d& centre, double scale);
 
 /// Max over idx of the Taubin distance |Q(p)| / |grad Q(p)| (first-order
@@ -162,7 +162,7 @@ inline constexpr int kMinClusterSize = 6;
 /// Best single piece for the points ids: a height function over their weighted
 /// mean normal (if every normal is within 90 degrees of it) or a conic,
 /// whichever has the smaller Taubin error over ids (returned in `error`).
-Piece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error);
+CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error);
 
 /// Corner: ids split by split_normals into k (2 or 3) clusters, each cluster
 /// split further into its connected parts (links shorter than in.link: two

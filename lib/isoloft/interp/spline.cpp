@@ -9,22 +9,6 @@
 
 namespace isoloft {
 
-std::string to_string(SplineKind k) {
-  switch (k) {
-    case SplineKind::Monotone: return "monotone";
-    case SplineKind::CatmullRom: return "catmull-rom";
-    case SplineKind::Natural: return "natural";
-    case SplineKind::Linear: return "linear";
-  }
-  return "?";
-}
-
-SplineKind spline_kind_from_string(const std::string& s) {
-  for (auto k : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear})
-    if (s == to_string(k)) return k;
-  throw ParamError("unknown spline '" + s + "' (expected monotone, catmull-rom, natural or linear)");
-}
-
 namespace {
 
 // Three-point (parabolic) derivative estimate at interior knot i; one-sided
@@ -186,6 +170,7 @@ void ZInterpolator::evaluate(double q, Grid2f& out) const {
 
 void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const InterpParams& params) {
   if (slices.size() < 2 || slices.size() != z.size()) throw ParamError("end caps need at least 2 slices");
+  params_table<InterpParams>().validate(params);
   auto cap = [&](const Grid2f& end) {
     float top = 0.0f;
     for (float v : end.data) top = std::max(top, v);

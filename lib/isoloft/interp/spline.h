@@ -15,32 +15,50 @@
 // Non-uniform z works for every kind. Ends use one-sided estimates.
 #pragma once
 
+#include <array>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "isoloft/core/grid.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
 
 enum class SplineKind { Monotone, CatmullRom, Natural, Linear };
 
-std::string to_string(SplineKind);
-/// \throw ParamError for an unknown name ("monotone", "catmull-rom", "natural", "linear").
-SplineKind spline_kind_from_string(const std::string&);
+inline constexpr std::array<EnumName<SplineKind>, 4> kSplineKindNames{{{SplineKind::Monotone, "monotone"},
+                                                                       {SplineKind::CatmullRom, "catmull-rom"},
+                                                                       {SplineKind::Natural, "natural"},
+                                                                       {SplineKind::Linear, "linear"}}};
+constexpr std::span<const EnumName<SplineKind>> enum_names(SplineKind) { return kSplineKindNames; }
+
+/// Largest end-cap distance accepted, slice spacings.
+inline constexpr double kMaxCapExtent = 100.0;
 
 struct InterpParams {
-  SplineKind spline = SplineKind::Monotone;  ///< paper 2.4: monotone (Hyman 1983)
-  /// End caps (not in the paper, which does not say how its surfaces close):
-  /// a virtual slice is placed `cap_extent` slice spacings beyond the first
-  /// and the last slice, holding the end slice's field lowered by its maximum
-  /// plus `cap_depth`, so it is negative everywhere. The spline runs through
-  /// it, so each end closes as a dome shaped by the end contour's distance
-  /// field, reaching cap_extent spacings beyond the deepest interior point.
-  double cap_extent = 0.5;  ///< slice spacings
-  double cap_depth = 1.0;   ///< pixels; keeps the virtual slice strictly outside
-  double z_step = 1.0;      ///< pixels; spacing of the sampled z planes (Marching Cubes grid)
+  SplineKind spline = SplineKind::Monotone;
+  double cap_extent = 0.5;
+  double cap_depth = 1.0;
+  double z_step = 1.0;
 };
+
+template <>
+inline const ParamTable<InterpParams>& params_table<InterpParams>() {
+  static const ParamTable<InterpParams> t({
+      field("spline", &InterpParams::spline, "",
+            "z interpolation of every pixel column (paper 2.4): monotone (Hyman 1983), catmull-rom, natural, linear")
+          .cli("--spline"),
+      field("cap_extent", &InterpParams::cap_extent, "spacings",
+            "end caps (not in the paper): a virtual outside slice this far beyond each end slice",
+            Range{0.0, kMaxCapExtent, true, false}),
+      field("cap_depth", &InterpParams::cap_depth, "px",
+            "end caps: the virtual slice is the end slice's field lowered by its maximum plus this", above(0)),
+      field("z_step", &InterpParams::z_step, "px", "spacing of the sampled z planes (the Marching Cubes grid, paper 2.5)",
+            above(0)),
+  });
+  return t;
+}
 
 /// Hermite tangents of one column: f at strictly increasing z, n >= 2.
 /// \pre z.size() == f.size() == m.size() >= 2

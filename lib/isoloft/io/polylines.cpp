@@ -56,7 +56,7 @@ SliceStack read_polylines(const std::string& path) {
     return InputError(path + ":" + std::to_string(line), problem);
   };
   SliceStack stack;
-  stack.polylines = true;
+  stack.kind = InputKind::Polylines;
   bool have_magic = false, have_size = false, have_pixel_size = false;
   Polygon* contour = nullptr;    // contour being filled
   std::size_t contour_line = 0;  // its `contour` keyword line
@@ -145,7 +145,7 @@ SliceStack read_polylines(const std::string& path) {
 }
 
 void write_polylines(const std::string& path, const SliceStack& stack) {
-  if (!stack.polylines) throw ParamError(path + ": write_polylines needs a polyline stack (got images)");
+  if (!stack.has_polygons()) throw ParamError(path + ": write_polylines needs a polyline stack (got images)");
   if (stack.width < 1 || stack.height < 1) throw ParamError(path + ": grid size must be >= 1");
   if (!(stack.pixel_size > 0 && std::isfinite(stack.pixel_size))) throw ParamError(path + ": pixel_size must be > 0");
   for (std::size_t k = 0; k < stack.slices.size(); ++k) {

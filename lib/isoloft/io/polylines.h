@@ -31,7 +31,7 @@
 
 namespace isoloft {
 
-/// Read a polyline file into a stack with polylines = true: one Slice per
+/// Read a polyline file into a stack of kind Polylines: one Slice per
 /// `slice` line (z and polygons from the file, source = path, no image),
 /// width/height from `size`, pixel_size from `pixel_size` (default 1),
 /// max_value left at its default.
@@ -44,7 +44,7 @@ SliceStack read_polylines(const std::string& path);
 /// Write `stack` in the format above (atomically), numbers in the shortest
 /// form that reads back to the same double, so read_polylines returns the
 /// same stack.
-/// \pre stack.polylines, width/height >= 1, z strictly increasing, every
+/// \pre stack.kind == Polylines, width/height >= 1, z strictly increasing, every
 /// polygon has >= 3 points, all inside the grid (as the reader requires).
 /// \throw ParamError if a precondition fails; Error naming the path if writing fails.
 void write_polylines(const std::string& path, const SliceStack& stack);

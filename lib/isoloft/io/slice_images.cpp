@@ -106,7 +106,6 @@ SliceStack read_slice_images(const std::vector<std::string>& files) {
   stack.height = images[0].values.height;
   stack.max_value = 0;
   stack.pixel_size = 1.0;
-  stack.polylines = false;
   stack.slices.resize(n);
   const bool color0 = images[0].color();
   for (std::size_t k = 0; k < n; ++k) {

@@ -23,11 +23,7 @@ namespace isoloft {
 namespace detail {
 
 void validate_decimate_input(const TriMesh& mesh, const DecimateParams& params) {
-  if (!std::isfinite(params.max_error) || params.max_error < 0)
-    throw ParamError("decimate: max_error = " + std::to_string(params.max_error) + " must be finite and >= 0 (pixels)");
-  if (!(params.max_normal_deviation_deg > 0 && params.max_normal_deviation_deg < 90))
-    throw ParamError("decimate: max_normal_deviation_deg = " + std::to_string(params.max_normal_deviation_deg) +
-                     " must be in (0, 90)");
+  params_table<DecimateParams>().validate(params);
   const std::size_t nv = mesh.vertices.size();
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const auto& t = mesh.triangles[f];
@@ -300,13 +296,13 @@ class FastDecimator {
     // faces, split) that covers them, to be moved there if legal.
     s.placed.clear();
     s.leaving.clear();
-    auto record = [&](std::size_t k, const Piece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
+    auto record = [&](std::size_t k, const TrianglePiece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
     for (std::size_t i = 0; i < around.size(); ++i) {
       const auto& held = pieces_[std::size_t(around[i])];
       const int own = s.own[i];
       for (std::size_t j = 0; j < held.size(); ++j) {
         const auto& t = original_[held[j].triangle];
-        const Piece q = expand(held[j], pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
+        const TrianglePiece q = expand(held[j], pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
         if (own >= 0 && s.cover.covered_by(s.tris[std::size_t(own)], q)) continue;
         if (!s.cover.cover(q, s.tris, own, false, record)) return false;
         if (own >= 0) s.leaving.emplace_back(own, std::uint32_t(j));

@@ -40,6 +40,7 @@
 #include <cstddef>
 
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
 
@@ -51,16 +52,22 @@ namespace isoloft {
 inline constexpr double kDecimateSurfaceSlack = 1e-3;
 
 struct DecimateParams {
-  /// paper 2.5 (Garland & Heckbert 1997 quadric decimation, bounded): largest
-  /// distance (pixels) from any point of the original surface to the
-  /// decimated one (+ kDecimateSurfaceSlack inside original triangles);
-  /// 0 = no decimation.
   double max_error = 0.0;
-  /// Largest rotation (degrees) of any face normal in one collapse
-  /// (OpenMesh ModNormalFlippingT); in (0, 90) so that collapses creating
-  /// flipped or zero-area faces are always rejected.
   double max_normal_deviation_deg = 60.0;
 };
+
+template <>
+inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
+  static const ParamTable<DecimateParams> t({
+      field("max_error", &DecimateParams::max_error, "px",
+            "quadric decimation (paper 2.5) keeping every point of the surface within this of the result; 0 = off",
+            at_least(0))
+          .cli("--decimate-error"),
+      field("max_normal_deviation_deg", &DecimateParams::max_normal_deviation_deg, "deg",
+            "largest turn of a face normal in one collapse (no fold-overs)", open_between(0, 90)),
+  });
+  return t;
+}
 
 struct DecimateResult {
   long triangles_before = 0;
@@ -78,8 +85,6 @@ struct DecimateResult {
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params);
 
 namespace detail {
-/// The reference: same contract, strictly greedy, on OpenMesh (decimate_openmesh.cpp).
-DecimateResult decimate_openmesh(TriMesh& mesh, const DecimateParams& params);
 /// decimate() with a given number of z slabs decimated concurrently before
 /// the seams (decimate() picks it from the triangle count; tests force it).
 DecimateResult decimate_in_slabs(TriMesh& mesh, const DecimateParams& params, std::size_t slabs);

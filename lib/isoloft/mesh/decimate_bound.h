@@ -56,31 +56,31 @@ struct PreparedTriangle {
 // vertex, held to max_error itself (the other corners get the slack).
 // `path` holds the child indices (0-3, see split()) from the triangle down,
 // two bits per level, last level lowest.
-struct Piece {
+struct TrianglePiece {
   std::array<Vec3d, 3> p;
   std::uint32_t triangle = 0;
   std::uint8_t original = 0;
   std::uint8_t depth = 0;
   std::uint64_t path = 0;
 };
-inline constexpr int kMaxPieceDepth = 31;  // 2 bits per level in Piece::path
+inline constexpr int kMaxPieceDepth = 31;  // 2 bits per level in TrianglePiece::path
 
 // Child k of q's midpoint subdivision (child k < 3 keeps corner k; child 3
 // is the middle one).
-inline Piece child(const Piece& q, unsigned k) {
+inline TrianglePiece child(const TrianglePiece& q, unsigned k) {
   const Vec3d m01 = 0.5 * (q.p[0] + q.p[1]), m12 = 0.5 * (q.p[1] + q.p[2]), m20 = 0.5 * (q.p[2] + q.p[0]);
   const std::uint8_t d = q.depth + 1;
   const std::uint64_t path = q.path << 2 | k;
   switch (k) {
-    case 0: return Piece{{q.p[0], m01, m20}, q.triangle, std::uint8_t(q.original & 1u), d, path};
-    case 1: return Piece{{m01, q.p[1], m12}, q.triangle, std::uint8_t(q.original & 2u), d, path};
-    case 2: return Piece{{m20, m12, q.p[2]}, q.triangle, std::uint8_t(q.original & 4u), d, path};
-    default: return Piece{{m01, m12, m20}, q.triangle, 0u, d, path};
+    case 0: return TrianglePiece{{q.p[0], m01, m20}, q.triangle, std::uint8_t(q.original & 1u), d, path};
+    case 1: return TrianglePiece{{m01, q.p[1], m12}, q.triangle, std::uint8_t(q.original & 2u), d, path};
+    case 2: return TrianglePiece{{m20, m12, q.p[2]}, q.triangle, std::uint8_t(q.original & 4u), d, path};
+    default: return TrianglePiece{{m01, m12, m20}, q.triangle, 0u, d, path};
   }
 }
 
 // The four pieces of q's midpoint subdivision.
-inline std::array<Piece, 4> split(const Piece& q) { return {child(q, 0), child(q, 1), child(q, 2), child(q, 3)}; }
+inline std::array<TrianglePiece, 4> split(const TrianglePiece& q) { return {child(q, 0), child(q, 1), child(q, 2), child(q, 3)}; }
 
 // A piece without its corners (16 bytes instead of 88): the corners follow
 // bit for bit from the original triangle's corners and the path (expand()).
@@ -92,19 +92,19 @@ struct PieceKey {
   std::uint8_t depth = 0;
 };
 
-inline PieceKey key_of(const Piece& q) { return {q.path, q.triangle, q.original, q.depth}; }
+inline PieceKey key_of(const TrianglePiece& q) { return {q.path, q.triangle, q.original, q.depth}; }
 
 // The piece `key` names, of the original triangle (a, b, c).
-inline Piece expand(const PieceKey& key, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  Piece q{{a, b, c}, key.triangle, 7u, 0u, 0u};
+inline TrianglePiece expand(const PieceKey& key, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  TrianglePiece q{{a, b, c}, key.triangle, 7u, 0u, 0u};
   for (int level = int(key.depth) - 1; level >= 0; --level) q = child(q, unsigned(key.path >> (2 * level)) & 3u);
   return q;
 }
 
 // The parent of the siblings a (child 0), b (child 1) and c (child 2): its
 // corners are a.p[0], b.p[1], c.p[2].
-inline Piece parent_of(const Piece& a, const Piece& b, const Piece& c) {
-  return Piece{{a.p[0], b.p[1], c.p[2]}, a.triangle, std::uint8_t(a.original | b.original | c.original),
+inline TrianglePiece parent_of(const TrianglePiece& a, const TrianglePiece& b, const TrianglePiece& c) {
+  return TrianglePiece{{a.p[0], b.p[1], c.p[2]}, a.triangle, std::uint8_t(a.original | b.original | c.original),
                std::uint8_t(a.depth - 1), a.path >> 2};
 }
 inline PieceKey parent_of(const PieceKey& a, const PieceKey& b, const PieceKey& c) {
@@ -114,7 +114,7 @@ inline PieceKey parent_of(const PieceKey& a, const PieceKey& b, const PieceKey& 
 // Pre-order of the pieces of one face: by triangle, then by the subdivision
 // path read from the top. A piece's children come right after where it
 // would be, and four siblings are adjacent once nothing below them is left.
-template <class P>  // Piece or PieceKey
+template <class P>  // TrianglePiece or PieceKey
 [[nodiscard]] bool preorder_less(const P& a, const P& b) {
   auto top_down = [](const P& q) { return q.path << (2 * (kMaxPieceDepth - q.depth)); };
   return a.triangle != b.triangle ? a.triangle < b.triangle : top_down(a) < top_down(b);
@@ -160,7 +160,7 @@ class PieceCover {
         surface_tol2_((tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack)) {}
 
   // Whether each corner of q is within its bound of t (the fast path of cover()).
-  [[nodiscard]] bool covered_by(const PreparedTriangle& t, const Piece& q) const {
+  [[nodiscard]] bool covered_by(const PreparedTriangle& t, const TrianglePiece& q) const {
     for (std::size_t k = 0; k < 3; ++k)
       if (t.distance_sq(q.p[k]) > ((q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_)) return false;
     return true;
@@ -180,13 +180,13 @@ class PieceCover {
   // (best) makes the same splits as testing; there a rejected part
   // (unreachable) goes to the nearest face, not lost.
   template <class Place>
-  bool cover(const Piece& piece, const std::vector<PreparedTriangle>& tris, int hint, bool best, Place&& place) {
+  bool cover(const TrianglePiece& piece, const std::vector<PreparedTriangle>& tris, int hint, bool best, Place&& place) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     const double smallest2 = kDecimateSurfaceSlack * kDecimateSurfaceSlack;
     const std::size_t n = tris.size();
     stack_.assign(1, piece);
     while (!stack_.empty()) {
-      const Piece q = stack_.back();
+      const TrianglePiece q = stack_.back();
       stack_.pop_back();
       std::array<double, 3> bound{};
       for (std::size_t k = 0; k < 3; ++k) bound[k] = (q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_;
@@ -233,14 +233,14 @@ class PieceCover {
         place(nearest, q);
         continue;
       }
-      for (const Piece& part : split(q)) stack_.push_back(part);
+      for (const TrianglePiece& part : split(q)) stack_.push_back(part);
     }
     return true;
   }
 
  private:
   double vertex_tol2_, surface_tol2_;
-  std::vector<Piece> stack_;
+  std::vector<TrianglePiece> stack_;
   std::vector<unsigned> tested_;
 };
 

@@ -40,6 +40,7 @@
 
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
 
 namespace isoloft {
 
@@ -53,8 +54,16 @@ namespace isoloft {
 inline constexpr double kMinEdgeFraction = 1e-4;
 
 struct MarchingCubesParams {
-  float iso = 0.0f;  ///< paper 2.5: the zero level set of the signed distance (pixels)
+  float iso = 0.0f;
 };
+
+template <>
+inline const ParamTable<MarchingCubesParams>& params_table<MarchingCubesParams>() {
+  static const ParamTable<MarchingCubesParams> t({
+      field("iso", &MarchingCubesParams::iso, "px", "level of the interpolated signed distance extracted (paper 2.5)"),
+  });
+  return t;
+}
 
 /// Streaming Marching Cubes builder: add_plane() for every plane in increasing
 /// z, then finish().

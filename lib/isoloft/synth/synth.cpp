@@ -57,7 +57,7 @@ std::vector<Polygon> implicit_slice_polygons(const std::function<double(const Ve
 SynthResult synthesize(const Shape& shape, const SynthParams& params) {
   if (params.size < 8) throw ParamError("synth: --size must be at least 8");
   if (!(params.z_spacing > 0)) throw ParamError("synth: --z-spacing must be positive");
-  if (params.kind == InputKind::Labels) throw ParamError("synth: writes contours or masks");
+  if (params.kind == InputKind::Labels) throw ParamError("synth: writes contours, masks or polylines");
   const auto [lo, hi] = shape.bounds();
   if (lo.x() < 1 || lo.y() < 1 || hi.x() > params.size - 2 || hi.y() > params.size - 2)
     throw ParamError("synth: the shape does not fit in a " + std::to_string(params.size) + " pixel image");
@@ -66,7 +66,7 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
   r.shape = shape.translated(Vec3d(0, 0, -z0));
   r.stack.width = r.stack.height = params.size;
   r.stack.max_value = 255;
-  r.stack.polylines = params.polylines;
+  r.stack.kind = params.kind;
   for (int k = 0;; ++k) {
     const double z = k * params.z_spacing;
     if (z + z0 >= hi.z()) break;
@@ -77,7 +77,7 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
     tbb::parallel_for(0, params.size, [&](int y) {
       for (int x = 0; x < params.size; ++x) f(x, y) = float(r.shape->value(Vec3d(x, y, z)));
     });
-    if (params.polylines) {
+    if (params.kind == InputKind::Polylines) {
       const Shape& sh = *r.shape;
       s.polygons = implicit_slice_polygons([&sh, z](const Vec2d& q) { return sh.value(Vec3d(q.x(), q.y(), z)); }, params.size,
                                            params.size, params.polyline_step);
@@ -101,7 +101,7 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
                      {"slices", r.stack.slices.size()},
                      {"z_first", r.stack.slices.front().z},
                      {"z_last", r.stack.slices.back().z},
-                     {"input", params.polylines ? "polylines" : params.kind == InputKind::Contours ? "contours" : "masks"},
+                     {"input", to_string(params.kind)},
                      {"units", "pixels; pixel (i, j) of slice k is at (i, j, k * z_spacing)"}}}};
   return r;
 }

@@ -23,16 +23,16 @@ struct SynthParams {
   int size = 128;            ///< image width and height, pixels
   double z_spacing = 8.0;    ///< slice spacing in pixels (the z ratio, e.g. 8:1)
   double first_offset = 0.37;  ///< first cut this many spacings above the shape's bottom (avoids cutting at a pole)
-  InputKind kind = InputKind::Contours;  ///< Contours or Masks (images)
-  /// Write closed polygons instead of images: the exact cut traced by
-  /// marching squares on a grid of `polyline_step` pixels, vertices refined
-  /// onto the surface (vertex error ~1e-9 px, chord error <= step^2 / (8 r)).
-  bool polylines = false;
+  /// Contours or Masks (images), or Polylines: closed polygons of the exact
+  /// cut traced by marching squares on a grid of `polyline_step` pixels,
+  /// vertices refined onto the surface (vertex error ~1e-9 px, chord error
+  /// <= step^2 / (8 r)).
+  InputKind kind = InputKind::Contours;
   double polyline_step = 0.5;  ///< pixels
 };
 
 struct SynthResult {
-  SliceStack stack;            ///< images (0/255), z = k * z_spacing
+  SliceStack stack;            ///< of params.kind: images (0/255) or polygons, z = k * z_spacing
   std::unique_ptr<Shape> shape;  ///< moved so that slice k is at z = k * z_spacing
   nlohmann::json description;  ///< {"shape": ..., "stack": {...}}: what `isoloft eval --truth` reads
 };

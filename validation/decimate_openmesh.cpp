@@ -3,7 +3,7 @@
 // greedy (one heap of collapses). 3.3-7x slower than decimate.cpp (measured:
 // 38k triangles 888 vs 272 ms; 0.58 M triangles 27.5 vs 3.9 s, 2 threads);
 // kept as its test oracle and for comparison (experiments/bench_pipeline).
-#include "isoloft/mesh/decimate.h"
+#include "validation/decimate_openmesh.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 // QuadricT.hh needs vector_traits from the mesh headers: keep it after them.
@@ -98,7 +98,7 @@ template <class MeshT>
 class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
  public:
   DECIMATING_MODULE(ModBoundedQuadricT, MeshT, BoundedQuadric);
-  using Pieces = std::vector<Piece>;
+  using Pieces = std::vector<TrianglePiece>;
   using FaceHandle = typename MeshT::FaceHandle;
   using VertexHandle = typename MeshT::VertexHandle;
   using Quadric = OpenMesh::Geometry::QuadricT<double>;
@@ -119,7 +119,7 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
     for (auto f : m.faces()) {
       auto fv = m.cfv_iter(f);
       const VertexHandle a = *fv, b = *++fv, c = *++fv;
-      m.property(pieces_, f).assign(1, Piece{{to_vec(m.point(a)), to_vec(m.point(b)), to_vec(m.point(c))}, std::uint32_t(f.idx()), 7u, 0u, 0u});
+      m.property(pieces_, f).assign(1, TrianglePiece{{to_vec(m.point(a)), to_vec(m.point(b)), to_vec(m.point(c))}, std::uint32_t(f.idx()), 7u, 0u, 0u});
       OmPoint n = (m.point(b) - m.point(a)) % (m.point(c) - m.point(a));
       const double twice_area = n.norm();
       if (twice_area <= 0) continue;  // no plane; contributes nothing
@@ -142,9 +142,9 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
   // holds it (usually enough).
   bool within_tolerance(const CollapseInfo& ci) {
     prepare(ci);
-    auto ignore = [](std::size_t, const Piece&) {};
+    auto ignore = [](std::size_t, const TrianglePiece&) {};
     for (auto [f, own] : around_)
-      for (const Piece& piece : Base::mesh().property(pieces_, f))
+      for (const TrianglePiece& piece : Base::mesh().property(pieces_, f))
         if (!(own >= 0 && cover_->covered_by(tris_[std::size_t(own)], piece)) && !cover_->cover(piece, tris_, own, false, ignore))
           return false;
     return true;
@@ -169,9 +169,9 @@ class ModBoundedQuadricT : public OpenMesh::Decimater::ModBaseT<MeshT> {
     MeshT& m = Base::mesh();
     m.property(quadrics_, ci.v1) += m.property(quadrics_, ci.v0);
     if (faces_.empty()) return;  // unreachable: within_tolerance() rejects it
-    auto store = [&](std::size_t k, const Piece& q) { m.property(pieces_, faces_[k]).push_back(q); };
+    auto store = [&](std::size_t k, const TrianglePiece& q) { m.property(pieces_, faces_[k]).push_back(q); };
     coarsen(moved_);
-    for (const Piece& piece : moved_) cover_->cover(piece, tris_, -1, true, store);
+    for (const TrianglePiece& piece : moved_) cover_->cover(piece, tris_, -1, true, store);
   }
 
  private:

@@ -1,0 +1,197 @@
+#include "isoloft/pipeline/slice_fields.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "isoloft/contour/rasterize.h"
+#include "isoloft/core/error.h"
+#include "isoloft/field/edt.h"
+#include "isoloft/field/marching.h"
+#include "isoloft/field/narrow_band.h"
+#include "isoloft/pipeline.h"
+
+namespace isoloft::detail {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// One-line error for a non-binary image in contours/masks mode.
+void check_binary(const Slice& s, std::uint32_t max_value) {
+  for (int y = 0; y < s.image.height; ++y)
+    for (int x = 0; x < s.image.width; ++x) {
+      const auto v = s.image(x, y);
+      if (v != 0 && v != max_value)
+        throw InputError(s.source, "not a binary image: value " + std::to_string(v) + " at pixel (" + std::to_string(x) + ", " +
+                                       std::to_string(y) + ") is neither 0 nor " + std::to_string(max_value) +
+                                       " (use --input labels for label images, or --binarize to threshold at half range)");
+    }
+}
+
+template <class T>
+Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {
+  Grid2<T> out(b.width(), b.height());
+  for (int y = b.y0; y < b.y1; ++y) std::copy_n(&g(b.x0, y), b.width(), &out(0, y - b.y0));
+  return out;
+}
+
+}  // namespace
+
+SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& p, std::uint32_t label) {
+  SliceMasks m;
+  if (stack.has_polygons()) {
+    rasterize_polygons(s.polygons, stack.width, stack.height, m.contour, m.inside);
+  } else if (stack.kind == InputKind::Labels) {
+    m.inside = Grid2u8(s.image.width, s.image.height, 0);
+    for (std::size_t i = 0; i < s.image.size(); ++i) m.inside.data[i] = s.image.data[i] == label;
+    m.contour = mask_boundary(m.inside);
+  } else {
+    if (!p.binarize) check_binary(s, stack.max_value);
+    const Grid2u8 white = binarize(s.image, stack.max_value / 2);
+    if (stack.kind == InputKind::Masks) {
+      m.inside = white;
+      m.contour = mask_boundary(white);
+    } else {
+      FillResult f;
+      try {
+        f = fill_even_odd(white, p.fill);
+      } catch (const InputError& e) {
+        throw InputError(s.source, e.problem);
+      }
+      for (const auto& o : f.open_contours)
+        m.warnings.push_back(s.source + ": open contour with ends (" + std::to_string(o.x0) + ", " + std::to_string(o.y0) +
+                             ") and (" + std::to_string(o.x1) + ", " + std::to_string(o.y1) + "), gap " +
+                             std::to_string(o.gap) + " px: " +
+                             (o.repaired ? "closed by a straight segment"
+                                         : "too wide to close, treated as a curve without inside"));
+      m.inside = std::move(f.inside);
+      m.contour = std::move(f.contour);
+    }
+  }
+  m.empty = std::none_of(m.inside.data.begin(), m.inside.data.end(), [](std::uint8_t v) { return v != 0; });
+  return m;
+}
+
+PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin) {
+  int x0 = width, y0 = height, x1 = -1, y1 = -1;
+  for (const auto& m : masks) {
+    if (m.empty) continue;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        if (m.inside(x, y) || m.contour(x, y)) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  }
+  if (x1 < 0) return {};
+  return {std::max(0, x0 - margin), std::max(0, y0 - margin), std::min(width, x1 + margin + 1), std::min(height, y1 + margin + 1)};
+}
+
+Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind) {
+  const Grid2u8 inside = crop(m.inside, b);
+  if (kind == InputKind::Contours || kind == InputKind::Polylines)
+    return distance_to_contour_signed(crop(m.contour, b), inside);
+  return distance_to_mask_edge_signed(inside);
+}
+
+MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& p, InputKind kind,
+                         int stack_width, bool keep) {
+  const bool polylines = kind == InputKind::Polylines;
+  MarkerSlice r;
+  auto t0 = Clock::now();
+  // Polylines may be fitted on a finer raster (the paper's pelvis): working
+  // coordinate x maps to X = k (x + 0.5) - 0.5 (pixel-centre convention at
+  // both resolutions), and f is rescaled to working pixels. k = 1 otherwise.
+  const bool fine = polylines && p.polyline_raster_width > 0;
+  const double k = fine ? double(p.polyline_raster_width) / stack_width : 1.0;
+  int fit_w = b.width(), fit_h = b.height();
+  if (fine) {
+    std::vector<Polygon> polys = s.polygons;
+    for (auto& poly : polys)
+      for (auto& q : poly.points) q = Vec2d(k * (q.x() - b.x0 + 0.5) - 0.5, k * (q.y() - b.y0 + 0.5) - 0.5);
+    fit_w = int(std::ceil(k * b.width())), fit_h = int(std::ceil(k * b.height()));
+    Grid2u8 contour, inside;
+    rasterize_polygons(polys, fit_w, fit_h, contour, inside);
+    r.points = contour_normals(contour, inside, p.normals);
+  } else if (polylines) {
+    std::vector<Polygon> shifted = s.polygons;
+    for (auto& poly : shifted)
+      for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
+    r.points = polygon_points(shifted, p.polyline_spacing);
+  } else {
+    r.points = contour_normals(crop(m.contour, b), crop(m.inside, b), p.normals);
+    if (kind != InputKind::Contours && p.mask_edge_offset != 0)
+      for (std::size_t i = 0; i < r.points.size(); ++i) r.points.points[i] += p.mask_edge_offset * r.points.normals[i];
+  }
+  if (r.points.size() < kMinMpuPoints) {
+    // Too few oriented points to fit a curve (e.g. a one-pixel island, whose
+    // normal is undefined): the slice keeps its exact pixel distance field.
+    r.field = levin_field(m, b, kind);
+    r.fallback = true;
+    r.t_mpu = seconds_since(t0);
+    if (keep) r.mpu = r.distance = r.field;
+    return r;
+  }
+  MpuParams mp = p.mpu;
+  mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(fit_w - 0.5, fit_h - 0.5));
+  r.fit = fit_mpu(r.points, mp);
+  if (fine)  // report the points in working crop coordinates
+    for (auto& q : r.points.points) q = (q + Vec2d(0.5, 0.5)) / k - Vec2d(0.5, 0.5);
+  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
+  if (fine)
+    for (float& v : f.data) v = float(v / k);
+  if (keep) r.mpu = f;  // the raw fit, before the sign guard
+  if (p.sign_guard > 0) {
+    // Far from every contour pixel the fill's inside/outside is exact; where
+    // the fit disagrees there (a spurious zero crossing), the sample takes the
+    // signed pixel distance instead, so no curve piece survives out there.
+    const Grid2f trust = distance_to_contour_signed(crop(m.contour, b), crop(m.inside, b));
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (std::abs(trust.data[i]) > p.sign_guard && (f.data[i] > 0) != (trust.data[i] > 0)) {
+        f.data[i] = trust.data[i];
+        ++r.sign_guarded;
+      }
+  }
+  r.t_mpu = seconds_since(t0);
+  t0 = Clock::now();
+  const MpuCurve& curve = r.fit.curve;
+  const auto f_working = [&curve, k](const Vec2d& q) { return curve.value(k * (q + Vec2d(0.5, 0.5)) - Vec2d(0.5, 0.5)) / k; };
+  const NarrowBandResult band = narrow_band_distance(f, f_working, p.band);
+  r.field = extend_distance(band, p.extend);
+  r.t_dist = seconds_since(t0);
+  if (keep) r.distance = r.field;
+  return r;
+}
+
+void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+  // Empty slices (no inside) are all outside. One next to a non-empty slice
+  // gets that neighbour's field lowered by (max + cap_depth) / cap_extent, so
+  // the object closes between them like an end cap (interp/spline.h): a dome
+  // reaching cap_extent of the gap at the contour's deepest point. With two
+  // non-empty neighbours it takes the lower of the two. Empty slices with no
+  // non-empty neighbour take the most negative value of the object's fields.
+  float most_negative = -1.0f;
+  for (const auto& f : fields)
+    if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
+  std::vector<Grid2f> out(fields.size());
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    if (!fields[k].empty()) continue;
+    Grid2f g;
+    for (std::size_t nb : {k - 1, k + 1}) {
+      if (nb >= fields.size() || fields[nb].empty()) continue;  // k - 1 wraps for k = 0
+      const Grid2f& f = fields[nb];
+      const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
+      const float drop = float((top + interp.cap_depth) / interp.cap_extent);
+      if (g.empty()) {
+        g = f;
+        for (float& v : g.data) v -= drop;
+      } else {
+        for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], f.data[i] - drop);
+      }
+    }
+    out[k] = g.empty() ? Grid2f(box.width(), box.height(), most_negative) : std::move(g);
+  }
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    if (fields[k].empty()) fields[k] = std::move(out[k]);
+}
+
+}  // namespace isoloft::detail

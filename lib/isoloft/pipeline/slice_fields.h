@@ -1,0 +1,84 @@
+// @file pipeline/slice_fields.h
+// @brief The per-slice stages of reconstruct(): one slice in, its masks or
+// its signed distance field out (paper 2.1-2.3, or the Levin baseline).
+//
+// Each function is a pure function of one slice and the parameters, so the
+// pipeline runs them over the slices in parallel. Coordinates: pixels of the
+// working grid; a field covers the object's crop box `b` (pixel (i, j) of the
+// field is working pixel (b.x0 + i, b.y0 + j)). Sign convention: positive inside.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "isoloft/contour/fill.h"
+#include "isoloft/contour/normals.h"
+#include "isoloft/core/grid.h"
+#include "isoloft/core/slice_stack.h"
+#include "isoloft/fit/mpu.h"
+#include "isoloft/interp/spline.h"
+
+namespace isoloft {
+struct ReconstructParams;
+}
+
+namespace isoloft::detail {
+
+/// One slice of one object as pixels: its contour and its inside.
+struct SliceMasks {
+  Grid2u8 contour;  ///< contour pixels (1)
+  Grid2u8 inside;   ///< interior or contour (1)
+  bool empty = true;  ///< no inside pixel
+  /// Open contours found by the even-odd fill (contours input), as warnings.
+  std::vector<std::string> warnings;
+};
+
+/// Contour pixels and inside of `label` (labels input; ignored otherwise) in
+/// slice `s` (paper 2.1): polygons rasterised, masks and labels taken as they
+/// are (contour = mask boundary), contour images filled by even-odd nesting.
+/// \throw InputError naming the slice file for a non-binary contour or mask
+///        image (unless params.binarize) and for an open contour that the
+///        fill's policy rejects.
+SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& params, std::uint32_t label);
+
+/// Bounding box of every slice's inside and contour, grown by `margin` and
+/// clipped to the grid; empty if no slice has any.
+PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin);
+
+/// The Levin-style field over box b: exact signed EDT at pixel centres
+/// (field/edt.h), to the contour pixels (contours, polylines) or to the
+/// mask's edge (masks, labels).
+Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
+
+/// Fewer contour points than this cannot carry a conic fit (6 coefficients).
+inline constexpr std::size_t kMinMpuPoints = 6;
+
+/// One slice through the paper's stages 2.1-2.2.
+struct MarkerSlice {
+  Grid2f field;            ///< signed distance (narrow band + extension), before the filter
+  bool fallback = false;   ///< too few points for a curve: exact pixel distances instead
+  long sign_guarded = 0;   ///< pixels whose MPU sign the sign guard overruled
+  MpuResult fit;
+  OrientedPoints points;   ///< contour points and normals, crop coordinates
+  Grid2f mpu, distance;    ///< kept only when asked (figures): raw MPU f, distance before the filter
+  double t_mpu = 0, t_dist = 0;  ///< CPU seconds of the two stages
+};
+
+/// marker2006 for one slice over box b (paper 2.1-2.2): contour points and
+/// outward normals, the MPU curve (fitted on a finer raster for polylines
+/// with polyline_raster_width > 0), the sign guard, exact distances in a
+/// narrow band around the curve, extended to the whole box.
+/// @warning A slice with fewer than kMinMpuPoints oriented points (e.g. a
+/// one-pixel island) gets its exact pixel distance field (fallback = true).
+MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& params,
+                         InputKind kind, int stack_width, bool keep_stages);
+
+/// Gives every empty slice (empty grid) a field: next to a non-empty slice,
+/// that slice's field lowered by (max + cap_depth) / cap_extent, so the object
+/// closes in the gap like an end cap; with two such neighbours the lower of
+/// the two; otherwise the most negative value of all fields.
+void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp);
+
+}  // namespace isoloft::detail

@@ -1,0 +1,18 @@
+// @file validation/decimate_openmesh.h
+// @brief The reference decimator: the contract of decimate() (mesh/decimate.h)
+// on OpenMesh's Decimater, strictly greedy (one heap of collapses). A test
+// oracle and benchmark baseline only; the product library does not link
+// OpenMesh.
+#pragma once
+
+#include "isoloft/core/mesh.h"
+#include "isoloft/mesh/decimate.h"
+
+namespace isoloft::detail {
+
+/// Decimates `mesh` in place with the same bound and topology rules as
+/// decimate(), greedily in quadric-error order.
+/// \throw as decimate().
+DecimateResult decimate_openmesh(TriMesh& mesh, const DecimateParams& params);
+
+}  // namespace isoloft::detail
