@@ -32,6 +32,7 @@
 #include "isoloft/contour/fill.h"
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
+#include "isoloft/io/file_util.h"
 #include "isoloft/io/metaimage.h"
 #include "experiment_util.h"
 #include "isoloft/pipeline.h"

@@ -5,7 +5,7 @@
 # to paper/accuracy.md and paper/accuracy.csv.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-"$ROOT/scripts/setup.sh"
+"$ROOT/scripts/setup.sh" --full
 OUT="$ROOT/experiments/out/accuracy"
 "$ROOT/build/experiments/accuracy" --out "$OUT" --size "${SIZE:-128}" --ratios 4,8,16 "$@"
 {

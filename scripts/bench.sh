@@ -10,7 +10,7 @@
 # env:   RUNS (5), DECIMATE_ERROR (0.25 px), THREADS ("1 2"), MICRO (1: run the micro-benchmarks)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-"$ROOT/scripts/setup.sh"
+"$ROOT/scripts/setup.sh" --full
 BIN="$ROOT/build/experiments/bench_pipeline"
 OUT="$ROOT/experiments/out/bench"
 mkdir -p "$OUT"

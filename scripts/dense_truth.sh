@@ -7,7 +7,7 @@
 # paper/dense_truth.csv.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-"$ROOT/scripts/setup.sh"
+"$ROOT/scripts/setup.sh" --full
 OUT="$ROOT/experiments/out/dense_truth"
 FROG="$ROOT/../shared/data/frog/frogtissue.mhd"
 AAL="${AAL:-/usr/share/mricron/templates/aal.nii.gz}"

@@ -7,7 +7,7 @@
 # REPEATS=N sets the timing repetitions (default 3, median reported).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-ISOLOFT_EXTRA_PACKAGES="python3-numpy python3-matplotlib python3-pydicom ${ISOLOFT_EXTRA_PACKAGES:-}" "$ROOT/scripts/setup.sh"
+ISOLOFT_EXTRA_PACKAGES="python3-numpy python3-matplotlib python3-pydicom ${ISOLOFT_EXTRA_PACKAGES:-}" "$ROOT/scripts/setup.sh" --full
 PY=/usr/bin/python3  # Debian's, where the packages above live
 OUT="$ROOT/experiments/out/reproduce"
 export ISOLOFT_BUILD="$ROOT/build"

@@ -1,11 +1,21 @@
 #!/usr/bin/env bash
 # Installs what is missing (Debian 12, as root; idempotent) and builds isoloft
-# in Release into build/. Used by example.sh and test.sh.
+# in Release into build/.
+#   setup.sh          the CLI only: the packages it needs, target `isoloft` (example.sh)
+#   setup.sh --full   everything: tests, oracles, experiments, and the CLI
+#                     linked with the one-definition-rule check (test.sh)
+# A build/ already configured in full is never narrowed back to the CLI.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-PACKAGES=(build-essential cmake git pkg-config time
-  libcgal-dev libeigen3-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev
-  libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev libbenchmark-dev)
+FULL=0
+if [[ "${1:-}" == "--full" ]]; then FULL=1; shift; fi
+# What the CLI needs to build and run.
+CLI_PACKAGES=(build-essential cmake git pkg-config time
+  libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev)
+# Tests, oracles (CGAL, Ceres, OpenMesh) and benchmarks.
+DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev)
+PACKAGES=("${CLI_PACKAGES[@]}")
+((FULL)) && PACKAGES+=("${DEV_PACKAGES[@]}")
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.
 read -r -a extra <<< "${ISOLOFT_EXTRA_PACKAGES:-}"
 PACKAGES+=("${extra[@]}")
@@ -23,6 +33,15 @@ if ((${#missing[@]})); then
 fi
 
 JOBS="${ISOLOFT_JOBS:-$(nproc)}"
-cmake -S "$ROOT" -B "$ROOT/build" -DCMAKE_BUILD_TYPE=Release "$@" > "$ROOT/build.log" 2>&1 || { cat "$ROOT/build.log"; exit 1; }
-cmake --build "$ROOT/build" -j "$JOBS" >> "$ROOT/build.log" 2>&1 || { tail -n 80 "$ROOT/build.log"; exit 1; }
-echo "setup: built $ROOT/build (log: build.log)"
+BUILD="$ROOT/build"
+if ((!FULL)) && grep -qs "ISOLOFT_BUILD_TESTS:BOOL=ON" "$BUILD/CMakeCache.txt"; then FULL=1; fi
+if ((FULL)); then
+  OPTIONS=(-DISOLOFT_BUILD_TESTS=ON -DISOLOFT_BUILD_VALIDATION=ON -DISOLOFT_BUILD_EXPERIMENTS=ON -DISOLOFT_ODR_CHECK=ON)
+  TARGET=all
+else
+  OPTIONS=(-DISOLOFT_BUILD_TESTS=OFF -DISOLOFT_BUILD_VALIDATION=OFF -DISOLOFT_BUILD_EXPERIMENTS=OFF)
+  TARGET=isoloft
+fi
+cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release "${OPTIONS[@]}" "$@" > "$ROOT/build.log" 2>&1 || { cat "$ROOT/build.log"; exit 1; }
+cmake --build "$BUILD" -j "$JOBS" --target "$TARGET" >> "$ROOT/build.log" 2>&1 || { tail -n 80 "$ROOT/build.log"; exit 1; }
+echo "setup: built $BUILD ($TARGET; log: build.log)"

@@ -8,5 +8,5 @@
 # Writes experiments/out/vtk_side_by_side/result.json and prints a table.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-ISOLOFT_EXTRA_PACKAGES="python3-numpy python3-vtk9 ${ISOLOFT_EXTRA_PACKAGES:-}" "$ROOT/scripts/setup.sh"
+ISOLOFT_EXTRA_PACKAGES="python3-numpy python3-vtk9 ${ISOLOFT_EXTRA_PACKAGES:-}" "$ROOT/scripts/setup.sh" --full
 exec /usr/bin/python3 "$ROOT/experiments/vtk_side_by_side.py" "$@"  # Debian's python, where the packages above live

@@ -239,3 +239,25 @@ RC_GTEST_PROP(PolylinesProperty, DamagedFilesThrowInputErrorOrRead, ()) {
     RC_ASSERT(e.file.rfind(path, 0) == 0);  // "path" or "path:line"
   }
 }
+
+// CR-only (old Mac) and CRLF line ends and a UTF-8 byte-order mark read the
+// same as plain LF; line numbers in errors count those line ends too.
+TEST(Polylines, LineEndsAndByteOrderMark) {
+  TempDir dir;
+  const std::string lf = "isoloft-polylines 1\nsize 10 10\nslice 0\ncontour\n1 1\n8 1\n8 8\nslice 2\n";
+  isoloft::test::write_text(dir.file("lf.txt"), lf);
+  const SliceStack want = read_polylines(dir.file("lf.txt"));
+  auto with = [&](const std::string& eol, bool bom) {
+    std::string t = bom ? "\xEF\xBB\xBF" : "";
+    for (char c : lf) t += c == '\n' ? eol : std::string(1, c);
+    return t;
+  };
+  for (const auto& [eol, bom] : {std::pair{std::string("\r"), false}, {std::string("\r\n"), false}, {std::string("\n"), true},
+                                 {std::string("\r"), true}}) {
+    const std::string path = dir.file("v.txt");
+    isoloft::test::write_text(path, with(eol, bom));
+    SCOPED_TRACE(std::string(eol == "\r" ? "CR" : eol == "\r\n" ? "CRLF" : "LF") + (bom ? " with BOM" : ""));
+    expect_same_stack(read_polylines(path), want);
+  }
+  expect_error(dir.file("e.txt"), "isoloft-polylines 1\rsize 10 10\rslice 0\rcontour\r1 1\r8 x\r", 6, "expected two numbers");
+}

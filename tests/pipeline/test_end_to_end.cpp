@@ -240,3 +240,43 @@ TEST(EndToEnd, SignGuardRemovesSpuriousSurfaceBesideAThinSliver) {
   EXPECT_GT(off_mask(raw.objects[0].mesh), kSpuriousPx);
   EXPECT_TRUE(guarded.objects[0].check.closed && guarded.objects[0].check.manifold);
 }
+
+// End caps (interp.cap_shape): a cylinder of two disk slices 8 px apart
+// closes half a spacing (cap_extent) beyond each end. The dome's top follows
+// the disk's distance field (highest over the centre), the flat cap's top is
+// one plane over the whole interior.
+TEST(EndToEnd, FlatCapsCloseWithALidAndDomesWithACrown) {
+  constexpr double kR = 14.0, kDz = 8.0;
+  SliceStack st = label_stack(2, 48, kDz, [&](int x, int y, int) -> std::uint32_t {
+    return (x - 24) * (x - 24) + (y - 24) * (y - 24) < kR * kR ? 255 : 0;
+  });
+  st.kind = InputKind::Masks;
+  // Vertices above the interior (6 px in from the rim), beyond the last slice.
+  auto lid_heights = [&](const TriMesh& m) {
+    std::vector<double> z;
+    for (const auto& v : m.vertices)
+      if (v.z() > kDz && std::hypot(v.x() - 24.0, v.y() - 24.0) < kR - 6.0) z.push_back(v.z());
+    return z;
+  };
+  const double top = kDz + ReconstructParams{}.interp.cap_extent * kDz;  // the virtual cap slice
+  for (const CapShape shape : {CapShape::Dome, CapShape::Flat}) {
+    ReconstructParams p;
+    p.method = Method::Levin;
+    p.interp.cap_shape = shape;
+    const auto r = reconstruct(st, p);
+    ASSERT_EQ(r.objects.size(), 1u);
+    const auto& o = r.objects[0];
+    EXPECT_TRUE(o.check.closed && o.check.manifold && o.check.oriented) << to_string(shape);
+    const std::vector<double> z = lid_heights(o.mesh);
+    ASSERT_FALSE(z.empty()) << to_string(shape);
+    const auto [lo, hi] = std::minmax_element(z.begin(), z.end());
+    EXPECT_LE(*hi, top) << to_string(shape) << ": nothing beyond the cap slice";
+    if (shape == CapShape::Flat) {
+      // One plane up to the rounding of the spline's crossing: within a pixel.
+      EXPECT_LT(*hi - *lo, 1.0) << "flat lid between z " << *lo << " and " << *hi;
+      EXPECT_GT(*lo, top - 1.0) << "the lid lies at the cap slice";
+    } else {
+      EXPECT_GT(*hi - *lo, 1.0) << "a dome's height follows the distance to the rim";
+    }
+  }
+}

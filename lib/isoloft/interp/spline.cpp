@@ -168,18 +168,24 @@ void ZInterpolator::evaluate(double q, Grid2f& out) const {
   });
 }
 
+Grid2f cap_slice(const Grid2f& end, const InterpParams& params) {
+  Grid2f c = end;
+  const float depth = float(params.cap_depth);
+  if (params.cap_shape == CapShape::Flat) {
+    for (float& v : c.data) v = std::min(v, 0.0f) - depth;
+    return c;
+  }
+  float top = 0.0f;
+  for (float v : end.data) top = std::max(top, v);
+  for (float& v : c.data) v -= top + depth;
+  return c;
+}
+
 void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const InterpParams& params) {
   if (slices.size() < 2 || slices.size() != z.size()) throw ParamError("end caps need at least 2 slices");
   params_table<InterpParams>().validate(params);
-  auto cap = [&](const Grid2f& end) {
-    float top = 0.0f;
-    for (float v : end.data) top = std::max(top, v);
-    Grid2f c = end;
-    for (float& v : c.data) v -= top + float(params.cap_depth);
-    return c;
-  };
   const double h0 = z[1] - z[0], hn = z[z.size() - 1] - z[z.size() - 2];
-  Grid2f first = cap(slices.front()), last = cap(slices.back());
+  Grid2f first = cap_slice(slices.front(), params), last = cap_slice(slices.back(), params);
   slices.insert(slices.begin(), std::move(first));
   z.insert(z.begin(), z.front() - params.cap_extent * h0);
   slices.push_back(std::move(last));

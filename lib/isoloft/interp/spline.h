@@ -33,6 +33,14 @@ inline constexpr std::array<EnumName<SplineKind>, 4> kSplineKindNames{{{SplineKi
                                                                        {SplineKind::Linear, "linear"}}};
 constexpr std::span<const EnumName<SplineKind>> enum_names(SplineKind) { return kSplineKindNames; }
 
+/// How an object closes beyond its end slices (and next to an empty slice).
+enum class CapShape {
+  Dome,  ///< the end slice's field lowered by its maximum + cap_depth: a dome shaped by the end contour's distance field
+  Flat,  ///< inside set to -cap_depth: a flat lid cap_extent beyond the end slice, its rim rounded over ~cap_depth
+};
+inline constexpr std::array<EnumName<CapShape>, 2> kCapShapeNames{{{CapShape::Dome, "dome"}, {CapShape::Flat, "flat"}}};
+constexpr std::span<const EnumName<CapShape>> enum_names(CapShape) { return kCapShapeNames; }
+
 /// Largest end-cap distance accepted, slice spacings.
 inline constexpr double kMaxCapExtent = 100.0;
 
@@ -40,6 +48,7 @@ struct InterpParams {
   SplineKind spline = SplineKind::Monotone;
   double cap_extent = 0.5;
   double cap_depth = 1.0;
+  CapShape cap_shape = CapShape::Dome;
   double z_step = 1.0;
 };
 
@@ -54,6 +63,9 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
             Range{0.0, kMaxCapExtent, true, false}),
       field("cap_depth", &InterpParams::cap_depth, "px",
             "end caps: the virtual slice is the end slice's field lowered by its maximum plus this", above(0)),
+      field("cap_shape", &InterpParams::cap_shape, "",
+            "end caps: dome (shaped by the end contour's distance field) or flat (a lid cap_extent beyond the end slice)")
+          .cli("--caps"),
       field("z_step", &InterpParams::z_step, "px", "spacing of the sampled z planes (the Marching Cubes grid, paper 2.5)",
             above(0)),
   });
@@ -105,6 +117,10 @@ class ZInterpolator {
   std::vector<double> z_;
   SplineKind kind_;
 };
+
+/// The virtual slice beyond end slice `end` (InterpParams::cap_shape): outside
+/// (<= -cap_depth) everywhere.
+Grid2f cap_slice(const Grid2f& end, const InterpParams& params);
 
 /// Adds the end-cap virtual slices of InterpParams to (slices, z).
 /// \pre slices.size() == z.size() >= 2

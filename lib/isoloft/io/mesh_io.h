@@ -21,6 +21,19 @@ namespace isoloft {
 
 enum class MeshFormat { Ply, Obj, Stl, Off };
 
+/// What a mesh format supports (the dispatcher's table, io/mesh_io.cpp).
+struct MeshFormatInfo {
+  MeshFormat format;
+  const char* extension;  ///< lower case, with the dot
+  const char* name;
+  bool colors;     ///< per-vertex colours written and read
+  bool binary;     ///< a binary flavour (the default; ASCII if asked)
+  bool readable;   ///< read_mesh() reads it
+};
+
+/// Every format, in the table's order.
+std::vector<MeshFormatInfo> mesh_formats();
+
 /// Format from the (case-insensitive) extension: .ply .obj .stl .off.
 /// \throw ParamError naming the path for any other extension.
 MeshFormat mesh_format_from_path(const std::string& path);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "isoloft/core/error.h"
+#include "isoloft/io/file_util.h"
 
 namespace isoloft {
 namespace {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "isoloft/core/error.h"
+#include "isoloft/io/file_util.h"
 #include "isoloft/io/atomic_file.h"
 
 namespace isoloft {

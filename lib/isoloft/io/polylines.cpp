@@ -1,6 +1,5 @@
 #include "isoloft/io/polylines.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -9,44 +8,17 @@
 #include <vector>
 
 #include "isoloft/core/error.h"
+#include "isoloft/io/file_util.h"
+#include "isoloft/io/text.h"
 #include "isoloft/io/atomic_file.h"
-#include "isoloft/io/volume.h"
 
 namespace isoloft {
 namespace {
 
-bool to_double(std::string_view s, double& v) {
-  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size() && std::isfinite(v);
-}
+using detail::shortest_text;
 
-bool to_int(std::string_view s, long long& v) {
-  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
-}
-
-std::vector<std::string_view> tokens_of(std::string_view line) {
-  const std::size_t h = line.find('#');
-  if (h != std::string_view::npos) line = line.substr(0, h);
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
-  while (i < line.size()) {
-    while (i < line.size() && space(line[i])) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !space(line[i])) ++i;
-    if (i > b) out.push_back(line.substr(b, i - b));
-  }
-  return out;
-}
-
-std::string fmt(double v) {
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
+// A finite number filling the whole token.
+bool to_double(std::string_view s, double& v) { return detail::parse_number(s, v) && std::isfinite(v); }
 
 }  // namespace
 
@@ -60,7 +32,6 @@ SliceStack read_polylines(const std::string& path) {
   bool have_magic = false, have_size = false, have_pixel_size = false;
   Polygon* contour = nullptr;    // contour being filled
   std::size_t contour_line = 0;  // its `contour` keyword line
-  std::size_t line_no = 0;
   auto close_contour = [&]() {
     if (!contour) return;
     // An explicitly repeated first point would make a zero-length closing edge.
@@ -71,15 +42,12 @@ SliceStack read_polylines(const std::string& path) {
     contour = nullptr;
   };
 
-  const char* p = reinterpret_cast<const char*>(bytes.data());
-  const char* end = p + bytes.size();
-  while (p < end) {
-    const char* e = static_cast<const char*>(std::memchr(p, '\n', std::size_t(end - p)));
-    if (!e) e = end;
-    const std::string_view line(p, std::size_t(e - p));
-    p = e < end ? e + 1 : end;
-    ++line_no;
-    const auto tok = tokens_of(line);
+  detail::Lines lines(bytes.data(), bytes.data() + bytes.size());
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  while (lines.next(line)) {
+    const std::size_t line_no = lines.number();
+    detail::split_tokens(line, tok, true);
     if (tok.empty()) continue;
     const std::string_view key = tok[0];
     if (!have_magic) {
@@ -90,7 +58,7 @@ SliceStack read_polylines(const std::string& path) {
       have_magic = true;
     } else if (key == "size") {
       long long w = 0, h = 0;
-      if (tok.size() != 3 || !to_int(tok[1], w) || !to_int(tok[2], h) || w < 1 || h < 1 || w > (1 << 20) ||
+      if (tok.size() != 3 || !detail::parse_number(tok[1], w) || !detail::parse_number(tok[2], h) || w < 1 || h < 1 || w > (1 << 20) ||
           h > (1 << 20))
         throw fail(line_no, "expected 'size <width> <height>' with positive integers");
       if (have_size) throw fail(line_no, "duplicate 'size'");
@@ -111,7 +79,7 @@ SliceStack read_polylines(const std::string& path) {
       if (tok.size() != 2 || !to_double(tok[1], z)) throw fail(line_no, "expected 'slice <z>'");
       if (!have_size) throw fail(line_no, "missing 'size <width> <height>' before the first slice");
       if (!stack.slices.empty() && !(z > stack.slices.back().z))
-        throw fail(line_no, "slice z " + fmt(z) + " is not greater than the previous " + fmt(stack.slices.back().z) +
+        throw fail(line_no, "slice z " + shortest_text(z) + " is not greater than the previous " + shortest_text(stack.slices.back().z) +
                                 " (z must strictly increase)");
       Slice s;
       s.z = z;
@@ -132,7 +100,7 @@ SliceStack read_polylines(const std::string& path) {
         throw fail(line_no, "expected two numbers");
       if (!contour) throw fail(line_no, "point outside a 'contour'");
       if (x < -0.5 || y < -0.5 || x > stack.width - 0.5 || y > stack.height - 0.5)
-        throw fail(line_no, "point (" + fmt(x) + ", " + fmt(y) + ") outside the " + std::to_string(stack.width) + "x" +
+        throw fail(line_no, "point (" + shortest_text(x) + ", " + shortest_text(y) + ") outside the " + std::to_string(stack.width) + "x" +
                                 std::to_string(stack.height) + " grid");
       contour->points.emplace_back(x, y);
     }
@@ -164,12 +132,12 @@ void write_polylines(const std::string& path, const SliceStack& stack) {
   out += "# isoloft polyline contours; coordinates in pixels of the working grid\n";
   out += "isoloft-polylines 1\n";
   out += "size " + std::to_string(stack.width) + " " + std::to_string(stack.height) + "\n";
-  out += "pixel_size " + fmt(stack.pixel_size) + "\n";
+  out += "pixel_size " + shortest_text(stack.pixel_size) + "\n";
   for (const Slice& s : stack.slices) {
-    out += "slice " + fmt(s.z) + "\n";
+    out += "slice " + shortest_text(s.z) + "\n";
     for (const Polygon& poly : s.polygons) {
       out += "contour\n";
-      for (const Vec2d& q : poly.points) out += fmt(q.x()) + " " + fmt(q.y()) + "\n";
+      for (const Vec2d& q : poly.points) out += shortest_text(q.x()) + " " + shortest_text(q.y()) + "\n";
     }
   }
   AtomicFile file(path);

@@ -164,11 +164,11 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
 
 void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
   // Empty slices (no inside) are all outside. One next to a non-empty slice
-  // gets that neighbour's field lowered by (max + cap_depth) / cap_extent, so
-  // the object closes between them like an end cap (interp/spline.h): a dome
-  // reaching cap_extent of the gap at the contour's deepest point. With two
-  // non-empty neighbours it takes the lower of the two. Empty slices with no
-  // non-empty neighbour take the most negative value of the object's fields.
+  // gets that neighbour's field moved 1 / cap_extent of the way to its cap
+  // slice (interp/spline.h, cap_slice), so the object closes between them
+  // like an end cap reaching cap_extent of the gap. With two non-empty
+  // neighbours it takes the lower of the two. Empty slices with no non-empty
+  // neighbour take the most negative value of the object's fields.
   float most_negative = -1.0f;
   for (const auto& f : fields)
     if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
@@ -179,13 +179,18 @@ void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const I
     for (std::size_t nb : {k - 1, k + 1}) {
       if (nb >= fields.size() || fields[nb].empty()) continue;  // k - 1 wraps for k = 0
       const Grid2f& f = fields[nb];
-      const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
-      const float drop = float((top + interp.cap_depth) / interp.cap_extent);
-      if (g.empty()) {
-        g = f;
-        for (float& v : g.data) v -= drop;
+      Grid2f closed = f;
+      if (interp.cap_shape == CapShape::Flat) {
+        for (float& v : closed.data) v = float(v + (std::min(v, 0.0f) - interp.cap_depth - v) / interp.cap_extent);
       } else {
-        for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], f.data[i] - drop);
+        const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
+        const float drop = float((top + interp.cap_depth) / interp.cap_extent);
+        for (float& v : closed.data) v -= drop;
+      }
+      if (g.empty()) {
+        g = std::move(closed);
+      } else {
+        for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], closed.data[i]);
       }
     }
     out[k] = g.empty() ? Grid2f(box.width(), box.height(), most_negative) : std::move(g);
