@@ -1,7 +1,6 @@
-// A dense 3D scalar volume as read from NRRD / MetaImage files: label maps and
-// distance fields for tests, tools and validation. Samples sit at voxel
-// centres: sample (i, j, k) is at origin + (i*sx, j*sy, k*sz) in physical
-// units, matching the pixel-centre convention of core/grid.h.
+// @file io/volume.h
+// @brief A dense 3D scalar volume from NRRD / MetaImage; sample (i, j, k) at
+// origin + (i sx, j sy, k sz), physical units (pixel-centre convention).
 #pragma once
 
 #include <array>
@@ -24,33 +23,27 @@ struct Volume {
     return (std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x);
   }
   [[nodiscard]] float at(int x, int y, int z) const { return data[index(x, y, z)]; }
-  /// Copy of plane z as a 2D grid (nx by ny).
   [[nodiscard]] Grid2f plane(int z) const;
 };
 
 namespace detail {
 
-/// Element types shared by the NRRD and MetaImage readers.
+/// Element types of both readers.
 enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
 
 std::size_t scalar_size(ScalarType t);
 
-/// Decode `count` elements of type `t` (byte order `big_endian`) into floats.
-/// \pre `src` holds at least count * scalar_size(t) bytes, `dst` count floats.
+/// count elements of type t to floats.
 void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst);
 
-/// Whole file (from byte `offset`) into memory.
-/// \throw InputError(path, ...) if the file is missing or unreadable.
+/// The file from `offset` on. \throw InputError if missing or unreadable.
 std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_t offset = 0);
 
-/// Inflate a zlib or gzip stream (auto-detected) that must decode to exactly
-/// `expected` bytes.
-/// \throw InputError(file, ...) on corrupt, truncated or wrongly sized data.
+/// zlib or gzip to exactly `expected` bytes. \throw InputError otherwise.
 std::vector<unsigned char> inflate_exact(const unsigned char* src, std::size_t n, std::size_t expected,
                                          const std::string& file);
 
-/// nx*ny*nz with overflow and sanity checks (each size >= 1, total < 2^34).
-/// \throw InputError(file, ...) if the sizes are unusable.
+/// nx ny nz, each >= 1, below 2^34. \throw InputError otherwise.
 std::size_t checked_voxel_count(int nx, int ny, int nz, const std::string& file);
 
 }  // namespace detail
