@@ -1,11 +1,10 @@
 // @file validation/exact_distance.h
-// @brief Exact-distance oracle for 2D signed distance fields (paper 2.2): from
-// every pixel centre to closed polygons or zero-set segments, squared distances
-// in CGAL's Epeck kernel (rational), inside/outside by CGAL::bounded_side_2
-// (even-odd); only the final square root is rounded (<= 2 ulp). Candidates
-// come from a bucket grid with a rounding margin; the brute-force twin must
-// agree bit for bit. Pixel (i, j) is the point (x0 + i, y0 + j), pixel units.
-// Sign convention: positive inside. The header is CGAL-free (exact_distance.cpp).
+// @brief Exact-distance oracle for 2D signed distance fields (paper 2.2).
+// From every pixel centre to closed polygons or zero-set segments: squared
+// distances in CGAL's Epeck kernel, inside by CGAL::bounded_side_2 (even-odd);
+// only the final square root rounds (<= 2 ulp). Candidates from a bucket grid
+// with a rounding margin; the brute-force twin must agree bit for bit. Pixel
+// (i, j) is (x0 + i, y0 + j). Sign convention: positive inside. CGAL-free header.
 #pragma once
 
 #include <array>

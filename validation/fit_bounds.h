@@ -1,11 +1,10 @@
 // @file validation/fit_bounds.h
-// @brief Error bound of an implicit curve fit (paper 2.1, MPU): the distance
-// from points to the zero set of f, the foot point q of each p solved by Ceres
-// (Levenberg-Marquardt) from f(q) = 0, (q - p) x grad f(q) = 0, started at q = p.
-// Used for a fit's input points against its zero set, and for a sampled true
-// curve (circle, ellipse) against it. Pixel units; Ceres only in fit_bounds.cpp.
-// @warning The system also admits far feet: a distance is an upper bound of
-// the true one only if the nearest branch was found (points near the curve).
+// @brief Distances from points to the zero set of f by Ceres foot points (paper 2.1).
+// Each foot q of p solves f(q) = 0, (q - p) x grad f(q) = 0 (Levenberg-Marquardt
+// from q = p); for a fit's input points, or a sampled true curve (circle,
+// ellipse), against its zero set. Pixel units; Ceres only in fit_bounds.cpp.
+// @warning The system also admits far feet: a distance is the nearest one only
+// if the nearest branch was found (points near the curve); else it is larger.
 #pragma once
 
 #include <functional>

@@ -1,13 +1,11 @@
 // @file validation/hausdorff.h
-// @brief Hausdorff distances between meshes, and between a mesh and an
-// analytic shape, as certified intervals (pixel units).
-// Mesh vs mesh: CGAL's bounded_error_Hausdorff_distance (Sebastian et al.),
-// intersected with dense sampling: sub-triangles of side <= spacing, d_i the
-// distance of a centroid to the other mesh, max d_i <= H <= max (d_i + r_i), r_i
-// the sub-triangle's circumradius. Mesh vs shape: the same samples against
-// Shape::distance, and the other way voxel centres of side h near the surface
-// projected by closest_point: H in [max, max + sqrt(3) h] (rigorous if exact()).
-// Both split, as eval/metrics.h, into the slice range and the end caps.
+// @brief Certified Hausdorff intervals: mesh vs mesh, mesh vs analytic shape.
+// Mesh vs mesh: CGAL's bounded_error_Hausdorff_distance (Sebastian et al.)
+// intersected with sampling: sub-triangles of side <= spacing, d_i a centroid's
+// distance to the other mesh, max d_i <= H <= max (d_i + r_i), r_i its farthest
+// corner. Mesh vs shape: those samples against Shape::distance, and voxel
+// centres of side h near the surface projected by closest_point: H in [max,
+// max + sqrt(3) h] (rigorous if exact()). Pixel units; split as eval/metrics.h.
 // @warning Samples are split by their z: at the seam only the union of the two
 // regions carries the guarantee. Header CGAL-free; CGAL in hausdorff.cpp.
 #pragma once

@@ -1,11 +1,11 @@
 // @file pipeline.h
-// @brief reconstruct(): one closed surface per object of a slice stack, by
-// Marker, Braude, Museth & Breen 2006 or the Levin 1986-style baseline.
-// Stages, each over all slices in parallel before the next (times as the
-// paper's Table 3): contour and inside (2.1), [marker2006] normals and MPU
-// (2.1), signed distance (2.2), [marker2006] filter (2.3), z splines (2.4),
-// Marching Cubes and decimation (2.5); per-slice ones in pipeline/slice_fields.h.
-// Each object runs in its crop box; pixel (i, j) of slice k is at (i, j, z_k).
+// @brief reconstruct(): one closed surface per object of a slice stack.
+// Marker, Braude, Museth & Breen 2006, or the Levin 1986-style baseline. Each
+// stage runs over all slices in parallel before the next (times as the paper's
+// Table 3): contour and inside (2.1), [marker2006] normals and MPU (2.1),
+// signed distance (2.2), [marker2006] filter (2.3), z splines (2.4), Marching
+// Cubes and decimation (2.5); per-slice ones in pipeline/slice_fields.h. Each
+// object runs in its crop box; pixel (i, j) of slice k is at (i, j, z_k).
 // Sign convention: positive inside.
 #pragma once
 

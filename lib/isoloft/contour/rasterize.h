@@ -1,7 +1,7 @@
 // @file contour/rasterize.h
-// @brief Polygons (polyline input) to contour and inside pixels. Contour: a
-// DDA over each edge's real endpoints (Bresenham generalised), a closed
-// 8-curve per polygon; inside: the even-odd rule at pixel centres, OR-ed with it.
+// @brief Polygons (polyline input) to contour pixels and inside pixels.
+// Contour: a DDA over each edge's real endpoints (Bresenham generalised), a
+// closed 8-curve per polygon; inside: the even-odd rule at pixel centres.
 // @warning Polygons closer than ~3 px merge in the contour, whose fill then
 // differs from `inside`: use `inside` (docs/decisions.md: polygon inside).
 #pragma once

@@ -1,6 +1,7 @@
 // @file core/error.h
-// @brief The exceptions of isoloft. Every error a user can cause names the
-// file (or option) and the problem in one line: the CLI prints what() and exits 1.
+// @brief The exceptions of isoloft.
+// Every error a user can cause names the file (or option) and the problem in
+// one line: the CLI prints what() and exits 1.
 #pragma once
 
 #include <stdexcept>

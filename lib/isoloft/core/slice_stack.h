@@ -1,8 +1,8 @@
 // @file core/slice_stack.h
-// @brief The input of a reconstruction: parallel planar slices at known z,
-// each a raster image or a set of closed polygons, and what they hold.
-// Units are pixels of the working grid (pixel (i, j) of slice k is at
-// (i, j, z_k)); `pixel_size` is applied only by the writers (io/).
+// @brief The input of a reconstruction: parallel planar slices at known z.
+// Each slice is a raster image or a set of closed polygons. Pixel units of the
+// working grid (pixel (i, j) of slice k at (i, j, z_k)); `pixel_size` is
+// applied only by the writers (io/).
 #pragma once
 
 #include <array>

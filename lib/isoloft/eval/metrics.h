@@ -1,8 +1,8 @@
 // @file eval/metrics.h
-// @brief Accuracy of a mesh against an analytic shape (pixel units): mesh ->
-// truth distances at triangle centroids and vertices, area-weighted, and
-// normal angles, split into the slice range and the end caps (interp/spline.h).
-// Two-sided and bounded-error Hausdorff distances are in validation/ (CGAL).
+// @brief Accuracy of a mesh against an analytic shape (pixel units).
+// Mesh -> truth distances at triangle centroids and vertices, area-weighted,
+// and normal angles, in the slice range and in the end caps. Two-sided and
+// bounded-error Hausdorff distances: validation/ (CGAL).
 #pragma once
 
 #include <nlohmann/json.hpp>

@@ -1,8 +1,8 @@
 // @file field/edt.h
-// @brief Exact Euclidean distance transforms of binary images in linear time
-// (Felzenszwalb & Huttenlocher, ToC 8(19), 2012: separable, lower envelopes of
-// parabolas; TBB-parallel), for the Levin baseline, marker2006's fallback and
-// sign guard. Distances between pixel centres in pixels, exact below 4096 px.
+// @brief Exact Euclidean distance transforms of binary images in linear time.
+// Felzenszwalb & Huttenlocher, ToC 8(19), 2012 (separable, lower envelopes of
+// parabolas; TBB-parallel); for the Levin baseline, marker2006's fallback and
+// sign guard. Pixel-centre distances in pixels, exact below 4096 px.
 // Sign convention: positive inside, negative outside.
 #pragma once
 

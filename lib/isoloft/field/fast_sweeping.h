@@ -1,8 +1,8 @@
 // @file field/fast_sweeping.h
-// @brief Narrow band to whole grid by fast sweeping (Zhao, Math. Comp. 2005;
-// paper 2.2's future work): Gauss-Seidel sweeps in the 4 orderings until a
-// cycle changes nothing, with the updates of field/marching.h (ClosestPoint
-// then 1-Lipschitz up to rounding). Sign convention: positive inside.
+// @brief Narrow band to the whole grid by fast sweeping (paper 2.2's future work).
+// Zhao, Math. Comp. 2005: Gauss-Seidel sweeps in the 4 orderings until a cycle
+// changes nothing, with the updates of field/marching.h (ClosestPoint then
+// 1-Lipschitz up to rounding). Sign convention: positive inside.
 #pragma once
 
 #include "isoloft/core/grid.h"

@@ -1,10 +1,10 @@
 // @file field/filter.h
-// @brief Distance-dependent Gaussian filter (paper 2.3, eq. 3): smooths the
-// medial-axis creases of a signed distance field away from the curve. sigma is
-// 0 up to d_min, sigma_max from d_max, a cosine ramp from sigma_min between;
-// each output averages the input over its (2r + 1)^2 stencil, r = ceil(3
-// sigma), renormalised at the border. Sign convention: positive inside; pixels
-// with |d| <= d_min are copied, the others keep their sign at |out| >= d_min.
+// @brief Distance-dependent Gaussian filter of a signed distance field (paper 2.3).
+// Smooths medial-axis creases away from the curve: sigma (eq. 3) is 0 up to
+// d_min, sigma_max from d_max, a cosine ramp from sigma_min between; each
+// output averages the input over its (2r + 1)^2 stencil, r = ceil(3 sigma),
+// renormalised at the border. Sign convention: positive inside; pixels with
+// |d| <= d_min are copied, the others keep their sign at |out| >= d_min.
 #pragma once
 
 #include "isoloft/core/grid.h"

@@ -1,13 +1,13 @@
 // @file field/marching.h
-// @brief Narrow band (field/narrow_band.h) to a Euclidean distance field on
-// the whole grid with the sign of f (paper 2.2); fast sweeping elsewhere.
+// @brief Narrow band to a Euclidean distance field on the whole grid (paper 2.2).
 // Methods: FastMarching (Sethian 1996, heap), MarchingCorrectness (default;
 // Mauch 2003: every trial pixel within kCorrectnessDelta of the least becomes
-// known at once). Updates: ClosestPoint (default; Danielsson 1980, Tsai 2002:
-// the least distance to a neighbour's nearest band segment, then a walk along
-// the links; a true distance to a segment, above the exact one only near
-// medial loci; docs/decisions.md: closest-segment propagation) or Eikonal
-// (first-order adjacent-diagonal upwind). Sign convention: positive inside.
+// known at once); fast sweeping in field/fast_sweeping.h. Updates: ClosestPoint
+// (default; Danielsson 1980, Tsai 2002: the least distance to a neighbour's
+// nearest band segment, then a walk along the links; a true distance to a
+// segment, above the exact one only near medial loci; docs/decisions.md:
+// closest-segment propagation) or Eikonal (first-order adjacent-diagonal
+// upwind). Sign convention: positive inside, the sign of f kept.
 // @warning For ClosestPoint MCC's threshold is a heuristic, not a proof
 // (tested against FMM, fast sweeping and brute force).
 #pragma once

@@ -1,11 +1,10 @@
 // @file field/narrow_band.h
-// @brief Exact signed distance to the zero set of an implicit curve f in a
-// narrow band around it (paper 2.2): the zero set by marching squares
-// (saddles by f at the cell centre), vertices refined on f (Illinois regula
-// falsi), optionally segments split onto f = 0; pixels within band_width get
-// the exact distance to the nearest segment, not |f| / |grad f|
-// (docs/decisions.md: exact distances in a band). Sign convention: positive
-// where the sample of f > 0. Units: pixels, pixel-centre convention.
+// @brief Exact signed distance to an implicit curve's zero set near it (paper 2.2).
+// The zero set by marching squares (saddles by f at the cell centre), vertices
+// refined on f (Illinois regula falsi), optionally segments split onto f = 0;
+// pixels within band_width get the exact distance to the nearest segment, not
+// |f| / |grad f| (docs/decisions.md: exact distances in a band). Sign
+// convention: positive where the sample of f > 0. Units: pixels.
 #pragma once
 
 #include <array>

@@ -1,12 +1,12 @@
 // @file fit/mpu.h
-// @brief An implicit curve through oriented contour points (paper 2.1): 2D
-// Multi-level Partition of Unity implicits (Ohtake et al., SIGGRAPH 2003: MPU).
+// @brief An implicit curve through oriented contour points: 2D MPU (paper 2.1).
+// Multi-level Partition of Unity implicits (Ohtake et al., SIGGRAPH 2003).
 // Sign convention: f > 0 inside (normals point outward), ~ signed distance in
 // pixels near the data. MPU (section 2): a quadtree over the points and
 // MpuParams::domain; per cell a support circle of alpha x diagonal grown by
 // (1 + lambda) to N_min points, a local function (fit/mpu_local.h), subdivision
-// while the max Taubin distance of the support points exceeds tol (which so
-// bounds the fit to the points); f = sum w_i Q_i / sum w_i. Departures
+// while the max Taubin distance |Q| / |grad Q| of the support points exceeds
+// tol (so tol bounds the fit to the points); f = sum w_i Q_i / sum w_i. Departures
 // (docs/decisions.md: departures from MPU):
 // - Fallback: if MPU's model misses tol or a sign check, the other, then a
 //   corner or a min/max join over the connected pieces of data.

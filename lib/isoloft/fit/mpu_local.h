@@ -1,7 +1,7 @@
 // @file fit/mpu_local.h
-// @brief The local functions of the 2D MPU fit (fit/mpu.h; MPU section 3 in
-// 2D) and their min/max joins over pieces of data. Internals, for the tests.
-// Sign convention: positive inside; Q in pixels, |grad Q| ~ 1 on the data.
+// @brief The local functions of the 2D MPU fit (internals, for the tests).
+// MPU section 3 in 2D (height function, conic, sharp feature) and min/max joins
+// over pieces of data. Sign convention: positive inside; Q in pixels.
 #pragma once
 
 #include <array>
@@ -91,7 +91,7 @@ struct AuxPoint {
 /// Least |d| of a sign check, px.
 inline constexpr double kSignCheckMargin = 2.0;
 
-/// Stall rule: least radius ratio to the parent at which a grown cell stops.
+/// Stall rule: a grown cell of radius above this x its parent's is not subdivided.
 inline constexpr double kSupportShrink = 0.8;
 
 /// Offset of a conic's off-surface pairs p -/+ delta n, px.

@@ -1,8 +1,8 @@
 // @file fit/point_grid.h
-// @brief Uniform bucket grid over 2D points, the MPU fit's index for "points in
-// a circle" and "k nearest": square buckets, about as many as points.
-// @warning Queries beyond the points' bounding box clamp to the border buckets
-// and widen the search until the answer is certain.
+// @brief Uniform bucket grid over 2D points: the MPU fit's spatial index.
+// Square buckets, about as many as points, for "in a circle" and "k nearest".
+// @warning Queries beyond the points' box clamp to the border buckets and
+// widen the search until the answer is certain.
 #pragma once
 
 #include <cstddef>

@@ -1,9 +1,9 @@
 // @file interp/spline.h
-// @brief z interpolation (paper 2.4): a cubic Hermite spline per pixel column,
-// and the end caps. Monotone (default; Hyman 1983): three-point tangents, 0 at
-// a data extremum, else clipped to 3 min(|D_{i-1}|, |D_i|), so each interval
-// stays between its knots. CatmullRom and Natural overshoot; Linear. Any kind
-// takes non-uniform z (docs/decisions.md: monotone cubic, end caps).
+// @brief z interpolation: a cubic Hermite spline per pixel column (paper 2.4).
+// Monotone (default; Hyman 1983): three-point tangents, 0 at a data extremum,
+// else clipped to 3 min(|D_{i-1}|, |D_i|), so each interval stays between its
+// knots. CatmullRom and Natural overshoot; Linear. Any kind takes non-uniform
+// z. Also the end caps (docs/decisions.md: monotone cubic, end caps).
 #pragma once
 
 #include <array>

@@ -1,7 +1,7 @@
 // @file io/atomic_file.h
-// @brief Atomic outputs: every writer in io/ writes a hidden sibling temp file
-// and renames it onto the final path when complete (atomic on POSIX), so a
-// failure never leaves a partial file (docs/decisions.md: temp file and rename).
+// @brief Atomic outputs: a hidden temp file renamed onto the path when complete.
+// Every writer in io/ uses it (rename is atomic on POSIX), so a failure never
+// leaves a partial file (docs/decisions.md: temp file and rename).
 #pragma once
 
 #include <string>

@@ -1,6 +1,6 @@
 // @file io/mesh_io.h
-// @brief Triangle mesh files by extension: PLY, OBJ, STL, OFF; our own exact,
-// one-pass readers and writers (docs/decisions.md: own mesh readers and writers).
+// @brief Triangle mesh files by extension: PLY, OBJ, STL, OFF.
+// Our own exact, one-pass readers and writers (docs/decisions.md).
 #pragma once
 
 #include <string>

@@ -1,6 +1,5 @@
 // @file io/metaimage.h
-// @brief MetaImage (.mhd + .raw/.zraw, ITK MetaIO) volumes, e.g. the Whole
-// Frog label map. Read only.
+// @brief MetaImage (.mhd + .raw/.zraw) volumes, e.g. the Whole Frog. Read only.
 #pragma once
 
 #include <string>

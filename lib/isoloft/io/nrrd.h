@@ -1,6 +1,6 @@
 // @file io/nrrd.h
-// @brief NRRD volumes (teem), for 3D Slicer, ParaView, unu: a float32 writer
-// that streams one z plane at a time (the volume is never held) and a reader.
+// @brief NRRD volumes (teem) for 3D Slicer, ParaView, unu: writer and reader.
+// The float32 writer streams one z plane at a time: the volume is never held.
 #pragma once
 
 #include <array>

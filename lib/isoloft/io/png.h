@@ -1,7 +1,7 @@
 // @file io/png.h
-// @brief PNG slice images via libpng, raw sample values (no gamma or colour
-// conversion: labels and 16-bit masks survive exactly); libpng errors become
-// InputError, never an abort.
+// @brief PNG slice images via libpng, raw sample values.
+// No gamma or colour conversion (labels and 16-bit masks survive exactly);
+// libpng errors become InputError, never an abort.
 #pragma once
 
 #include <cstdint>

@@ -1,6 +1,6 @@
 // @file io/polylines.h
-// @brief isoloft's polyline text format: closed planar contours per slice in
-// pixel units of the working grid (e.g. from a DICOM RT Structure Set):
+// @brief isoloft's polyline text format: closed planar contours per slice.
+// Pixel units of the working grid (e.g. from a DICOM RT Structure Set):
 //   # comment (a whole line or after the data)
 //   isoloft-polylines 1   # magic + version, the first non-comment line
 //   size 500 470          # grid width height, required, before any slice

@@ -14,7 +14,8 @@ namespace isoloft {
 ///        inputs, or a directory without PNGs.
 std::vector<std::string> list_slice_files(const std::vector<std::string>& inputs);
 
-/// Reads the slices in parallel (raw values, source = file, pixel_size 1).
+/// Reads the slices in parallel: raw values, source = file, z = k, max_value
+/// the largest of the slices', pixel_size 1.
 /// \throw InputError naming the file if a slice is unreadable, differs in size
 ///        from the first, or mixes grayscale with colour or 8 with 16 bit.
 SliceStack read_slice_images(const std::vector<std::string>& files);

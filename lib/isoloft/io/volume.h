@@ -1,6 +1,6 @@
 // @file io/volume.h
-// @brief A dense 3D scalar volume from NRRD / MetaImage; sample (i, j, k) at
-// origin + (i sx, j sy, k sz), physical units (pixel-centre convention).
+// @brief A dense 3D scalar volume, as read from NRRD / MetaImage.
+// Sample (i, j, k) at origin + (i sx, j sy, k sz), physical units.
 #pragma once
 
 #include <array>
@@ -33,7 +33,7 @@ enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
 
 std::size_t scalar_size(ScalarType t);
 
-/// count elements of type t to floats.
+/// count elements of type t (either byte order) to floats. \pre src, dst hold them.
 void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst);
 
 /// The file from `offset` on. \throw InputError if missing or unreadable.

@@ -5,9 +5,10 @@
 // of the original surface stays within max_error of the result (each original
 // triangle or piece of it held by a covering face: mesh/decimate_bound.h;
 // docs/decisions.md: decimation bound). Large meshes run first in z slabs
-// concurrently; the output depends on the mesh only, and no vertex moves.
+// concurrently; the output is the same for any thread count; no vertex moves.
 // Reference: validation/decimate_openmesh.h. Units: pixels.
-// @warning Boundary and non-fan vertices are never moved nor collapsed into.
+// @warning Boundary vertices, and vertices whose faces form several fans, are
+// never moved nor collapsed into.
 // @warning A mesh flat in z is decimated as one slab.
 #pragma once
 

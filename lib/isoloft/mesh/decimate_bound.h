@@ -1,6 +1,6 @@
 // @file mesh/decimate_bound.h
-// @brief The decimation bound of mesh/decimate.h, shared with its reference:
-// every original triangle, or a piece of its midpoint subdivision, is held by
+// @brief The decimation bound (mesh/decimate.h), shared with its reference.
+// Every original triangle, or a piece of its midpoint subdivision, is held by
 // one face covering it (each corner within the bound); a collapse must
 // re-cover the pieces of the faces it changes, splitting what no face covers.
 #pragma once

@@ -1,12 +1,12 @@
 // @file mesh/marching_cubes.h
-// @brief Marching Cubes (Lorensen & Cline 1987), paper 2.5: the iso level set
-// of a field given plane by plane in increasing z, as a welded mesh; only two
-// planes and their edge-vertex maps are held.
-// Sign convention: positive inside; inside iff value > iso (zeros are outside);
-// triangles counter-clockwise seen from outside; a vertex per crossed edge.
-// Case table generated on first use (docs/decisions.md: generated case table):
-// face segments never connect inside corners across the diagonal, are directed
-// with the outside on their left, and each loop gets the least-diagonal
+// @brief Streaming Marching Cubes (Lorensen & Cline 1987; paper 2.5).
+// The iso level set of a field given plane by plane in increasing z, as a
+// welded mesh; two planes and their edge-vertex maps are held. Sign convention:
+// positive inside, inside iff value > iso (zeros are outside); triangles
+// counter-clockwise seen from outside; a vertex per crossed edge. Case table
+// generated on first use (docs/decisions.md: generated case table): face
+// segments never connect inside corners across the diagonal, are directed with
+// the outside on their left, and each loop gets the least-diagonal
 // triangulation never joining two vertices of one face; hence a closed,
 // oriented 2-manifold whenever the outermost samples are outside.
 // @warning Inside samples on the outermost planes or border leave the mesh

@@ -1,7 +1,6 @@
 // @file mesh/mesh_check.h
-// @brief Checks of a triangle mesh: closed, 2-manifold, consistently oriented,
-// Euler characteristic, enclosed volume (divergence theorem) and area; run on
-// every reconstruction (the report) and in the tests.
+// @brief Closedness, manifoldness, orientation, Euler number, volume, area.
+// Run on every reconstruction (the report) and in the tests.
 #pragma once
 
 #include "isoloft/core/mesh.h"

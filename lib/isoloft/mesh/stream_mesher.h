@@ -1,6 +1,5 @@
 // @file mesh/stream_mesher.h
-// @brief The z-interpolated field (paper 2.4) streamed plane by plane into
-// Marching Cubes (paper 2.5), visiting only the cells that may hold the surface.
+// @brief The z-interpolated field (paper 2.4) streamed into Marching Cubes (2.5).
 // Each plane of the ZInterpolator is padded by one pixel of `outside` (a
 // surface cut by the crop border closes within a pixel beyond it), meshed and
 // dropped: memory O(width x height) beyond the slices.

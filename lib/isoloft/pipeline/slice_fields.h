@@ -1,7 +1,7 @@
 // @file pipeline/slice_fields.h
-// @brief The per-slice stages of reconstruct() (paper 2.1-2.2, or Levin): pure
-// functions of one slice, run over the slices in parallel. A field covers the
-// crop box b: its pixel (i, j) is working pixel (b.x0 + i, b.y0 + j).
+// @brief The per-slice stages of reconstruct() (paper 2.1-2.2, or Levin).
+// Pure functions of one slice, run over the slices in parallel. A field covers
+// the crop box b: its pixel (i, j) is working pixel (b.x0 + i, b.y0 + j).
 // Sign convention: positive inside.
 #pragma once
 

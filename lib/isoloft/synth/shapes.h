@@ -1,7 +1,7 @@
 // @file synth/shapes.h
-// @brief Analytic test shapes in pixel units (x column, y row, z slice
-// position). Sign convention: value() > 0 inside, the exact signed distance if
-// exact() (sphere, torus), else a smooth implicit with the same zero set.
+// @brief Analytic test shapes, in pixel units (x column, y row, z slice).
+// Sign convention: value() > 0 inside; the exact signed distance if exact()
+// (sphere, torus), else a smooth implicit with the same zero set.
 #pragma once
 
 #include <memory>

@@ -1,9 +1,9 @@
 // @file synth/synth.h
-// @brief Synthetic slice stacks from analytic shapes (`isoloft synth`): cuts at
-// z = k z_spacing as 1-pixel contour images, filled masks or polygons. Of each
-// pair of 4-neighbours on opposite sides of the curve the one of smaller
-// |value| is marked: an 8-curve the even-odd fill inverts exactly, its centres
-// within ~0.5 px of the curve (mean ~0.25 px), the error of any binary input.
+// @brief Synthetic slice stacks cut from analytic shapes (`isoloft synth`).
+// Cuts at z = k z_spacing as contour images, masks or polygons. Of each pair of
+// 4-neighbours on opposite sides of the curve the one of smaller |value| is
+// marked: an 8-curve the even-odd fill inverts exactly, centres within ~0.5 px
+// of the curve (mean ~0.25 px), the error of any binary input.
 #pragma once
 
 #include <functional>
