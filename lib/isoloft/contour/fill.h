@@ -3,9 +3,9 @@
 // Even-odd nesting (paper 2.1), contour 8-connected, background 4-connected
 // (Kong & Rosenfeld 1989): a region's depth is the least number of contour
 // components crossed from beyond the image; odd = inside, contour pixels too.
-// A component next to one region with endpoints is open: its closest ends are
-// joined if at most max_gap apart (docs/decisions.md: open contours), else it
-// stays a curve without inside.
+// A component next to at most one region, with endpoints, is open: its
+// closest ends are joined if at most max_gap apart (docs/decisions.md: open
+// contours), else it stays a curve without inside.
 // @warning Touching or crossing curves merge: no even-odd overlap.
 // @warning A contour ending on the image border encloses nothing; a dot or
 // solid blob has no interior and is not reported.
