@@ -1,8 +1,7 @@
 // @file validation/decimate_openmesh.h
-// @brief The reference decimator: the contract of decimate() (mesh/decimate.h)
-// on OpenMesh's Decimater, strictly greedy (one heap of collapses). A test
-// oracle and benchmark baseline only; the product library does not link
-// OpenMesh.
+// @brief The reference decimator: decimate()'s contract on OpenMesh, greedily.
+// One heap of collapses (OpenMesh's Decimater); a test oracle and benchmark
+// baseline only: the product library does not link OpenMesh.
 #pragma once
 
 #include "isoloft/core/mesh.h"

@@ -1,18 +1,12 @@
-// The reconstruction pipeline: wires the stages of Marker, Braude, Museth &
-// Breen 2006 (or the Levin 1986-style baseline) and owns timing and progress.
-// Stages know nothing of each other, only the core types.
-//
-//   slices -> contour pixels + inside (even-odd)      contour/   paper 2.1
-//          -> [marker2006] normals, MPU curve        fit/       paper 2.1
-//          -> signed distance field per slice         field/     paper 2.2
-//          -> [marker2006] distance-dependent filter  field/     paper 2.3
-//          -> z splines, slab by slab                 interp/    paper 2.4
-//          -> Marching Cubes, decimation              mesh/      paper 2.5
-//
-// Every stage runs over all slices in parallel before the next starts, so
-// per-stage wall times are well defined (the paper's Table 3 columns).
-// Coordinates: pixel units of the working grid; pixel (i, j) of slice k is at
-// (i, j, z_k). Field convention: signed distance, positive inside.
+// @file pipeline.h
+// @brief reconstruct(): one closed surface per object of a slice stack.
+// Marker, Braude, Museth & Breen 2006, or the Levin 1986-style baseline. Each
+// stage runs over all slices in parallel before the next (times as the paper's
+// Table 3): contour and inside (2.1), [marker2006] normals and MPU (2.1),
+// signed distance (2.2), [marker2006] filter (2.3), z splines (2.4), Marching
+// Cubes and decimation (2.5); per-slice ones in pipeline/slice_fields.h. Each
+// object runs in its crop box; pixel (i, j) of slice k is at (i, j, z_k).
+// Sign convention: positive inside.
 #pragma once
 
 #include <cstdint>
@@ -46,9 +40,8 @@ enum class Method {
 inline constexpr std::array<EnumName<Method>, 2> kMethodNames{{{Method::Marker2006, "marker2006"}, {Method::Levin, "levin"}}};
 constexpr std::span<const EnumName<Method>> enum_names(Method) { return kMethodNames; }
 
-/// All parameters of a reconstruction: a few of the pipeline's own, then one
-/// struct per stage. Every field is a row of params_table<ReconstructParams>()
-/// (below), with its unit, range and doc.
+/// The pipeline's own parameters, then one struct per stage; docs in the rows
+/// of params_table<ReconstructParams>() (pipeline.cpp).
 struct ReconstructParams {
   Method method = Method::Marker2006;
   bool binarize = false;
@@ -68,7 +61,7 @@ struct ReconstructParams {
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
 
-/// Largest fine raster for polylines, pixels across (the paper's pelvis used 2000).
+/// Largest polyline_raster_width accepted, px.
 inline constexpr int kMaxPolylineRaster = 20000;
 
 template <>
@@ -84,7 +77,7 @@ struct FitStats {
 };
 
 struct StageTimes {
-  // Seconds of wall time, summed over objects.
+  // Wall seconds, summed over objects.
   double contour = 0, mpu = 0, dist = 0, filter = 0, interp = 0, mesh = 0, decimate = 0;
   [[nodiscard]] double total() const { return contour + mpu + dist + filter + interp + mesh + decimate; }
 };
@@ -99,7 +92,7 @@ struct ObjectResult {
   PixelBox box;                ///< cropped working region
 };
 
-/// One slice's intermediate fields (marker2006), for figures (--dump-stages).
+/// One slice's intermediate fields (marker2006), for --dump-stages.
 struct SliceStageFields {
   std::uint32_t label = 0;
   int slice = 0;
@@ -112,13 +105,11 @@ struct SliceStageFields {
 
 struct ReconstructOptions {
   std::vector<std::uint32_t> labels;  ///< labels input: only these (empty = all); an error with other inputs
-  /// Called once per slice with its intermediate fields (marker2006 only),
-  /// from worker threads (serialize inside if needed).
+  /// Per slice (marker2006), from worker threads.
   std::function<void(const SliceStageFields&)> on_slice_fields;
-  /// Receives every sampled z plane of each object's interpolated field
-  /// (padded crop, with its x0/y0 origin): used to write --volume.
+  /// Every sampled plane of each object's field (padded crop), e.g. for --volume.
   std::function<void(std::uint32_t label, const Grid2f& plane, double x0, double y0, double z, int plane_index, int plane_count)> on_plane;
-  /// Progress: stage name, items done, items total.
+  /// Stage name, items done, items total.
   std::function<void(const std::string&, long, long)> progress;
 };
 
@@ -128,18 +119,18 @@ struct ReconstructResult {
   std::vector<std::string> warnings;
 };
 
-/// Reconstructs one closed surface per object of the stack: one object, or
-/// one per label with InputKind::Labels (paper 2.1-2.5; the stages in
-/// pipeline.cpp).
-/// \pre stack has >= 2 slices with strictly increasing z, all of one size.
-/// \throw InputError naming the slice file for unusable slices (non-binary
-///        values in contours/masks mode, open contours with FillParams policy
-///        Error); ParamError naming the parameter for bad parameters.
+/// Reconstructs one object, or one per label with InputKind::Labels.
+/// \throw InputError for < 2 slices, z not increasing, an empty image size,
+///        non-binary contour/mask values or a rejected open contour (naming the
+///        slice file); ParamError naming a parameter, or for labels without labels input.
+/// @warning An object without inside, or a selected label found nowhere, is
+/// skipped with a warning; empty slices close the object like end caps.
+/// @warning marker2006: a slice of < kMinMpuPoints points keeps its pixel
+/// distances, with a warning.
 ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options = {});
 
-/// Parameters as JSON (every field) and back: params_table<ReconstructParams>().
-/// from_json starts from `base` and applies only the keys present.
-/// \throw ParamError naming an unknown key, a wrong type or a value out of range.
+/// Parameters as JSON and back; from_json applies the keys present to `base`.
+/// \throw ParamError naming a bad key, type or value.
 nlohmann::json params_to_json(const ReconstructParams&);
 ReconstructParams params_from_json(const nlohmann::json&, const ReconstructParams& base = {});
 

@@ -1,5 +1,7 @@
-// Error types. Every error a user can cause names the file (or option) and the
-// problem in one line, so the CLI can print what() and exit non-zero.
+// @file core/error.h
+// @brief The exceptions of isoloft.
+// Every error a user can cause names the file (or option) and the problem in
+// one line: the CLI prints what() and exits 1.
 #pragma once
 
 #include <stdexcept>

@@ -1,6 +1,7 @@
-// Dense 2D grids with the pixel-centre convention used everywhere in isoloft:
-// the value at (x, y) belongs to the centre of pixel column x, row y, i.e. the
-// point (x, y) in pixel units. Row-major, x fastest.
+// @file core/grid.h
+// @brief Dense row-major 2D grids (x fastest) and pixel boxes.
+// Pixel-centre convention, used everywhere in isoloft: the value at (x, y)
+// belongs to the centre of column x, row y, the point (x, y) in pixel units.
 #pragma once
 
 #include <cassert>

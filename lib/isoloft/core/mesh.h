@@ -1,6 +1,6 @@
-// Indexed triangle mesh: the hand-off type between Marching Cubes, decimation,
-// metrics and the writers. Coordinates are in pixel units of the working grid
-// (x = column, y = row, z = slice position) until io/ scales them.
+// @file core/mesh.h
+// @brief Indexed triangle mesh: Marching Cubes -> decimation -> metrics, writers.
+// Pixel units of the working grid (x column, y row, z slice position) until io/.
 #pragma once
 
 #include <Eigen/Core>

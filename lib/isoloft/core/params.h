@@ -2,19 +2,11 @@
 // @brief Parameter tables: one per Params struct, one row per field.
 //
 // A row names a field (JSON key), its unit, a one-line doc with the paper
-// section, its valid range and, for user-facing fields, its CLI flag. The
-// table is the only place these are written: JSON in and out, validation,
-// `isoloft reconstruct --print-params`, the CLI flags and the Python keyword
-// arguments all read it. Adding a parameter is one field and one row.
-//
-// Values cross the table as JSON (nlohmann::json): a params file, a CLI
-// string (parse_value()) and a Python object all become JSON first, so every
-// way in takes the same type and range checks. Checks are on the real type:
-// an integer field rejects 2^32 + 1 instead of wrapping, a number field
-// rejects NaN, every range is closed or open as its row says.
-//
-// Enums have one name table each (enum_names() found by ADL, defined beside
-// the enum), used by to_string(), enum_from_string(), JSON and CLI11.
+// section, its valid range and, for user-facing fields, its CLI flag; JSON in
+// and out, validation, `isoloft reconstruct --print-params` and the CLI flags
+// all read it. Every value crosses as JSON, so every way in takes the same
+// checks on the real type (no wrap of 2^32 + 1, no NaN). Enums have one name
+// table each (enum_names(), found by ADL, beside the enum).
 #pragma once
 
 #include <array>
@@ -301,8 +293,8 @@ class ParamTable {
   std::vector<Check> checks_;
 };
 
-/// The table of S: declared here, one specialisation per Params struct,
-/// defined beside the struct's stage (e.g. mpu.cpp).
+/// The table of S: one specialisation per Params struct, inline below the
+/// struct (ReconstructParams: pipeline.cpp).
 template <class S>
 const ParamTable<S>& params_table();
 

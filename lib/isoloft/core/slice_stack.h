@@ -1,9 +1,8 @@
 // @file core/slice_stack.h
-// @brief The input of a reconstruction: parallel planar slices at known z,
-// each a raster image or a set of closed polygons, and what they hold.
-//
-// Units are pixels of the working grid (pixel (i, j) of slice k is at
-// (i, j, z_k)); `pixel_size` is applied only by the writers (io/).
+// @brief The input of a reconstruction: parallel planar slices at known z.
+// Each slice is a raster image or a set of closed polygons. Pixel units of the
+// working grid (pixel (i, j) of slice k at (i, j, z_k)); `pixel_size` is
+// applied only by the writers (io/).
 #pragma once
 
 #include <array>
@@ -32,8 +31,7 @@ inline constexpr std::array<EnumName<InputKind>, 4> kInputKindNames{{{InputKind:
                                                                      {InputKind::Polylines, "polylines"}}};
 constexpr std::span<const EnumName<InputKind>> enum_names(InputKind) { return kInputKindNames; }
 
-/// One closed polygon, vertices in pixel units (x = column, y = row); the
-/// closing edge from back() to front() is implied.
+/// A closed polygon in pixel units (x column, y row), closing edge implied.
 struct Polygon {
   std::vector<Vec2d> points;
 };

@@ -1,11 +1,8 @@
-// Accuracy of a mesh against an analytic shape (pixel units): distances from
-// the mesh to the true surface and angles between mesh and true normals,
-// split into the slice range and the end caps (beyond the first/last slice,
-// where the surface is extrapolated by the cap rule, interp/spline.h).
-//
-// Mesh -> truth only, sampled at triangle centroids and vertices, weighted by
-// area. The two-sided and bounded-error Hausdorff distances, which need a
-// spatial index over the mesh, live in validation/ (CGAL).
+// @file eval/metrics.h
+// @brief Accuracy of a mesh against an analytic shape (pixel units).
+// Mesh -> truth distances at triangle centroids and vertices, area-weighted,
+// and normal angles, in the slice range and in the end caps. Two-sided and
+// bounded-error Hausdorff distances: validation/ (CGAL).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -33,6 +30,7 @@ struct MeshToShapeStats {
 };
 
 /// \pre the mesh is in the shape's coordinates (pixel units).
+/// @warning A region without triangles reports zeros.
 MeshToShapeStats mesh_to_shape_stats(const TriMesh& mesh, const Shape& shape, double z_first, double z_last);
 
 }  // namespace isoloft

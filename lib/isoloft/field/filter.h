@@ -1,29 +1,10 @@
-// Stage 4 (paper 2.3, equation 3): distance-dependent Gaussian filter of a
-// signed distance field. It smooths the creases of the distance field along
-// the medial axis (where |grad d| jumps) far from the curve, and leaves the
-// field near the curve untouched so the reconstructed surface still passes
-// through the contours.
-//
-// sigma(|d|) = 0                                          for |d| <= d_min
-//            = sigma_min + (sigma_max - sigma_min)
-//              * (1 - cos(pi (|d| - d_min) / (d_max - d_min))) / 2   for d_min < |d| < d_max
-//            = sigma_max                                  for |d| >= d_max
-// Each pixel's output is the normalized Gaussian-weighted average of the INPUT
-// field over its own (2r+1)^2 stencil, r = ceil(3 sigma), clipped at the image
-// border (weights renormalized over the pixels inside). The 2D stencil is
-// evaluated per pixel (no separable passes: sigma varies per pixel); its
-// weights g(dx) g(dy) come from 1D tables precomputed per quantized sigma:
-// sigma is rounded to a multiple of kSigmaQuantum = 1/256 px (|error| <=
-// 1/512 px, <= 0.4% of sigma for sigma >= 0.5). Pixels at
-// |d| >= d_max share sigma_max; for them the same clipped 2D average is
-// computed as a row pass then a column pass, an exact identity for a fixed
-// sigma (2 (2r + 1) instead of (2r + 1)^2 products).
-//
-// Sign rule: a pixel with |d| > d_min is farther than d_min from the curve, so
-// its output keeps the input's sign and is clamped to |out| >= d_min (to the
-// smallest positive normal float if d_min = 0): the filter never flips a sign
-// and never moves a pixel into the unfiltered band. Pixels with |d| <= d_min
-// are copied bit for bit. Units: pixels of the working grid.
+// @file field/filter.h
+// @brief Distance-dependent Gaussian filter of a signed distance field (paper 2.3).
+// Smooths medial-axis creases away from the curve: sigma (eq. 3) is 0 up to
+// d_min, sigma_max from d_max, a cosine ramp from sigma_min between; each
+// output averages the input over its (2r + 1)^2 stencil, r = ceil(3 sigma),
+// renormalised at the border. Sign convention: positive inside; pixels with
+// |d| <= d_min are copied, the others keep their sign at |out| >= d_min.
 #pragma once
 
 #include "isoloft/core/grid.h"
@@ -31,9 +12,9 @@
 
 namespace isoloft {
 
-/// Sigma quantum of the precomputed kernels, pixels.
+/// Sigma quantum of the kernel tables, px.
 inline constexpr double kSigmaQuantum = 1.0 / 256.0;
-/// Largest accepted sigma_max, pixels (a 385 x 385 stencil per pixel).
+/// Largest sigma_max accepted, px (a 385 x 385 stencil).
 inline constexpr double kMaxFilterSigma = 64.0;
 
 struct FilterParams {
@@ -66,26 +47,21 @@ inline const ParamTable<FilterParams>& params_table<FilterParams>() {
   return t;
 }
 
-/// Equation 3 of the paper: the Gaussian's standard deviation at |d| = abs_d.
-/// \pre params valid (see distance_filter).
+/// Equation 3: sigma at |d| = abs_d. \pre params valid.
 double filter_sigma(double abs_d, const FilterParams& params);
 
-/// Distance-dependent Gaussian filter (TBB-parallel over rows).
-/// \pre d holds no NaN (+-infinity passes through where all stencil values share it).
-/// \return a grid of d's size; d itself if !params.enabled.
-/// \throw ParamError unless 0 <= d_min < d_max and 0 <= sigma_min <= sigma_max
-///        <= kMaxFilterSigma, all finite.
-/// \throw InputError if d contains NaN.
+/// The filter, parallel over rows; d itself if !params.enabled.
+/// \throw ParamError for parameters out of range or d_min >= d_max or
+///        sigma_min > sigma_max; InputError if d holds NaN.
+/// @warning +-infinity passes only where the whole stencil shares it.
 Grid2f distance_filter(const Grid2f& d, const FilterParams& params = {});
 
 namespace detail {
 
-/// sigma rounded to the nearest multiple of kSigmaQuantum.
+/// sigma rounded to a multiple of kSigmaQuantum.
 double quantized_sigma(double sigma);
 
-/// Direct twin of distance_filter: the same quantized sigma and radius, but
-/// 2D weights exp(-(dx^2 + dy^2) / (2 sigma^2)) computed per stencil pixel and
-/// summed in double; same sign rule. Serial, for tests.
+/// Serial twin for tests: 2D weights per stencil pixel, summed in double.
 Grid2f distance_filter_naive(const Grid2f& d, const FilterParams& params);
 
 }  // namespace detail

@@ -1,108 +1,26 @@
-// Stage 2 (Marker, Braude, Museth, Breen 2006, paper 2.1): an implicit curve
-// through the oriented contour points, by a 2D version of Multi-level
-// Partition of Unity implicits (Y. Ohtake, A. Belyaev, M. Alexa, G. Turk,
-// H.-P. Seidel, "Multi-level Partition of Unity Implicits", SIGGRAPH 2003;
-// "MPU" below, section numbers are MPU's). f > 0 inside, f < 0 outside
-// (normals point outward, so f decreases along them); near the data f is close
-// to the signed distance in pixels.
-//
-// What is implemented, and how it maps to MPU:
-// - Quadtree (MPU's octree). Root: the square around the points' bounding box
-//   and MpuParams::domain. Every cell gets a support circle centred at the cell
-//   centre c, radius R = alpha * (cell diagonal) (MPU 2: alpha = 0.75). If it
-//   holds fewer than N_min points, R grows by R <- (1 + lambda) R (lambda =
-//   0.1) until it does, so a cell far from all data still gets a local
-//   function and every point of the root square is covered (a point of leaf
-//   cell i has weight >= b(0.75 / alpha) > 0 from cell i). N_min is capped at
-//   the number of points.
-// - Local function (MPU 3), weights w(p) = b(3 |p - c| / (2 R)) on the support
-//   points, n = their weighted mean normal. MPU's rule picks the model:
-//   * a height function w = h(u), h quadratic, over the axis n through c,
-//     Q = h(u) - w, weighted least squares (MPU's "bivariate quadratic
-//     polynomial in local coordinates"; the common case) if every normal is
-//     within 90 degrees of n and N <= 2 N_min;
-//   * else a general conic a x^2 + b xy + c y^2 + d x + e y + f (MPU's "general
-//     3D quadric") by weighted least squares on the points plus auxiliary
-//     off-surface points p -/+ 1 px n with values +/- 1 px
-//     (detail::kOffSurfaceDelta), taken as a central difference, which fixes
-//     orientation and scale (grad Q . n = -1) without biasing the zero set;
-//   * sharp features (MPU's "edge" in 3D is a corner in 2D): the normals are
-//     split into 2 or 3 clusters (cut at the largest angular gap, optimal 1D
-//     k-means; neighbouring means >= corner_angle apart), clusters split
-//     further into connected parts (two parallel sides share a normal), one
-//     piece per part; 2 pieces: min at a convex corner (each part lies behind
-//     the other's mean normal), max at a concave one; 3 pieces (bar end,
-//     step): the min/max combination with the least error.
-// - Error and subdivision (MPU 2): the error of a local function is the
-//   maximum over the support points of the Taubin distance |Q(p)| / |grad Q(p)|;
-//   cells are subdivided into 4 while it exceeds tol. Cells are fitted
-//   eagerly, level by level (in parallel), not lazily during evaluation as in
-//   MPU; the function is the same.
-// - Blend (MPU 2): f(x) = sum_i w_i(x) Q_i(x) / sum_i w_i(x) over the leaves,
-//   w_i(x) = b(3 |x - c_i| / (2 R_i)), b the quadratic B-spline; the
-//   normalised weights are a partition of unity.
-//
-// Departures from MPU, each for a failure measured on digitised contours with
-// N_min ~ 150 (a support is then an arc of >= 75 px, far longer than MPU's
-// 15-point patches; measured failures: sign errors and zeros up to 70 px off):
-// - Model fallback: if MPU's pick misses tol or a sign check, the other single
-//   model is tried, then a corner (above) if the support holds one connected
-//   piece of data, else one group per piece (its best of height function /
-//   conic / corner; the kMaxComponents = 4 largest pieces) joined bottom-up,
-//   each step by the min or max with the least error (min where each lies
-//   inside the other: a hole in a region, a thin wall; max where neither
-//   does: regions across a gap, an island in a hole). Pieces of data: points
-//   linked closer than component_link x the median point spacing. The
-//   candidate that passes the sign checks with the least error is kept. (A
-//   parabola cannot follow an arc of 60+ degrees, which a conic fits exactly;
-//   no single quadric fits both sides of a gap narrower than the support.)
-// - Sign checks instead of MPU's auxiliary values: MPU constrains the quadric
-//   at the cell corners and centre to d = mean (p_k - q) . n_k over the 6
-//   nearest points. Those values grow linearly with the distance, a conic
-//   quadratically, so with cell corners 50-100 px from the data they moved the
-//   zero set by up to 20 px. Here the same points (plus the edge midpoints)
-//   only check the sign of Q where all 6 agree and |d| >= 2 px; a cell whose
-//   best fit fails one is subdivided.
-// - Component rule: support growth also stops once the circle holds a point
-//   and every connected piece it touches lies wholly inside it, so an island
-//   or hole with fewer than N_min points gets fits of its own.
-// - Support reduction: a cell whose support had to grow and still misses tol
-//   is refitted with N_min halved, down to n_floor, each support grown exactly
-//   to its n-th nearest point (no lambda steps); the best is kept. Once the
-//   cell's own circle holds n points, the cell is subdivided instead. Features
-//   smaller than N_min points (petals, bar ends) are otherwise never resolved:
-//   subdividing a support-bound cell gives children with the same support.
-// - Stall rule: for the same reason a support-bound cell whose support radius
-//   exceeds 0.8 of its parent's (detail::kSupportShrink) is not subdivided,
-//   unless its support touches more than kMaxComponents pieces; MPU would
-//   subdivide it down to max_depth without reducing the error.
-// - Outside the root square, where the leaf weights fade out, f blends into a
-//   fallback F(x) = s |x - p| with p the nearest data point and s the sign of
-//   (p - x) . n_p (behind the nearest point's normal = inside):
-//   f = (sum w_i Q_i + w0 F) / (sum w_i + w0), w0 = max(0, w_floor - sum w_i),
-//   w_floor = b(0.75 / alpha) / 2: f is continuous, and w0 = 0 (pure MPU) in
-//   the whole root square.
-// With these, on digitised slices (tests and random blob slices with holes,
-// islands, necks, border contact) no pixel farther than 3 px from the contour
-// has the wrong sign and no zero lies farther than 1.2 px from a contour
-// pixel (measured; the tests bound it by tol + 1 px).
-//
-// What tol bounds: the Taubin distance (the first-order Euclidean distance)
-// from every input point in a leaf's support circle to that leaf's local zero
-// set, in pixels. f at a data point is a convex combination of local
-// functions that all vanish within tol of it and all have |grad| ~ 1 there,
-// so the zero set of f passes within ~tol of every input point. It bounds the
-// fit to the points, not to the unknown true curve (digitised contour pixels
-// lie up to 1 px inside it, see the tests). Leaves can exceed tol only when
-// stopped by max_depth or by the stall rule with n_floor points still too
-// many (MpuResult reports them, Leaf::support_bound marks the latter). At
-// tol = 1, circle, ellipse, annulus, two circles, square with hole fit with
-// no leaf over tol (tests/fit/test_mpu.cpp).
-//
-// Thread safety: fit_mpu runs its levels in parallel (TBB); an MpuCurve is
-// immutable and may be evaluated from any number of threads.
-//
-// Units: pixels of the working grid, pixel-centre convention (core/grid.h).
+// @file fit/mpu.h
+// @brief An implicit curve through oriented contour points: 2D MPU (paper 2.1).
+// Multi-level Partition of Unity implicits (Ohtake et al., SIGGRAPH 2003).
+// Sign convention: f > 0 inside (normals point outward), ~ signed distance in
+// pixels near the data. MPU (section 2): a quadtree over the points and
+// MpuParams::domain; per cell a support circle of alpha x diagonal grown by
+// (1 + lambda) to N_min points, a local function (fit/mpu_local.h), subdivision
+// while the max Taubin distance |Q| / |grad Q| of the support points exceeds
+// tol (so tol bounds the fit to the points); f = sum w_i Q_i / sum w_i. Departures
+// (docs/decisions.md: departures from MPU):
+// - Fallback: if MPU's model misses tol or a sign check, the other, then a
+//   corner or a min/max join over the connected pieces of data.
+// - Sign checks at cell corners, centre and edge midpoints instead of
+//   auxiliary values; a cell failing one is subdivided.
+// - Component rule: growth stops once every piece the circle touches is inside.
+// - Support reduction: a grown support missing tol is refitted with N_min
+//   halved down to n_floor (subdivided once its own circle holds n).
+// - Stall rule: a support-bound cell with radius > kSupportShrink x its
+//   parent's is not subdivided (unless it touches > kMaxComponents pieces).
+// - Below weight_floor() (beyond the root) f blends into the nearest point's distance.
+// @warning Leaves stopped by max_depth or by the stall rule exceed tol.
+// @warning Far from the data a conic can cross zero spuriously; features
+// thinner than ~4 px can be lost (docs/decisions.md: sign guard).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -128,13 +46,11 @@ struct MpuParams {
   int max_depth = 10;
   double corner_angle = 25.8;
   double component_link = 2.0;
-  /// Not a user parameter: the region the curve will be evaluated on, pixels
-  /// (e.g. [-0.5, w - 0.5] x [-0.5, h - 0.5] for a w x h grid); the root
-  /// square covers it and the points. Empty: the points' bounding box alone.
+  /// Not a parameter: where f will be evaluated (px); empty = the points' box.
   Eigen::AlignedBox2d domain;
 };
 
-/// Deepest quadtree level accepted (2^-24 of the root cell).
+/// Deepest quadtree level accepted.
 inline constexpr int kMaxMpuDepth = 24;
 
 template <>
@@ -161,14 +77,13 @@ inline const ParamTable<MpuParams>& params_table<MpuParams>() {
   return t;
 }
 
-/// The fitted curve: an immutable function, safe to evaluate from many threads.
-/// A default-constructed one holds no data and is -kEmpty (outside) everywhere.
+/// The fitted curve, immutable (evaluate from any thread); default: -kEmpty everywhere.
 class MpuCurve {
  public:
-  /// Magnitude of the value of an empty curve (as field/edt.h's kNoSurfaceDistance).
+  /// |f| of an empty curve (as kNoSurfaceDistance).
   static constexpr double kEmpty = 1.0e6;
 
-  /// One leaf of the quadtree: its local function and support circle.
+  /// A quadtree leaf: local function and support circle.
   struct Leaf {
     detail::LocalFn fn;
     Vec2d centre{0.0, 0.0};
@@ -179,30 +94,26 @@ class MpuCurve {
     int support = 0;     ///< points in the support circle
     int n_target = 0;    ///< N_min used (n_min, or less after support reduction)
     bool grown = false;  ///< the support radius grew beyond alpha x diagonal
-    /// Grown, and no smaller n fitted inside the cell's own circle: the fit is
-    /// bound by its support, not by the cell size (stall rule).
+    /// Grown, and no smaller n fits in the cell's own circle (stall rule).
     bool support_bound = false;
     bool sign_ok = true;  ///< fn agrees with every sign check of the cell
     int pieces = 0;       ///< connected pieces of data in the support; 0 if no multi-part model was tried
   };
 
-  /// f(p), positive inside, ~ signed distance in pixels near the curve.
+  /// f(p), positive inside.
   [[nodiscard]] double value(const Vec2d& p) const;
-  /// grad f(p) (analytic; at the kinks of a corner leaf, one side's).
+  /// grad f(p) (at a corner's kink, one side's).
   [[nodiscard]] Vec2d gradient(const Vec2d& p) const;
   void value_and_gradient(const Vec2d& p, double& value, Vec2d& gradient) const;
 
-  /// The normalised blending weights at p: (leaf index, weight), plus
-  /// (-1, weight) for the fallback when it takes part. They sum to 1.
-  /// O(leaves), for tests and inspection.
+  /// Normalised weights at p: (leaf, w), (-1, w) for the fallback. For tests.
   [[nodiscard]] std::vector<std::pair<int, double>> weights(const Vec2d& p) const;
 
   [[nodiscard]] const std::vector<Leaf>& leaves() const { return leaves_; }
-  /// Root square of the quadtree.
   [[nodiscard]] Eigen::AlignedBox2d root_box() const;
-  /// Sum of leaf weights below which the fallback blends in.
+  /// Leaf weight sum below which the fallback blends in.
   [[nodiscard]] double weight_floor() const { return w_floor_; }
-  /// Fallback F(p) (file comment): signed distance to the nearest data point.
+  /// Signed distance to the nearest data point.
   [[nodiscard]] double fallback(const Vec2d& p) const;
 
  private:
@@ -215,9 +126,8 @@ class MpuCurve {
     int leaf = -1;            ///< index into leaves_ for a leaf
   };
 
-  /// Sums of w_i Q_i, w_i and their gradients over the leaves covering p.
+  /// Sums of w_i Q_i, w_i and their gradients at p.
   void accumulate(const Vec2d& p, double& num, double& den, Vec2d* dnum, Vec2d* dden) const;
-  /// Nearest data point and its outward normal.
   void fallback_eval(const Vec2d& p, double& value, Vec2d& grad) const;
 
   std::vector<Node> nodes_;
@@ -243,20 +153,15 @@ struct MpuResult {
   int components = 0;           ///< connected pieces of the point set (component rule)
 };
 
-/// Fits the 2D MPU curve to oriented points (paper 2.1; algorithm in the file comment).
-/// \pre points.size() == normals.size() >= 1; points finite; normals unit length.
-/// \throw InputError (empty file name; the caller prefixes the slice) if there
-///        are no points, the sizes differ, or a point or normal is not finite
-///        or a normal is not of unit length (+-1e-3).
-/// \throw ParamError if n_min < 1, n_floor < 1, tol <= 0, alpha <= 0.5, lambda <= 0,
-///        max_depth outside [0, 24], corner_angle outside (0, 180),
-///        component_link < 0, or a parameter is not finite.
+/// Fits the curve (paper 2.1), in parallel.
+/// \throw InputError (no file name) for no points, a size mismatch, a
+///        non-finite point or a normal not of unit length (+-1e-3);
+///        ParamError for a parameter out of range or a non-finite domain.
 MpuResult fit_mpu(const OrientedPoints& points, const MpuParams& params = {});
 
-/// f at the points (x0 + i step, y0 + j step), i < width, j < height: pixel
-/// (i, j) of the result. Parallel over rows (TBB); equal to value() up to
-/// rounding (the same sums in another order).
+/// f at (x0 + i step, y0 + j step) as pixel (i, j), parallel over rows.
 /// \throw ParamError if width or height < 0 or step <= 0.
+/// @warning An empty curve gives -MpuCurve::kEmpty everywhere.
 Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0 = 0.0, double y0 = 0.0,
                         double step = 1.0);
 

@@ -1,10 +1,7 @@
-// Local approximations of the 2D MPU curve (fit/mpu.h): the three kinds of
-// Ohtake et al. 2003, section 3 (height function, general quadric, sharp
-// feature), reduced from surfaces in 3D to curves in 2D, and their min/max
-// joins over connected pieces of data. All are positive inside (the input
-// normals point outward) and are written so that Q is in pixels and
-// |grad Q| ~ 1 on the data, i.e. Q ~ signed distance near the curve.
-// Internals of fit_mpu, exposed for the tests.
+// @file fit/mpu_local.h
+// @brief The local functions of the 2D MPU fit (internals, for the tests).
+// MPU section 3 in 2D (height function, conic, sharp feature) and min/max joins
+// over pieces of data. Sign convention: positive inside; Q in pixels.
 #pragma once
 
 #include <array>
@@ -15,16 +12,11 @@
 
 namespace isoloft::detail {
 
-/// Quadratic B-spline of MPU, b(t) = 3/4 - t^2 (|t| <= 1/2), (3/2 - |t|)^2 / 2
-/// (1/2 <= |t| <= 3/2), 0 beyond; the weight of a ball (c, R) is
-/// b(3 |x - c| / (2 R)), zero outside the ball.
+/// MPU's quadratic B-spline; a ball (c, R) weighs b(3 |x - c| / (2 R)).
 double bspline2(double t);
-/// b'(t) for t >= 0.
 double bspline2_derivative(double t);
 
-/// A height function over a line (MPU "bivariate quadratic polynomial in local
-/// coordinates", 2D): w = h(u) = S (a s^2 + b s + c), s = u / S, with
-/// u = t . (x - o), w = n . (x - o), n the outward mean normal. Q = h(u) - w.
+/// Q = h(u) - w, h quadratic in u = t . (x - o), w = n . (x - o).
 struct HeightFn {
   Vec2d o{0.0, 0.0}, n{0.0, 1.0}, t{-1.0, 0.0};
   double scale = 1.0;
@@ -32,21 +24,17 @@ struct HeightFn {
   void eval(const Vec2d& x, double& value, Vec2d& grad) const;
 };
 
-/// A single smooth piece: a height function or a general conic.
 struct CurvePiece {
   bool conic = false;
   HeightFn h;  ///< when !conic
-  /// When conic: Q(x) = S (q0 s_x^2 + q1 s_x s_y + q2 s_y^2 + q3 s_x + q4 s_y + q5),
-  /// s = (x - centre) / S.
+  /// Conic: Q = S q(s), q quadratic in s = (x - centre) / S.
   Vec2d centre{0.0, 0.0};
   double scale = 1.0;
   std::array<double, 6> q{};
   void eval(const Vec2d& x, double& value, Vec2d& grad) const;
 };
 
-/// Up to three pieces combined by min and max: a smooth curve piece, a
-/// corner (MPU's sharp-feature "edge" function in 2D), or two corners in a
-/// row (the end of a thin bar: min of three; a step: max(A, min(B, C))).
+/// Up to three pieces joined by min/max: a smooth piece, a corner, a bar end or a step.
 struct Group {
   enum class Op : std::uint8_t {
     Min,       ///< inside all pieces (convex corners)
@@ -61,11 +49,10 @@ struct Group {
   void eval(const Vec2d& x, double& value, Vec2d& grad) const;
 };
 
-/// Largest number of connected pieces of data one local function combines.
+/// Most connected pieces of data one local function joins.
 inline constexpr int kMaxComponents = 4;
 
-/// One local approximation Q_i: one group, or one group per connected piece
-/// of the data in the support (up to kMaxComponents) joined by min and max.
+/// One local function Q_i: a group, or a min/max join of a group per piece.
 struct LocalFn {
   enum class Kind : std::uint8_t {
     Quadric,     ///< MPU "general 3D quadric" in 2D: one conic
@@ -73,8 +60,6 @@ struct LocalFn {
     Corner,      ///< MPU "sharp feature" in 2D: pieces split by normals, by min/max
     Components,  ///< one group per connected piece of data, joined by min/max
   };
-  /// Node groups + j of the join tree: min or max of nodes a and b (a node
-  /// below `groups` is that group); the last node is the value.
   struct Join {
     bool use_min = true;
     std::int8_t a = 0, b = 0;
@@ -93,56 +78,39 @@ struct LocalFn {
   }
 };
 
-/// Weighted least-squares height function over `normal` (unit, outward) with
-/// origin `o`, scale `scale` (px), through points[idx[k]] with weights w[k].
+/// Weighted least-squares height function over `normal` (unit, outward).
 HeightFn fit_height(const std::vector<Vec2d>& points, const std::vector<int>& idx, const std::vector<double>& w,
                     const Vec2d& o, const Vec2d& normal, double scale);
 
-/// MPU auxiliary point: q and d(q), the mean of (p_k - q) . n_k over its 6
-/// nearest data points (> 0: q lies behind the normals, i.e. inside).
+/// A sign check at q: d = mean (p_k - q) . n_k over its 6 nearest points (> 0 inside).
 struct AuxPoint {
   Vec2d q;
   double d;
 };
 
-/// Aux points with |d| below this many pixels are not used as sign checks:
-/// nearer than that to digitised data the sign of d is noise.
+/// Least |d| of a sign check, px.
 inline constexpr double kSignCheckMargin = 2.0;
 
-/// A grown cell is not subdivided if its support radius exceeds this fraction
-/// of its parent's (an ungrown child has half its parent's radius): the
-/// children would hold about the same points, so no error could drop.
+/// Stall rule: a grown cell of radius above this x its parent's is not subdivided.
 inline constexpr double kSupportShrink = 0.8;
 
-/// Offset of the auxiliary off-surface points p -/+ delta n (values +/- delta)
-/// of a general conic, pixels. They enter as their central difference, which
-/// for a conic is exactly grad Q(p) . n = -1 (orientation and scale, which the
-/// point term alone leaves free: it is minimised by Q = 0); delta sets the
-/// weight of that condition against the point term (residuals in pixels): 1
-/// px, the resolution of the data.
+/// Offset of a conic's off-surface pairs p -/+ delta n, px.
 inline constexpr double kOffSurfaceDelta = 1.0;
 
-/// General conic by weighted least squares on the points and their
-/// off-surface pairs (MPU's 3D quadric fit with the auxiliary values moved
-/// out to sign checks, see fit/mpu.h):
-///   sum w_k [Q(p_k)^2 + ((Q(p_k - delta n_k) - Q(p_k + delta n_k)) / 2 - delta)^2].
+/// Conic minimising sum w_k [Q(p_k)^2 + ((Q(p_k - delta n_k) - Q(p_k + delta n_k)) / 2 - delta)^2]
+/// (the pairs fix orientation and scale: grad Q . n = -1).
 CurvePiece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>& normals, const std::vector<int>& idx,
                 const std::vector<double>& w, const Vec2d& centre, double scale);
 
-/// Max over idx of the Taubin distance |Q(p)| / |grad Q(p)| (first-order
-/// Euclidean distance from p to the zero set of Q).
+/// Max over idx of |Q(p)| / |grad Q(p)|.
 double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const std::vector<int>& idx);
 
-/// Split of the normals of points idx into k (2 or 3) clusters: the unit
-/// normals' angles are cut open at their largest gap on the circle and split
-/// by optimal 1D k-means (each cluster is then an arc of directions), in
-/// angular order. Returns false if a cluster has fewer than `min_size` points
-/// or two neighbouring clusters' mean directions are closer than `min_angle`
-/// (radians).
+/// Normals of idx in k (2 or 3) clusters (cut at the largest gap, 1D k-means).
+/// \return false if a cluster has < min_size points or neighbours' means are
+///         closer than min_angle (rad).
 bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
                    int min_size, std::vector<std::vector<int>>& parts);
 
-/// What a local fit sees: the data and the support circle (centre, radius).
 struct FitInput {
   const std::vector<Vec2d>& points;
   const std::vector<Vec2d>& normals;
@@ -150,37 +118,26 @@ struct FitInput {
   double radius;
   double corner_angle;  ///< radians, MpuParams::corner_angle
   double link = 0.0;    ///< points closer than this are connected (MpuParams::component_link x spacing)
-  /// MPU weight of a point: b(3 |p - centre| / (2 radius)), floored at 1e-12
-  /// so that points on the circle itself still count a little.
+  /// MPU weight, floored at 1e-12 (points on the circle count).
   [[nodiscard]] double weight(const Vec2d& p) const;
 };
 
-/// Clusters of a corner split need this many points: a quadratic needs 3,
-/// 6 tolerates a few stray normals.
+/// Least points per corner cluster.
 inline constexpr int kMinClusterSize = 6;
 
-/// Best single piece for the points ids: a height function over their weighted
-/// mean normal (if every normal is within 90 degrees of it) or a conic,
-/// whichever has the smaller Taubin error over ids (returned in `error`).
+/// Height function (if all normals lie within 90 degrees of their mean) or conic, the better.
 CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error);
 
-/// Corner: ids split by split_normals into k (2 or 3) clusters, each cluster
-/// split further into its connected parts (links shorter than in.link: two
-/// parallel sides with one normal direction are two parts); 2 or 3 parts in
-/// all, else false. A piece (fit_piece) per part. Two pieces: min if convex
-/// (each part lies behind the other's mean normal), else max. Three: the
-/// min / max combination (Group::Op) with the least Taubin error over ids.
+/// Corner: k normal clusters split into connected parts, a piece per part;
+/// min if convex, else max (three: the least-error Group::Op).
+/// \return false unless there are 2 or 3 parts.
 bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group);
 
-/// Best group for ids: fit_piece, or fit_corner (2, then 3 pieces) if that
-/// has a smaller error; stops at the first within `tol`.
+/// fit_piece, else fit_corner with 2, then 3 pieces; the first within tol.
 Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, double& error);
 
-/// One group per part (fit_curve each), joined bottom-up: each step joins
-/// the two nodes, by min or by max, whose join has the least Taubin error over
-/// their points (min where each lies inside the other: a hole in a region, a
-/// thin wall; max where neither does: regions across a gap, an island in a
-/// hole). \pre 2 <= parts.size() <= kMaxComponents.
+/// A group per part, joined bottom-up by the least-error pair and min/max
+/// (min: hole in a region, thin wall; max: across a gap). \pre 2 to kMaxComponents parts.
 LocalFn fit_components(const FitInput& in, const std::vector<std::vector<int>>& parts, double tol);
 
 }  // namespace isoloft::detail

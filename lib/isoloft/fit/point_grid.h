@@ -1,8 +1,8 @@
-// Uniform bucket grid over a 2D point set: the spatial index of the MPU fit
-// (fit/mpu.h) for "all points in a support circle" and "k nearest points".
-// Buckets are square, sized so that there are about as many buckets as points;
-// queries outside the points' bounding box work (they clamp to the border
-// buckets and widen the search until the answer is certain).
+// @file fit/point_grid.h
+// @brief Uniform bucket grid over 2D points: the MPU fit's spatial index.
+// Square buckets, about as many as points, for "in a circle" and "k nearest".
+// @warning Queries beyond the points' box clamp to the border buckets and
+// widen the search until the answer is certain.
 #pragma once
 
 #include <cstddef>

@@ -1,18 +1,9 @@
-// z interpolation through the slices (paper 2.4): every pixel column is one
-// cubic Hermite spline through its slice values.
-//
-// Kinds:
-//  - Monotone: Fritsch-Carlson/Hyman monotone cubic Hermite. Three-point
-//    (parabolic) tangents, then Hyman's filter (Hyman 1983, "Accurate
-//    monotonicity preserving cubic interpolation", SIAM J. Sci. Stat. Comput.
-//    4(4)): m_i = 0 at a local extremum of the data, otherwise m_i keeps the
-//    sign of the data and |m_i| <= 3 min(|D_{i-1}|, |D_i|). The interpolant is
-//    then monotone on every interval where the data are, and never leaves the
-//    range of the two data values of an interval (paper 2.4, Fig. 8/9).
-//  - CatmullRom: m_i = (f_{i+1} - f_{i-1}) / (z_{i+1} - z_{i-1}) (may overshoot).
-//  - Natural: C2 natural cubic spline (f'' = 0 at the ends), via its tangents.
-//  - Linear: piecewise linear.
-// Non-uniform z works for every kind. Ends use one-sided estimates.
+// @file interp/spline.h
+// @brief z interpolation: a cubic Hermite spline per pixel column (paper 2.4).
+// Monotone (default; Hyman 1983): three-point tangents, 0 at a data extremum,
+// else clipped to 3 min(|D_{i-1}|, |D_i|), so each interval stays between its
+// knots. CatmullRom and Natural overshoot; Linear. Any kind takes non-uniform
+// z. Also the end caps (docs/decisions.md: monotone cubic, end caps).
 #pragma once
 
 #include <array>
@@ -33,6 +24,7 @@ inline constexpr std::array<EnumName<SplineKind>, 4> kSplineKindNames{{{SplineKi
                                                                        {SplineKind::Linear, "linear"}}};
 constexpr std::span<const EnumName<SplineKind>> enum_names(SplineKind) { return kSplineKindNames; }
 
+<<<<<<< HEAD
 /// How an object closes beyond its end slices (and next to an empty slice).
 enum class CapShape {
   Dome,  ///< the end slice's field lowered by its maximum + cap_depth: a dome shaped by the end contour's distance field
@@ -42,6 +34,9 @@ inline constexpr std::array<EnumName<CapShape>, 2> kCapShapeNames{{{CapShape::Do
 constexpr std::span<const EnumName<CapShape>> enum_names(CapShape) { return kCapShapeNames; }
 
 /// Largest end-cap distance accepted, slice spacings.
+=======
+/// Largest cap_extent accepted, slice spacings.
+>>>>>>> docs
 inline constexpr double kMaxCapExtent = 100.0;
 
 struct InterpParams {
@@ -72,11 +67,9 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
   return t;
 }
 
-/// Hermite tangents of one column: f at strictly increasing z, n >= 2.
-/// \pre z.size() == f.size() == m.size() >= 2
+/// Tangents of one column. \pre z increasing; z, f, m of one size >= 2.
 void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m);
 
-/// Evaluate the Hermite piece on [z0, z1] (linear kind ignores m).
 double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z);
 
 /// A 1D spline through scalar data (figures, tests).
@@ -91,25 +84,22 @@ class Spline1D {
   SplineKind kind_;
 };
 
-/// Per-pixel splines through a stack of equally sized fields.
+/// Per-pixel splines through equally sized fields.
+/// @warning Beyond [z.front(), z.back()] the end values hold.
 class ZInterpolator {
  public:
-  /// \pre slices.size() == z.size() >= 2, z strictly increasing, all slices the same size.
-  /// \throw ParamError otherwise.
+  /// \throw ParamError unless slices.size() == z.size() >= 2, z increasing, one size.
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind);
-  /// Field at height z (clamped to [z.front(), z.back()]); parallel over rows.
+  /// The field at z, parallel over rows.
   void evaluate(double z, Grid2f& out) const;
   [[nodiscard]] const std::vector<double>& z() const { return z_; }
   [[nodiscard]] int width() const { return slices_.front().width; }
   [[nodiscard]] int height() const { return slices_.front().height; }
-  /// The knot interval k (z[k] <= z <= z[k + 1]) that evaluate(z) uses.
   [[nodiscard]] std::size_t interval(double z) const;
-  /// Per pixel, the side of `iso` the field keeps over all of knot interval
-  /// k: +1 above iso + margin at both knots, -1 below iso - margin at both, 0
-  /// otherwise. Exact for the kinds that stay between their knot values
-  /// (monotone: Hyman's tangents keep each cubic monotone, Fritsch & Carlson
-  /// 1980 alpha, beta <= 3; linear); all 0 for the others, which overshoot.
-  /// margin (pixels) must exceed the float rounding of evaluate().
+  /// Per pixel the side of iso kept over knot interval k: +1 if both knots are
+  /// above iso + margin, -1 if below iso - margin, else 0; exact for Monotone and
+  /// Linear (margin above evaluate()'s rounding).
+  /// @warning CatmullRom and Natural overshoot: all 0.
   void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const;
 
  private:
@@ -118,12 +108,18 @@ class ZInterpolator {
   SplineKind kind_;
 };
 
+<<<<<<< HEAD
 /// The virtual slice beyond end slice `end` (InterpParams::cap_shape): outside
 /// (<= -cap_depth) everywhere.
 Grid2f cap_slice(const Grid2f& end, const InterpParams& params);
 
 /// Adds the end-cap virtual slices of InterpParams to (slices, z).
 /// \pre slices.size() == z.size() >= 2
+=======
+/// Adds the end caps (not in the paper): cap_extent end spacings beyond each
+/// end slice, its field lowered by max(0, its maximum) + cap_depth (outside).
+/// \throw ParamError unless slices.size() == z.size() >= 2 and params are valid.
+>>>>>>> docs
 void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const InterpParams& params);
 
 }  // namespace isoloft

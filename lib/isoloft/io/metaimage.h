@@ -1,5 +1,5 @@
-// MetaImage (ITK/VTK .mhd + .raw/.zraw, https://itk.org/Wiki/ITK/MetaIO/Documentation)
-// label maps and intensity volumes, e.g. the Whole Frog label map. Read only.
+// @file io/metaimage.h
+// @brief MetaImage (.mhd + .raw/.zraw) volumes, e.g. the Whole Frog. Read only.
 #pragma once
 
 #include <string>
@@ -8,15 +8,10 @@
 
 namespace isoloft {
 
-/// Read a MetaImage header and its data into a float Volume.
-/// Supported: NDims 2 or 3 (2D as nz = 1); ElementType MET_(U)CHAR,
-/// MET_(U)SHORT, MET_(U)INT, MET_FLOAT, MET_DOUBLE; ElementNumberOfChannels 1;
-/// ElementDataFile LOCAL or one file relative to the header (CompressedData =
-/// True: zlib inflate; HeaderSize for raw data, -1 = data at the file's end);
-/// BinaryDataByteOrderMSB / ElementByteOrderMSB; ElementSpacing (else
-/// ElementSize); Offset (else Position / Origin). TransformMatrix must be the
-/// identity (rotated volumes are not supported).
-/// \throw InputError(path, ...) naming the header or data file and the problem.
+/// Reads 2D (nz = 1) or 3D scalar data, one channel, local or one data file,
+/// raw or zlib, either byte order, spacing and offset.
+/// \throw InputError naming the file and the problem, also for a
+///        TransformMatrix other than the identity.
 Volume read_metaimage(const std::string& mhd);
 
 }  // namespace isoloft

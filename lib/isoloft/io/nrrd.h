@@ -1,7 +1,6 @@
-// NRRD volumes (teem format, http://teem.sourceforge.net/nrrd/format.html),
-// readable by 3D Slicer, ParaView and teem's unu. The writer streams one z
-// plane at a time so the interpolated distance volume never has to be held
-// in memory; the reader is for tests and tools.
+// @file io/nrrd.h
+// @brief NRRD volumes (teem) for 3D Slicer, ParaView, unu: writer and reader.
+// The float32 writer streams one z plane at a time: the volume is never held.
 #pragma once
 
 #include <array>
@@ -19,27 +18,21 @@ enum class NrrdEncoding {
   Gzip,  ///< "encoding: gzip" (zlib deflate, gzip wrapper)
 };
 
-/// Streaming float32 NRRD writer. Header:
-/// `NRRD0004`, `type: float`, `dimension: 3`, `space dimension: 3`,
-/// `sizes: nx ny nz`, `space directions: (sx,0,0) (0,sy,0) (0,0,sz)`,
-/// `kinds: domain domain domain`, `endian: little`, `encoding: raw|gzip`,
-/// `space origin: (ox,oy,oz)` (centre of voxel 0,0,0, physical units).
-/// The file appears atomically at finish(); destroying the writer without
-/// finish() leaves no file.
+/// NRRD0004 writer, axis-aligned, `space origin` = centre of voxel (0, 0, 0)
+/// (physical units); the file appears atomically at finish(), else never.
 class NrrdWriter {
  public:
-  /// \pre nx, ny, nz >= 1; spacing finite and > 0; origin finite.
-  /// \throw ParamError for bad sizes/spacing; Error naming the path if the file cannot be created.
+  /// \throw ParamError unless sizes >= 1, spacing finite > 0, origin finite;
+  ///        Error naming the path if the file cannot be created.
   NrrdWriter(const std::string& path, int nx, int ny, int nz, std::array<double, 3> spacing,
              std::array<double, 3> origin, NrrdEncoding encoding = NrrdEncoding::Raw);
   ~NrrdWriter();
   NrrdWriter(const NrrdWriter&) = delete;
   NrrdWriter& operator=(const NrrdWriter&) = delete;
 
-  /// Append the next z plane.
-  /// \throw ParamError if the plane is not nx by ny or all nz planes were written; Error on I/O failure.
+  /// Appends the next plane. \throw ParamError if not nx x ny or all written;
+  /// Error on I/O failure.
   void write_plane(const Grid2f& plane);
-  /// Flush, close and move the file into place.
   /// \throw Error if fewer than nz planes were written or on I/O failure.
   void finish();
   [[nodiscard]] int planes_written() const { return written_; }
@@ -51,14 +44,11 @@ class NrrdWriter {
   int written_ = 0;
 };
 
-/// Write a whole volume (float32) with NrrdWriter.
-/// \throw as NrrdWriter.
+/// A whole volume through NrrdWriter.
 void write_nrrd(const std::string& path, const Volume& v, NrrdEncoding encoding = NrrdEncoding::Raw);
 
-/// Read a 3D NRRD (or 2D, as nz = 1): types (u)int8/16/32, float, double;
-/// encodings raw and gzip; either endian; data attached or in one detached
-/// `data file:`. Spacing from `space directions` (axis-aligned only) or
-/// `spacings`; origin from `space origin`.
+/// Reads 2D (nz = 1) or 3D NRRD: integer or float types, raw or gzip, either
+/// endian, attached or detached data, axis-aligned spacing.
 /// \throw InputError(path, ...) for missing/corrupt files and unsupported features.
 Volume read_nrrd(const std::string& path);
 

@@ -1,6 +1,5 @@
-// Slice image stacks: a directory of PNGs (or an explicit file list) read into
-// a SliceStack, one slice per image at z = 0, 1, 2, ... (pixel units; the
-// caller rescales z when the slice spacing differs from the pixel size).
+// @file io/slice_images.h
+// @brief A directory of PNGs (or a file list) as a SliceStack, slice k at z = k.
 #pragma once
 
 #include <string>
@@ -10,26 +9,19 @@
 
 namespace isoloft {
 
-/// The slice files named by the command line: if `inputs` is a single
-/// directory, its *.png files (extension case-insensitive, hidden files
-/// skipped) in natural name order (slice2 < slice10); otherwise the inputs in
-/// the order given.
-/// \throw InputError if `inputs` is empty, a file is missing, a directory is
-/// mixed with other inputs, or the directory holds no PNG.
+/// A single directory's *.png (hidden skipped) in natural order, else the inputs.
+/// \throw InputError for no inputs, a missing file, a directory among other
+///        inputs, or a directory without PNGs.
 std::vector<std::string> list_slice_files(const std::vector<std::string>& inputs);
 
-/// Read the PNG slices `files` (in parallel) into a stack: slices[k].image is
-/// the raw image (see RawImage), .source the file, .z = k; width/height from
-/// the images; max_value the largest of the slices' max_value; pixel_size 1.
+/// Reads the slices in parallel: raw values, source = file, z = k, max_value
+/// the largest of the slices', pixel_size 1.
 /// \throw InputError naming the file if a slice is unreadable, differs in size
-/// from the first slice, or mixes grayscale with colour or 8- with 16-bit
-/// grayscale (their value ranges differ, so thresholds would disagree).
+///        from the first, or mixes grayscale with colour or 8 with 16 bit.
 SliceStack read_slice_images(const std::vector<std::string>& files);
 
 namespace detail {
-/// Natural order: runs of digits compare by value ("a2" < "a10"), everything
-/// else by character ignoring case; ties broken by plain string order so the
-/// order is total.
+/// Digit runs by value ("a2" < "a10"), the rest case-insensitively; total.
 bool natural_less(const std::string& a, const std::string& b);
 }  // namespace detail
 

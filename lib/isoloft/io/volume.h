@@ -1,7 +1,6 @@
-// A dense 3D scalar volume as read from NRRD / MetaImage files: label maps and
-// distance fields for tests, tools and validation. Samples sit at voxel
-// centres: sample (i, j, k) is at origin + (i*sx, j*sy, k*sz) in physical
-// units, matching the pixel-centre convention of core/grid.h.
+// @file io/volume.h
+// @brief A dense 3D scalar volume, as read from NRRD / MetaImage.
+// Sample (i, j, k) at origin + (i sx, j sy, k sz), physical units.
 #pragma once
 
 #include <array>
@@ -24,19 +23,17 @@ struct Volume {
     return (std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x);
   }
   [[nodiscard]] float at(int x, int y, int z) const { return data[index(x, y, z)]; }
-  /// Copy of plane z as a 2D grid (nx by ny).
   [[nodiscard]] Grid2f plane(int z) const;
 };
 
 namespace detail {
 
-/// Element types shared by the NRRD and MetaImage readers.
+/// Element types of both readers.
 enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
 
 std::size_t scalar_size(ScalarType t);
 
-/// Decode `count` elements of type `t` (byte order `big_endian`) into floats.
-/// \pre `src` holds at least count * scalar_size(t) bytes, `dst` count floats.
+/// count elements of type t (either byte order) to floats. \pre src, dst hold them.
 void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst);
 
 }  // namespace detail

@@ -1,40 +1,15 @@
-// Mesh decimation with quadric error metrics (Garland & Heckbert 1997,
-// "Surface Simplification Using Quadric Error Metrics"), paper 2.5: halfedge
-// collapses of a vertex into a neighbour, cheapest quadric error first,
-// allowed only if
-//  - the link condition holds (the one-rings of the two vertices share only
-//    the two opposite vertices; no tetrahedron collapse), so a closed
-//    2-manifold stays one, of the same topology;
-//  - no face normal turns by more than max_normal_deviation_deg in one
-//    collapse: no fold-overs, no zero-area faces;
-//  - every point of the original surface stays within max_error of the
-//    decimated surface (original vertices exactly; points inside original
-//    triangles up to kDecimateSurfaceSlack more): a real geometric bound on
-//    the one-sided Hausdorff distance original -> decimated, in pixels.
-// The bound (decimate_bound.h) keeps the original TRIANGLES, not vertices:
-// each original triangle, or a piece of its midpoint subdivision, is held by
-// one current face to which all its corners are within the bound; the
-// distance to a triangle is convex, so then all its points are. A collapse
-// must re-cover the pieces of the faces it changes (after OpenMesh's
-// ModHausdorffT, which bounds only vertices: that let points on original
-// edges drift ~0.1 px past max_error where a triangle spans a crease).
-//
-// decimate() is the fast path (flat arrays, no halfedge structure): rounds
-// over the collapse candidates of the vertices whose neighbourhood changed,
-// each round in increasing quadric error (bucketed to ~1 %), every candidate
-// tested exactly and made at once if legal; vertices touched by a collapse
-// wait for the next round. Pieces are stored as 16-byte keys (triangle,
-// subdivision path; corners recomputed bit for bit when tested), each face's
-// in pre-order, so sibling pieces merge back in one linear pass. Large
-// meshes run first in z slabs concurrently (vertices next to another slab
-// held), then the seams: the slab count depends on the mesh alone, so the
-// output is the same for any thread count. detail::decimate_openmesh() is
-// the strictly greedy reference on OpenMesh's Decimater (one heap), 3.3-7x
-// slower (decimate_openmesh.cpp), kept as the test oracle: both obey the
-// same bound and topology rules.
-// Boundary vertices (open input) and vertices whose faces do not form one
-// fan are never moved nor collapsed into in the fast path.
-// Collapses move no vertex: the output vertices are a subset of the input's.
+// @file mesh/decimate.h
+// @brief Bounded quadric-error decimation (paper 2.5; Garland & Heckbert 1997).
+// Halfedge collapses in quadric order, legal only if the link condition holds,
+// no face normal turns by more than max_normal_deviation_deg, and every point
+// of the original surface stays within max_error of the result (each original
+// triangle or piece of it held by a covering face: mesh/decimate_bound.h;
+// docs/decisions.md: decimation bound). Large meshes run first in z slabs
+// concurrently; the output is the same for any thread count; no vertex moves.
+// Reference: validation/decimate_openmesh.h. Units: pixels.
+// @warning Boundary vertices, and vertices whose faces form several fans, are
+// never moved nor collapsed into.
+// @warning A mesh flat in z is decimated as one slab.
 #pragma once
 
 #include <cstddef>
@@ -44,11 +19,7 @@
 
 namespace isoloft {
 
-/// Numeric slack of the surface bound, pixels: pieces of original triangles
-/// are split no finer than this (a point exactly at max_error would need
-/// infinitely fine pieces), so points inside original triangles, not their
-/// vertices, may end up this much farther than max_error. 1e-3 px: far below
-/// any pixel-scale error, ~7 subdivision levels at most in practice.
+/// Slack of the bound inside original triangles, px (pieces are split no finer).
 inline constexpr double kDecimateSurfaceSlack = 1e-3;
 
 struct DecimateParams {
@@ -74,19 +45,16 @@ struct DecimateResult {
   long triangles_after = 0;
 };
 
-/// Decimates `mesh` in place; vertices not used by any triangle are kept.
-/// \pre mesh is a consistently oriented 2-manifold, possibly with boundary
-///      (e.g. Marching Cubes output); a closed one stays closed.
-/// \throw ParamError if max_error is negative or not finite, or
-///        max_normal_deviation_deg is not in (0, 90).
-/// \throw InputError naming the triangle if an index is out of range, a
-///        triangle repeats a vertex, or one of its edges is already used in
-///        the same direction (an edge of three triangles, or a flipped one).
+/// Decimates `mesh` in place (renumbered; unused vertices kept).
+/// \pre a consistently oriented 2-manifold, maybe with boundary.
+/// \throw ParamError for a parameter out of range; InputError naming the
+///        triangle for an index out of range, a repeated vertex, or an edge
+///        used twice in one direction.
+/// @warning max_error = 0 or no triangles: unchanged.
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params);
 
 namespace detail {
-/// decimate() with a given number of z slabs decimated concurrently before
-/// the seams (decimate() picks it from the triangle count; tests force it).
+/// decimate() with a given slab count (tests).
 DecimateResult decimate_in_slabs(TriMesh& mesh, const DecimateParams& params, std::size_t slabs);
 }  // namespace detail
 

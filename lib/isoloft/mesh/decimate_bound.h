@@ -1,11 +1,8 @@
-// The decimation error bound shared by both decimators (decimate.cpp, the
-// fast one, and decimate_openmesh.cpp, its reference): every original
-// triangle, or a piece of its midpoint subdivision, is kept with one face of
-// the current mesh that covers it (each corner within the bound of that face;
-// the distance to a triangle is convex, so then every point of it is). A
-// collapse is legal only if every piece held by the faces it changes is
-// covered again by the changed faces; a piece no single face covers (it spans
-// a crease) is split into four at its edge midpoints. See decimate.h.
+// @file mesh/decimate_bound.h
+// @brief The decimation bound (mesh/decimate.h), shared with its reference.
+// Every original triangle, or a piece of its midpoint subdivision, is held by
+// one face covering it (each corner within the bound); a collapse must
+// re-cover the pieces of the faces it changes, splitting what no face covers.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -22,8 +19,8 @@
 
 namespace isoloft::detail {
 
-// A triangle prepared for many squared-distance queries; exact also for
-// zero-area triangles (then the distance to the nearest side).
+// A triangle prepared for squared-distance queries.
+// @warning A zero-area triangle gives the distance to its nearest side.
 struct PreparedTriangle {
   Vec3d a, b, c, ab, bc, ca, n, in_ab, in_bc, in_ca;
   double inv_n2, inv_ab2, inv_bc2, inv_ca2;
@@ -51,11 +48,9 @@ struct PreparedTriangle {
   }
 };
 
-// A part of an original triangle: the whole triangle, or a piece of its
-// midpoint subdivision. Bit k of `original` marks corner k as an original
-// vertex, held to max_error itself (the other corners get the slack).
-// `path` holds the child indices (0-3, see split()) from the triangle down,
-// two bits per level, last level lowest.
+// A piece of an original triangle. Bit k of `original`: corner k is an
+// original vertex, held to max_error itself (the others get the slack).
+// `path`: child indices (split()) from the top, 2 bits each, last lowest.
 struct TrianglePiece {
   std::array<Vec3d, 3> p;
   std::uint32_t triangle = 0;
@@ -65,8 +60,7 @@ struct TrianglePiece {
 };
 inline constexpr int kMaxPieceDepth = 31;  // 2 bits per level in TrianglePiece::path
 
-// Child k of q's midpoint subdivision (child k < 3 keeps corner k; child 3
-// is the middle one).
+// Child k of the midpoint subdivision (k < 3 keeps corner k).
 inline TrianglePiece child(const TrianglePiece& q, unsigned k) {
   const Vec3d m01 = 0.5 * (q.p[0] + q.p[1]), m12 = 0.5 * (q.p[1] + q.p[2]), m20 = 0.5 * (q.p[2] + q.p[0]);
   const std::uint8_t d = q.depth + 1;
@@ -79,12 +73,9 @@ inline TrianglePiece child(const TrianglePiece& q, unsigned k) {
   }
 }
 
-// The four pieces of q's midpoint subdivision.
 inline std::array<TrianglePiece, 4> split(const TrianglePiece& q) { return {child(q, 0), child(q, 1), child(q, 2), child(q, 3)}; }
 
-// A piece without its corners (16 bytes instead of 88): the corners follow
-// bit for bit from the original triangle's corners and the path (expand()).
-// The fast decimator stores these; a jawbone-scale mesh holds ~1 M pieces.
+// A piece without corners (16 bytes); expand() recomputes them bit for bit.
 struct PieceKey {
   std::uint64_t path = 0;
   std::uint32_t triangle = 0;
@@ -94,15 +85,13 @@ struct PieceKey {
 
 inline PieceKey key_of(const TrianglePiece& q) { return {q.path, q.triangle, q.original, q.depth}; }
 
-// The piece `key` names, of the original triangle (a, b, c).
 inline TrianglePiece expand(const PieceKey& key, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   TrianglePiece q{{a, b, c}, key.triangle, 7u, 0u, 0u};
   for (int level = int(key.depth) - 1; level >= 0; --level) q = child(q, unsigned(key.path >> (2 * level)) & 3u);
   return q;
 }
 
-// The parent of the siblings a (child 0), b (child 1) and c (child 2): its
-// corners are a.p[0], b.p[1], c.p[2].
+// The parent of siblings a, b, c (children 0-2).
 inline TrianglePiece parent_of(const TrianglePiece& a, const TrianglePiece& b, const TrianglePiece& c) {
   return TrianglePiece{{a.p[0], b.p[1], c.p[2]}, a.triangle, std::uint8_t(a.original | b.original | c.original),
                std::uint8_t(a.depth - 1), a.path >> 2};
@@ -111,21 +100,15 @@ inline PieceKey parent_of(const PieceKey& a, const PieceKey& b, const PieceKey& 
   return PieceKey{a.path >> 2, a.triangle, std::uint8_t(a.original | b.original | c.original), std::uint8_t(a.depth - 1)};
 }
 
-// Pre-order of the pieces of one face: by triangle, then by the subdivision
-// path read from the top. A piece's children come right after where it
-// would be, and four siblings are adjacent once nothing below them is left.
+// Pre-order (triangle, then path from the top): siblings end up adjacent.
 template <class P>  // TrianglePiece or PieceKey
 [[nodiscard]] bool preorder_less(const P& a, const P& b) {
   auto top_down = [](const P& q) { return q.path << (2 * (kMaxPieceDepth - q.depth)); };
   return a.triangle != b.triangle ? a.triangle < b.triangle : top_down(a) < top_down(b);
 }
 
-// Replaces every complete set of four sibling pieces by their parent, bottom
-// up, so that splits made for creases that are gone are undone (the parent's
-// corners are corners of its children 0-2, bit for bit). \pre `pieces` is in
-// pre-order (preorder_less), and no set is complete before `from`; it stays
-// so. One pass: a parent made here can only complete a set with the three
-// pieces before it.
+// Replaces every complete set of four siblings by their parent, bottom up, in
+// one pass. \pre pre-order, no set complete before `from`; both stay so.
 template <class P>
 void merge_complete_siblings(std::vector<P>& pieces, std::size_t from = 0) {  // pieces before `from`: done
   std::size_t w = from;
@@ -144,41 +127,31 @@ void merge_complete_siblings(std::vector<P>& pieces, std::size_t from = 0) {  //
   pieces.resize(w);
 }
 
-// merge_complete_siblings() on pieces in any order (the reference decimator).
+// merge_complete_siblings() on pieces in any order (the reference).
 template <class P>
 void coarsen(std::vector<P>& pieces) {
   std::sort(pieces.begin(), pieces.end(), preorder_less<P>);
   merge_complete_siblings(pieces);
 }
 
-// Covers pieces by a set of candidate faces (the faces a collapse changes, in
-// their new shape), splitting a piece where no single face covers it.
+// Covers pieces by the faces a collapse changes (in their new shape).
 class PieceCover {
  public:
   explicit PieceCover(double tolerance)
       : vertex_tol2_(tolerance * tolerance),
         surface_tol2_((tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack)) {}
 
-  // Whether each corner of q is within its bound of t (the fast path of cover()).
   [[nodiscard]] bool covered_by(const PreparedTriangle& t, const TrianglePiece& q) const {
     for (std::size_t k = 0; k < 3; ++k)
       if (t.distance_sq(q.p[k]) > ((q.original >> k & 1u) ? vertex_tol2_ : surface_tol2_)) return false;
     return true;
   }
 
-  // Covers `piece` by faces of tris, splitting it where no single face
-  // covers it, and calls place(k, part) for every covered part (k: the first
-  // covering face, `hint` tried first; with `best`, the one with the smallest
-  // largest corner distance). A face covers a part if each corner is within
-  // its bound of it (original vertices: max_error; other corners: max_error +
-  // kDecimateSurfaceSlack). Returns false (the collapse is illegal) if a part
-  // no face covers has a corner farther than its bound from every face, or is
-  // small (longest side <= kDecimateSurfaceSlack, at most one original corner
-  // v): were every point within max_error, the face nearest to v would cover
-  // it (its corners are within max_error + that side of the face). Whether a
-  // part is split or rejected does not depend on hint and best, so placing
-  // (best) makes the same splits as testing; there a rejected part
-  // (unreachable) goes to the nearest face, not lost.
+  // Covers `piece` by faces of tris, splitting it where no face does; place(k,
+  // part) per covered part (k: the first covering face, `hint` first; with
+  // `best`, the one of least largest corner distance). \return false (illegal)
+  // if an uncovered part has a corner beyond its bound from every face, or is
+  // small (side <= kDecimateSurfaceSlack, <= 1 original corner).
   template <class Place>
   bool cover(const TrianglePiece& piece, const std::vector<PreparedTriangle>& tris, int hint, bool best, Place&& place) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -244,8 +217,7 @@ class PieceCover {
   std::vector<unsigned> tested_;
 };
 
-// Area-weighted plane quadric (Garland & Heckbert 1997): Q(p) is the sum over
-// planes of area * (n.p + d)^2; 10 coefficients of the symmetric 4x4 matrix.
+// Area-weighted plane quadric: Q(p) = sum area (n.p + d)^2.
 struct Quadric {
   double a11 = 0, a12 = 0, a13 = 0, a14 = 0, a22 = 0, a23 = 0, a24 = 0, a33 = 0, a34 = 0, a44 = 0;
   static Quadric plane(const Vec3d& n, double d, double weight) {
@@ -265,7 +237,7 @@ struct Quadric {
   }
 };
 
-/// Checks params and the mesh's indices (decimate.h \throw); shared by both decimators.
+/// The checks of decimate.h \throw, shared by both decimators.
 void validate_decimate_input(const TriMesh& mesh, const DecimateParams& params);
 
 }  // namespace isoloft::detail

@@ -1,8 +1,6 @@
-// Topological and geometric sanity checks of a triangle mesh: closedness,
-// 2-manifoldness, consistent orientation, Euler characteristic, enclosed volume
-// (divergence theorem) and area. Used by the tests and recorded in every
-// report, so the properties Marching Cubes and decimation promise are
-// verified on every output.
+// @file mesh/mesh_check.h
+// @brief Closedness, manifoldness, orientation, Euler number, volume, area.
+// Run on every reconstruction (the report) and in the tests.
 #pragma once
 
 #include "isoloft/core/mesh.h"
@@ -24,9 +22,9 @@ struct MeshCheck {
   double area = 0.0;              ///< total area (pixels^2)
 };
 
-/// Checks `mesh`. Vertices not used by any triangle are ignored. Runs in
-/// O(F log F) time.
+/// Checks `mesh` in O(F log F); unused vertices are ignored.
 /// \throw InputError if a triangle references a vertex index out of range.
+/// @warning A mesh without triangles counts as closed, manifold and oriented.
 MeshCheck check_mesh(const TriMesh& mesh);
 
 }  // namespace isoloft

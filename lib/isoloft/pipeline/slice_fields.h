@@ -1,11 +1,8 @@
 // @file pipeline/slice_fields.h
-// @brief The per-slice stages of reconstruct(): one slice in, its masks or
-// its signed distance field out (paper 2.1-2.3, or the Levin baseline).
-//
-// Each function is a pure function of one slice and the parameters, so the
-// pipeline runs them over the slices in parallel. Coordinates: pixels of the
-// working grid; a field covers the object's crop box `b` (pixel (i, j) of the
-// field is working pixel (b.x0 + i, b.y0 + j)). Sign convention: positive inside.
+// @brief The per-slice stages of reconstruct() (paper 2.1-2.2, or Levin).
+// Pure functions of one slice, run over the slices in parallel. A field covers
+// the crop box b: its pixel (i, j) is working pixel (b.x0 + i, b.y0 + j).
+// Sign convention: positive inside.
 #pragma once
 
 #include <cstddef>
@@ -26,36 +23,31 @@ struct ReconstructParams;
 
 namespace isoloft::detail {
 
-/// One slice of one object as pixels: its contour and its inside.
+/// One slice of one object: its contour and inside pixels.
 struct SliceMasks {
   Grid2u8 contour;  ///< contour pixels (1)
   Grid2u8 inside;   ///< interior or contour (1)
   bool empty = true;  ///< no inside pixel
-  /// Open contours found by the even-odd fill (contours input), as warnings.
+  /// Open contours found by the even-odd fill, as warnings.
   std::vector<std::string> warnings;
 };
 
-/// Contour pixels and inside of `label` (labels input; ignored otherwise) in
-/// slice `s` (paper 2.1): polygons rasterised, masks and labels taken as they
-/// are (contour = mask boundary), contour images filled by even-odd nesting.
+/// Contour and inside of `label` (labels input) in slice s (paper 2.1):
+/// polygons rasterised, masks as they are, contour images filled (even-odd).
 /// \throw InputError naming the slice file for a non-binary contour or mask
-///        image (unless params.binarize) and for an open contour that the
-///        fill's policy rejects.
+///        image (unless params.binarize) or an open contour the fill rejects.
 SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& params, std::uint32_t label);
 
-/// Bounding box of every slice's inside and contour, grown by `margin` and
-/// clipped to the grid; empty if no slice has any.
+/// Bounding box of all insides and contours plus margin, clipped; empty if none.
 PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin);
 
-/// The Levin-style field over box b: exact signed EDT at pixel centres
-/// (field/edt.h), to the contour pixels (contours, polylines) or to the
-/// mask's edge (masks, labels).
+/// The Levin field over b: exact signed EDT to the contour pixels (contours,
+/// polylines) or to the mask's edge (masks, labels).
 Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
 
 /// Fewer contour points than this cannot carry a conic fit (6 coefficients).
 inline constexpr std::size_t kMinMpuPoints = 6;
 
-/// One slice through the paper's stages 2.1-2.2.
 struct MarkerSlice {
   Grid2f field;            ///< signed distance (narrow band + extension), before the filter
   bool fallback = false;   ///< too few points for a curve: exact pixel distances instead
@@ -66,19 +58,17 @@ struct MarkerSlice {
   double t_mpu = 0, t_dist = 0;  ///< CPU seconds of the two stages
 };
 
-/// marker2006 for one slice over box b (paper 2.1-2.2): contour points and
-/// outward normals, the MPU curve (fitted on a finer raster for polylines
-/// with polyline_raster_width > 0), the sign guard, exact distances in a
-/// narrow band around the curve, extended to the whole box.
-/// @warning A slice with fewer than kMinMpuPoints oriented points (e.g. a
-/// one-pixel island) gets its exact pixel distance field (fallback = true).
+/// marker2006 for one slice over b (paper 2.1-2.2): points and normals, the MPU
+/// curve (on a finer raster for polylines if polyline_raster_width > 0), the
+/// sign guard (docs/decisions.md: sign guard), narrow band, extension.
+/// @warning Fewer than kMinMpuPoints oriented points (e.g. a one-pixel island)
+/// give the exact pixel distance field (fallback = true).
 MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& params,
                          InputKind kind, int stack_width, bool keep_stages);
 
-/// Gives every empty slice (empty grid) a field: next to a non-empty slice,
-/// that slice's field lowered by (max + cap_depth) / cap_extent, so the object
-/// closes in the gap like an end cap; with two such neighbours the lower of
-/// the two; otherwise the most negative value of all fields.
+/// Gives every empty slice a field: a non-empty neighbour's field lowered by
+/// (max + cap_depth) / cap_extent (the lower of two), so the object closes in
+/// the gap like an end cap; without one the most negative value of all fields.
 void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp);
 
 }  // namespace isoloft::detail

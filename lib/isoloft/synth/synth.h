@@ -1,13 +1,9 @@
-// Synthetic slice stacks from analytic shapes (`isoloft synth`): the shape is
-// cut by planes z = k * z_spacing and each cut is rasterized as a 1-pixel
-// contour image or a filled mask.
-//
-// Contour rasterization: for every pair of 4-neighbouring pixels whose
-// centres lie on opposite sides of the curve, the one closer to the curve
-// (smaller |value|) is marked. The marked set is 8-connected along each curve,
-// blocks every 4-connected path from inside to outside (so the even-odd fill
-// recovers the inside exactly), and its pixel centres lie within ~0.5 px of the
-// true curve (mean ~0.25 px): the pixelization error any binary input carries.
+// @file synth/synth.h
+// @brief Synthetic slice stacks cut from analytic shapes (`isoloft synth`).
+// Cuts at z = k z_spacing as contour images, masks or polygons. Of each pair of
+// 4-neighbours on opposite sides of the curve the one of smaller |value| is
+// marked: an 8-curve the even-odd fill inverts exactly, centres within ~0.5 px
+// of the curve (mean ~0.25 px), the error of any binary input.
 #pragma once
 
 #include <functional>
@@ -23,10 +19,7 @@ struct SynthParams {
   int size = 128;            ///< image width and height, pixels
   double z_spacing = 8.0;    ///< slice spacing in pixels (the z ratio, e.g. 8:1)
   double first_offset = 0.37;  ///< first cut this many spacings above the shape's bottom (avoids cutting at a pole)
-  /// Contours or Masks (images), or Polylines: closed polygons of the exact
-  /// cut traced by marching squares on a grid of `polyline_step` pixels,
-  /// vertices refined onto the surface (vertex error ~1e-9 px, chord error
-  /// <= step^2 / (8 r)).
+  /// Contours, Masks, or Polylines (the cut traced on a polyline_step grid).
   InputKind kind = InputKind::Contours;
   double polyline_step = 0.5;  ///< pixels
 };
@@ -37,17 +30,16 @@ struct SynthResult {
   nlohmann::json description;  ///< {"shape": ..., "stack": {...}}: what `isoloft eval --truth` reads
 };
 
-/// Cuts `shape` (in pixel units) by planes; the stack covers every plane that
-/// meets the shape, starting first_offset spacings above its bottom.
-/// \throw ParamError if size < 8, z_spacing <= 0, or the shape leaves the image.
+/// Cuts `shape` by every plane that meets it, from first_offset spacings up.
+/// \throw ParamError if size < 8, z_spacing <= 0, kind is Labels, the shape
+///        leaves the image, or fewer than 2 planes meet it.
 SynthResult synthesize(const Shape& shape, const SynthParams& params);
 
-/// Marks the contour pixels of an implicit slice f (positive inside), see above.
+/// The contour pixels of an implicit slice f (positive inside).
 Grid2u8 rasterize_implicit_contour(const Grid2f& f);
 
-/// Closed polygons of the zero set of f(x, y) (positive inside) over
-/// [0, width-1] x [0, height-1], traced on a grid of `step` pixels.
-/// \pre f < 0 on the border of that rectangle (closed curves).
+/// Closed polygons of f = 0 (positive inside) over [0, width-1] x [0, height-1].
+/// \pre f < 0 on the border of that rectangle.
 std::vector<Polygon> implicit_slice_polygons(const std::function<double(const Vec2d&)>& f, int width, int height, double step);
 
 }  // namespace isoloft
