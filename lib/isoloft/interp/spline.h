@@ -24,7 +24,6 @@ inline constexpr std::array<EnumName<SplineKind>, 4> kSplineKindNames{{{SplineKi
                                                                        {SplineKind::Linear, "linear"}}};
 constexpr std::span<const EnumName<SplineKind>> enum_names(SplineKind) { return kSplineKindNames; }
 
-<<<<<<< HEAD
 /// How an object closes beyond its end slices (and next to an empty slice).
 enum class CapShape {
   Dome,  ///< the end slice's field lowered by its maximum + cap_depth: a dome shaped by the end contour's distance field
@@ -33,10 +32,7 @@ enum class CapShape {
 inline constexpr std::array<EnumName<CapShape>, 2> kCapShapeNames{{{CapShape::Dome, "dome"}, {CapShape::Flat, "flat"}}};
 constexpr std::span<const EnumName<CapShape>> enum_names(CapShape) { return kCapShapeNames; }
 
-/// Largest end-cap distance accepted, slice spacings.
-=======
 /// Largest cap_extent accepted, slice spacings.
->>>>>>> docs
 inline constexpr double kMaxCapExtent = 100.0;
 
 struct InterpParams {
@@ -108,18 +104,14 @@ class ZInterpolator {
   SplineKind kind_;
 };
 
-<<<<<<< HEAD
-/// The virtual slice beyond end slice `end` (InterpParams::cap_shape): outside
-/// (<= -cap_depth) everywhere.
+/// The virtual slice beyond end slice `end` (InterpParams::cap_shape),
+/// outside (<= -cap_depth) everywhere: dome, `end` lowered by max(0, its
+/// maximum) + cap_depth; flat, min(end, 0) - cap_depth.
 Grid2f cap_slice(const Grid2f& end, const InterpParams& params);
 
-/// Adds the end-cap virtual slices of InterpParams to (slices, z).
-/// \pre slices.size() == z.size() >= 2
-=======
-/// Adds the end caps (not in the paper): cap_extent end spacings beyond each
-/// end slice, its field lowered by max(0, its maximum) + cap_depth (outside).
+/// Adds the end caps (not in the paper): a cap_slice() cap_extent end
+/// spacings beyond each end slice.
 /// \throw ParamError unless slices.size() == z.size() >= 2 and params are valid.
->>>>>>> docs
 void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const InterpParams& params);
 
 }  // namespace isoloft
