@@ -11,9 +11,11 @@ FULL=0
 if [[ "${1:-}" == "--full" ]]; then FULL=1; shift; fi
 # What the CLI needs to build and run.
 CLI_PACKAGES=(build-essential cmake git pkg-config time
-  libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev)
-# Tests, oracles (CGAL, Ceres, OpenMesh) and benchmarks.
-DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev)
+  libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev
+  libnifti2-dev libteem-dev libdcmtk-dev)
+# Tests, oracles (CGAL, Ceres, OpenMesh), benchmarks, and the AAL atlas the tests read.
+DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev
+  mricron-data)
 PACKAGES=("${CLI_PACKAGES[@]}")
 ((FULL)) && PACKAGES+=("${DEV_PACKAGES[@]}")
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.

@@ -132,6 +132,16 @@ DirectedStats directed(const std::vector<double>& d, const std::vector<double>& 
 
 }  // namespace
 
+std::vector<double> point_to_mesh_distances(const TriMesh& mesh, const std::vector<Vec3d>& points) {
+  check_mesh(mesh, "point_to_mesh_distances", "");
+  const TriangleVector tris = triangles_of(mesh);
+  Tree tree(tris.begin(), tris.end());
+  tree.accelerate_distance_queries();
+  std::vector<double> d(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) d[i] = std::sqrt(tree.squared_distance(point(points[i])));
+  return d;
+}
+
 // ---- CGAL-free parts --------------------------------------------------------
 
 namespace detail {

@@ -54,6 +54,11 @@ enum class Verdict { Pass, Fail, Undecided };
 /// Pass if upper <= threshold, Fail if lower > threshold, else Undecided
 /// (tighten the error bound).
 Verdict hausdorff_verdict(const HausdorffInterval& h, double threshold);
+
+/// Distance from every point to the nearest point of the mesh's surface
+/// (CGAL AABB tree, exact up to double rounding), in the mesh's units.
+/// \throw InputError if the mesh has no triangles or a bad vertex/index.
+std::vector<double> point_to_mesh_distances(const TriMesh& mesh, const std::vector<Vec3d>& points);
 const char* to_string(Verdict v);
 
 struct DirectedStats {

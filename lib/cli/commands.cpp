@@ -30,7 +30,9 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
 
   reconstruct_ = app.add_subcommand("reconstruct", "Reconstruct closed surfaces from a slice stack");
   auto* R = reconstruct_;
-  R->add_option("inputs", r_.inputs, "PNG slices in stack order, one directory of PNGs, or one polyline text file");
+  R->add_option("inputs", r_.inputs,
+                "PNG slices in stack order, one directory of PNGs, one polyline text file, one label volume "
+                "(.nii .nii.gz .nrrd .nhdr .mha .mhd) or one DICOM RT Structure Set (.dcm)");
   R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl or .off; with labels also one file per label");
   R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
       ->check(CLI::IsMember({"contours", "masks", "labels"}));
@@ -38,7 +40,16 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   r_.slice_z_opt = R->add_option("--slice-z", r_.slice_z, "Comma-separated z of every slice, pixel units (non-uniform spacing)");
   r_.pixel_size_opt = R->add_option("--pixel-size", r_.pixel_size, "Physical size of a pixel; scales x, y and z of the outputs")->check(CLI::PositiveNumber);
   R->add_option("--volume", r_.volume, "Write the interpolated signed distance volume (.nrrd, float, positive inside)");
-  R->add_option("--labels", r_.labels, "With --input labels: comma-separated labels to reconstruct (default all)");
+  R->add_option("--labels", r_.labels, "With label input: comma-separated labels to reconstruct (default all)");
+  R->add_option("--axis", r_.axis, "Volumes: the voxel axis whose slices are annotated (default: the sparse one)")
+      ->check(CLI::IsMember({"i", "j", "k"}));
+  R->add_option("--roi", r_.rois, "RT Structure Sets: a ROI to reconstruct, by name (repeatable; default every ROI with closed planar contours)");
+  R->add_flag("--list-rois", r_.list_rois, "RT Structure Sets: print each ROI's name, number, contour count and z range, and exit");
+  r_.voxel_size_opt = R->add_option("--voxel-size", r_.voxel_size, "RT Structure Sets: in-plane pixel of the working grid, mm (default 0.5)")
+                          ->check(CLI::PositiveNumber);
+  R->add_option("--space", r_.space, "Volumes and RT Structure Sets: patient space of the outputs, lps (default; DICOM, ITK, 3D Slicer files) or ras")
+      ->check(CLI::IsMember({"lps", "ras"}));
+  R->add_option("--labelmap", r_.labelmap, "Volumes: write the dense label map on the input's grid (.nii.gz, .nii, .nrrd, .mha): annotated slices as given, the others from the interpolated fields");
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
   R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON with its unit, range and doc, and exit");

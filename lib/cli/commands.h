@@ -20,9 +20,14 @@ struct ReconstructArgs {
   double z_spacing = 1.0, pixel_size = 1.0;
   std::string slice_z;
   std::string dump_stages;
+  std::string axis;                ///< volumes: i, j or k ("" = the sparse one)
+  std::vector<std::string> rois;   ///< RT Structure Sets: ROI names ("" = every ROI with closed contours)
+  double voxel_size = 0.5;         ///< RT Structure Sets: working grid, mm
+  std::string space;               ///< patient space of the outputs: lps (default) or ras
+  std::string labelmap;            ///< volumes: the dense label map out
   int threads = 0;
-  bool print_params = false, quiet = false, ascii = false;
-  CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr;
+  bool print_params = false, quiet = false, ascii = false, list_rois = false;
+  CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
 
 /// One CLI11 option per parameter-table row that has a flag, and applying

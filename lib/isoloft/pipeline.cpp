@@ -247,6 +247,14 @@ TriMesh mesh_stage(const Run& run, std::vector<Grid2f> fields, const ObjectResul
   add_end_caps(fields, z, p.interp);
   const ZInterpolator field(std::move(fields), z, p.interp.spline);
   const std::vector<double> planes = sample_planes(z.front(), z.back(), p.interp.z_step);
+  if (run.options.on_sample) {
+    Grid2f sampled;
+    for (const double zs : run.options.sample_z) {
+      if (zs < z.front() || zs > z.back()) continue;
+      field.evaluate(zs, sampled);
+      run.options.on_sample(obj.label, sampled, obj.box, zs);
+    }
+  }
   run.result.times.interp += seconds_since(t0);
 
   StreamMeshOptions o;

@@ -109,6 +109,12 @@ struct ReconstructOptions {
   std::function<void(const SliceStageFields&)> on_slice_fields;
   /// Every sampled plane of each object's field (padded crop), e.g. for --volume.
   std::function<void(std::uint32_t label, const Grid2f& plane, double x0, double y0, double z, int plane_index, int plane_count)> on_plane;
+  /// Heights (working z, pixels) at which each object's interpolated field is
+  /// wanted whole, e.g. every voxel slice for a dense label map; those within
+  /// the object's z range (cap slices included) reach on_sample.
+  std::vector<double> sample_z;
+  /// Each object's field over its crop box at every sample_z it reaches.
+  std::function<void(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z)> on_sample;
   /// Stage name, items done, items total.
   std::function<void(const std::string&, long, long)> progress;
 };

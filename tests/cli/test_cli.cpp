@@ -8,64 +8,15 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cli/cli_test_util.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
 
-namespace fs = std::filesystem;
 using namespace isoloft;
+using isoloft::test::Cli;
+using isoloft::test::CliRun;
+namespace fs = std::filesystem;
 
-namespace {
-
-struct CliRun {
-  int code;
-  std::string err, out;
-};
-
-class Cli : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("isoloft_cli_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  CliRun run(const std::string& args) {
-    const std::string err = (dir_ / "stderr.txt").string(), out = (dir_ / "stdout.txt").string();
-    const std::string cmd = std::string(ISOLOFT_CLI) + " " + args + " >" + out + " 2>" + err;
-    const int status = std::system(cmd.c_str());
-    auto slurp = [](const std::string& p) {
-      std::ifstream in(p);
-      std::stringstream ss;
-      ss << in.rdbuf();
-      return ss.str();
-    };
-    return {WEXITSTATUS(status), slurp(err), slurp(out)};
-  }
-  std::string p(const std::string& name) const { return (dir_ / name).string(); }
-
-  // A 24x24 contour image of a circle.
-  void write_circle(const std::string& path, int size = 24, std::uint8_t white = 255) {
-    Grid2u8 g(size, size, 0);
-    for (int y = 0; y < size; ++y)
-      for (int x = 0; x < size; ++x) {
-        const double r = std::hypot(x - size / 2.0, y - size / 2.0);
-        if (std::abs(r - size / 4.0) < 0.6) g(x, y) = white;
-      }
-    write_png(path, g);
-  }
-  // Files in dir_ other than our captured stdout/stderr (e.g. half-written output).
-  std::vector<std::string> leftovers(const std::string& stem) {
-    std::vector<std::string> v;
-    for (const auto& e : fs::directory_iterator(dir_))
-      if (e.path().filename().string().rfind(stem, 0) == 0 || e.path().filename().string().find("." + stem) == 0) v.push_back(e.path().filename().string());
-    return v;
-  }
-  fs::path dir_;
-};
-
-}  // namespace
 
 TEST_F(Cli, ReconstructsASynthesizedSphereWithAReport) {
   ASSERT_EQ(run("synth sphere --size 64 --z-spacing 8 --out " + p("sphere")).code, 0);

@@ -123,7 +123,7 @@ TEST(MetaImage, BadFilesThrowInputError) {
       {"type.mhd", head + "ElementType = MET_LONG_LONG\nElementDataFile = short.raw\n"},
       {"dims.mhd", "NDims = 3\nDimSize = 4 4\nElementType = MET_UCHAR\nElementDataFile = short.raw\n"},
       {"rgb.mhd", head + "ElementType = MET_UCHAR\nElementNumberOfChannels = 3\nElementDataFile = short.raw\n"},
-      {"rot.mhd", head + "TransformMatrix = 0 1 0 1 0 0 0 0 1\nElementType = MET_UCHAR\nElementDataFile = short.raw\n"},
+      {"shear.mhd", head + "TransformMatrix = 1 0 0 0.5 1 0 0 0 1\nElementType = MET_UCHAR\nElementDataFile = short.raw\n"},
       {"nodata.mhd", head + "ElementType = MET_UCHAR\n"},
       {"junk.mhd", "this is not a header\n"},
   };

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -43,12 +44,22 @@ struct Slice {
   std::string source;       ///< file it came from, for error messages
 };
 
+/// Where the working grid lies in DICOM patient space (LPS, mm): working
+/// point p = (x, y, z) in pixels is at origin + axes * p. Known for volume
+/// and RT Structure Set input; image and polyline input have none.
+struct PatientFrame {
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< columns: mm per working pixel along x, y, z
+  Vec3d origin = Vec3d::Zero();                        ///< patient position of working (0, 0, 0)
+  [[nodiscard]] Vec3d to_patient(const Vec3d& p) const { return origin + axes * p; }
+};
+
 struct SliceStack {
   int width = 0;   ///< working grid size in pixels
   int height = 0;
   std::uint32_t max_value = 255;  ///< full range of image values (255, 65535, 0xFFFFFF)
   double pixel_size = 1.0;        ///< physical size of one pixel (applied at output)
   InputKind kind = InputKind::Contours;  ///< images of contours, masks or labels, or polygons
+  std::optional<PatientFrame> patient;   ///< physical geometry, when the input has one
   std::vector<Slice> slices;      ///< strictly increasing z
 
   [[nodiscard]] bool has_polygons() const { return kind == InputKind::Polylines; }

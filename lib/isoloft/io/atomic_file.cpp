@@ -21,17 +21,28 @@ void ensure_parent_dir(const std::string& path) {
     throw Error(parent.string() + ": cannot create output directory" + (ec ? " (" + ec.message() + ")" : ""));
 }
 
+namespace {
+
+// A hidden sibling "<dir>/.<name>.<tag><pid>-<n><ext>": pid + process-wide
+// counter make it unique among concurrent writers in this and other
+// processes; the extension is kept (tools choose the format by it), both
+// parts of a compressed one (.nii.gz).
+std::string hidden_sibling(const std::string& path, const char* tag) {
+  static std::atomic<unsigned long> counter{0};
+  const fs::path p(path);
+  std::string ext = p.extension().string();
+  if (ext == ".gz" || ext == ".bz2") ext = p.stem().extension().string() + ext;
+  const std::string name = "." + p.filename().string() + "." + tag + std::to_string(::getpid()) + "-" +
+                           std::to_string(counter.fetch_add(1)) + ext;
+  return (p.parent_path() / name).string();
+}
+
+}  // namespace
+
 AtomicFile::AtomicFile(std::string final_path) : final_(std::move(final_path)) {
   if (final_.empty()) throw Error("output path is empty");
   ensure_parent_dir(final_);
-  // pid + process-wide counter: unique among concurrent writers in this and
-  // other processes writing to the same directory.
-  static std::atomic<unsigned long> counter{0};
-  const fs::path p(final_);
-  const std::string name = p.filename().string();
-  const std::string tmp_name = "." + name + ".tmp" + std::to_string(::getpid()) + "-" +
-                               std::to_string(counter.fetch_add(1)) + p.extension().string();
-  temp_ = (p.parent_path() / tmp_name).string();
+  temp_ = hidden_sibling(final_, "tmp");
 }
 
 AtomicFile::~AtomicFile() {
@@ -48,6 +59,41 @@ void AtomicFile::commit() {
   fs::rename(temp_, final_, ec);
   if (ec) throw Error(final_ + ": cannot move finished output into place (" + ec.message() + ")");
   committed_ = true;
+}
+
+OutputSet::~OutputSet() { discard(); }
+
+std::string OutputSet::stage(const std::string& final_path) {
+  if (final_path.empty()) throw Error("output path is empty");
+  for (const auto& [f, s] : files_)
+    if (f == final_path) throw Error(final_path + ": the run writes this file twice");
+  ensure_parent_dir(final_path);
+  files_.emplace_back(final_path, hidden_sibling(final_path, "run"));
+  return files_.back().second;
+}
+
+void OutputSet::commit() {
+  for (const auto& [final_path, staged] : files_) {
+    std::error_code ec;
+    if (!fs::exists(staged, ec)) continue;
+    fs::rename(staged, final_path, ec);
+    if (ec) throw Error(final_path + ": cannot move finished output into place (" + ec.message() + ")");
+  }
+  files_.clear();
+}
+
+void OutputSet::discard() noexcept {
+  for (const auto& [f, staged] : files_) {
+    std::error_code ec;
+    fs::remove(staged, ec);
+  }
+  files_.clear();
+}
+
+std::vector<std::string> OutputSet::staged() const {
+  std::vector<std::string> out;
+  for (const auto& fs_pair : files_) out.push_back(fs_pair.second);
+  return out;
 }
 
 }  // namespace isoloft

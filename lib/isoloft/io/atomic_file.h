@@ -5,6 +5,8 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace isoloft {
 
@@ -34,6 +36,32 @@ class AtomicFile {
   std::string final_;
   std::string temp_;
   bool committed_ = false;
+};
+
+/// The outputs of one run, appearing together or not at all: each is written
+/// (atomically) to a hidden staged sibling, and commit() renames them all into
+/// place at the end; destroying the set uncommitted removes the staged files.
+/// Staged names keep the extension (a writer may pick its format by it) and
+/// start with '.', so a killed run's leftovers are never taken for input.
+class OutputSet {
+ public:
+  OutputSet() = default;
+  ~OutputSet();
+  OutputSet(const OutputSet&) = delete;
+  OutputSet& operator=(const OutputSet&) = delete;
+
+  /// The path to write `final_path` to. \throw Error if its directory cannot be created.
+  std::string stage(const std::string& final_path);
+  /// Renames every staged file that exists into place; the others (never
+  /// written) are ignored. \throw Error naming the file that cannot be moved.
+  void commit();
+  /// Removes the staged files (also called by the destructor).
+  void discard() noexcept;
+  /// The staged paths not yet committed (e.g. for a signal handler).
+  [[nodiscard]] std::vector<std::string> staged() const;
+
+ private:
+  std::vector<std::pair<std::string, std::string>> files_;  // (final, staged)
 };
 
 }  // namespace isoloft

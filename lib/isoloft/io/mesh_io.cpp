@@ -1,5 +1,6 @@
 #include "isoloft/io/mesh_io.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -94,6 +95,10 @@ std::uint8_t color_component(double v, bool unit_range) {
 
 }  // namespace detail
 
+namespace {
+void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space);
+}
+
 std::vector<MeshFormatInfo> mesh_formats() {
   std::vector<MeshFormatInfo> out;
   for (const auto& f : kFormats) out.push_back(f.info);
@@ -108,6 +113,41 @@ MeshFormat mesh_format_from_path(const std::string& path) {
 
 void write_mesh(const std::string& path, const TriMesh& m, double scale, const std::vector<Rgb>* vertex_colors,
                 bool ascii) {
+  MeshWriteOptions o;
+  o.scale = scale;
+  o.colors = vertex_colors;
+  o.ascii = ascii;
+  write_mesh(path, m, o);
+}
+
+void write_mesh(const std::string& path, const TriMesh& mesh, const MeshWriteOptions& options) {
+  if (options.frame) {
+    const Eigen::Matrix3d axes = options.frame->axes;
+    const double det = axes.determinant();
+    if (!(std::isfinite(det) && det != 0)) throw ParamError(path + ": the patient frame is singular");
+    TriMesh placed;
+    placed.vertices.reserve(mesh.vertices.size());
+    for (const Vec3f& v : mesh.vertices) {
+      Vec3d p = options.frame->to_patient(v.cast<double>());
+      if (options.ras) p.x() = -p.x(), p.y() = -p.y();
+      placed.vertices.push_back(p.cast<float>());
+    }
+    placed.triangles = mesh.triangles;
+    if (det < 0)
+      for (auto& t : placed.triangles) std::swap(t[1], t[2]);
+    MeshWriteOptions plain = options;
+    plain.frame.reset();
+    plain.scale = 1.0;
+    write_mesh_as(path, placed, plain, options.ras ? "RAS" : "LPS");
+    return;
+  }
+  write_mesh_as(path, mesh, options, "");
+}
+
+namespace {
+void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space) {
+  const double scale = options.scale;
+  const std::vector<Rgb>* vertex_colors = options.colors;
   const FormatEntry* format = entry_for(path);
   if (!format) throw ParamError(path + ": " + unknown_format(path));
   if (!(std::isfinite(scale) && scale > 0.0))
@@ -126,11 +166,12 @@ void write_mesh(const std::string& path, const TriMesh& m, double scale, const s
   AtomicFile file(path);
   {
     detail::Out o(path, file.temp_path());
-    format->write(path, o, detail::MeshOut{m, detail::Scaled{m, scale}, vertex_colors, ascii});
+    format->write(path, o, detail::MeshOut{m, detail::Scaled{m, scale}, vertex_colors, options.ascii, space});
     o.close();
   }
   file.commit();
 }
+}  // namespace
 
 TriMesh read_mesh(const std::string& path, std::vector<Rgb>* vertex_colors) {
   const FormatEntry* format = entry_for(path);

@@ -3,10 +3,12 @@
 // Our own exact, one-pass readers and writers (docs/decisions.md).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/slice_stack.h"
 
 namespace isoloft {
 
@@ -36,6 +38,22 @@ MeshFormat mesh_format_from_path(const std::string& path);
 ///        or an index is out of range.
 void write_mesh(const std::string& path, const TriMesh& m, double scale = 1.0,
                 const std::vector<Rgb>* vertex_colors = nullptr, bool ascii = false);
+
+/// How write_mesh() places and writes the vertices.
+struct MeshWriteOptions {
+  double scale = 1.0;                 ///< without a frame: coordinates times this
+  std::optional<PatientFrame> frame;  ///< working pixels -> patient mm (LPS); overrides scale
+  bool ras = false;                   ///< with a frame: RAS (x and y negated) instead of LPS
+  const std::vector<Rgb>* colors = nullptr;  ///< one per vertex
+  bool ascii = false;
+};
+
+/// write_mesh() with a patient frame: vertices in patient mm, the space named
+/// in the header the way 3D Slicer reads it (PLY "comment SPACE=LPS", OBJ and
+/// OFF "# SPACE=LPS", STL header "SPACE=LPS"), triangles reversed where the
+/// frame mirrors (negative determinant) so they stay counter-clockwise seen
+/// from outside. \throw as write_mesh(); ParamError for a singular frame.
+void write_mesh(const std::string& path, const TriMesh& m, const MeshWriteOptions& options);
 
 /// Reads PLY (ASCII or binary, any scalar types), OBJ, STL (welded by exact
 /// position), OFF/COFF; polygons fan-triangulated; colours if present.

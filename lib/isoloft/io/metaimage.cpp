@@ -1,5 +1,6 @@
 #include "isoloft/io/metaimage.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -9,7 +10,14 @@
 #include <sstream>
 #include <vector>
 
+#include <zlib.h>
+
+#include <cerrno>
+#include <cstdio>
+
 #include "isoloft/core/error.h"
+#include "isoloft/io/atomic_file.h"
+#include "isoloft/io/text.h"
 #include "isoloft/io/file_util.h"
 
 namespace isoloft {
@@ -85,13 +93,25 @@ Volume read_metaimage(const std::string& mhd) {
       throw InputError(mhd, "bad DimSize '" + *get("DimSize") + "'");
   if (const auto* c = get("ElementNumberOfChannels"); c && trim(*c) != "1")
     throw InputError(mhd, "ElementNumberOfChannels = " + *c + " (only 1 is supported)");
+  // TransformMatrix: the direction of each voxel axis in turn (ITK's MetaIO),
+  // patient LPS as ITK writes it (AnatomicalOrientation is not used).
+  Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();
   if (const auto* t = get("TransformMatrix")) {
     const auto m = numbers(mhd, "TransformMatrix", *t);
-    for (std::size_t i = 0; i < m.size(); ++i) {
-      const std::size_t n = std::size_t(ndims);
-      const double identity = (i / n == i % n) ? 1.0 : 0.0;
-      if (m[i] != identity) throw InputError(mhd, "TransformMatrix is not the identity (rotated volumes unsupported)");
+    const std::size_t n = std::size_t(ndims);
+    if (m.size() != n * n) throw InputError(mhd, "TransformMatrix needs " + std::to_string(n * n) + " values");
+    for (std::size_t c = 0; c < n; ++c)
+      for (std::size_t r = 0; r < n; ++r) direction(Eigen::Index(r), Eigen::Index(c)) = m[c * n + r];
+    if (n == 2) direction.col(2) = direction.col(0).cross(direction.col(1));
+    for (int a = 0; a < 3; ++a) {
+      const double len = direction.col(a).norm();
+      if (!(len > 0)) throw InputError(mhd, "TransformMatrix: axis " + std::to_string(a) + " has no direction");
+      direction.col(a) /= len;
     }
+    for (int a = 0; a < 3; ++a)
+      for (int b = a + 1; b < 3; ++b)
+        if (std::abs(direction.col(a).dot(direction.col(b))) > detail::kOrthogonalityTolerance)
+          throw InputError(mhd, "TransformMatrix: sheared voxel axes are not supported");
   }
 
   using detail::ScalarType;
@@ -105,6 +125,8 @@ Volume read_metaimage(const std::string& mhd) {
   const ScalarType type = ti->second;
 
   Volume v;
+  v.direction = direction;
+  v.integer = type != ScalarType::F32 && type != ScalarType::F64;
   v.nx = int(dims[0]);
   v.ny = int(dims[1]);
   v.nz = ndims == 3 ? int(dims[2]) : 1;
@@ -164,6 +186,42 @@ Volume read_metaimage(const std::string& mhd) {
   v.data.resize(count);
   detail::decode_scalars(data, count, type, big, v.data.data());
   return v;
+}
+
+void write_metaimage(const std::string& path, const Volume& v) {
+  const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, path);
+  if (v.data.size() != count) throw ParamError(path + ": volume data size does not match its sizes");
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".mha") throw ParamError(path + ": MetaImage is written as one .mha file");
+  const detail::ScalarType stored = detail::storage_type(v);
+  const char* type = stored == detail::ScalarType::U8 ? "MET_UCHAR" : stored == detail::ScalarType::U16 ? "MET_USHORT"
+                     : stored == detail::ScalarType::I32 ? "MET_INT" : "MET_FLOAT";
+  const std::vector<unsigned char> raw = detail::encode_scalars(v, stored);
+  uLongf packed_size = compressBound(uLong(raw.size()));
+  std::vector<unsigned char> packed(packed_size);
+  if (compress2(packed.data(), &packed_size, raw.data(), uLong(raw.size()), 1) != Z_OK)
+    throw Error(path + ": zlib compression failed");
+  auto num = detail::shortest_text;
+  std::string h = "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n";
+  h += "CompressedData = True\nCompressedDataSize = " + std::to_string(packed_size) + "\nTransformMatrix =";
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) h += " " + num(v.direction(r, c));
+  h += "\nOffset = " + num(v.origin[0]) + " " + num(v.origin[1]) + " " + num(v.origin[2]) + "\n";
+  h += "AnatomicalOrientation = RAI\n";  // ITK's name for patient LPS
+  h += "ElementSpacing = " + num(v.spacing[0]) + " " + num(v.spacing[1]) + " " + num(v.spacing[2]) + "\n";
+  h += "DimSize = " + std::to_string(v.nx) + " " + std::to_string(v.ny) + " " + std::to_string(v.nz) + "\n";
+  h += std::string("ElementType = ") + type + "\nElementDataFile = LOCAL\n";
+  AtomicFile file(path);
+  {
+    std::FILE* fp = std::fopen(file.temp_path().c_str(), "wb");
+    if (!fp) throw Error(path + ": cannot create file (" + std::strerror(errno) + ")");
+    const bool ok = std::fwrite(h.data(), 1, h.size(), fp) == h.size() &&
+                    std::fwrite(packed.data(), 1, packed_size, fp) == packed_size;
+    const bool closed = std::fclose(fp) == 0;
+    if (!ok || !closed) throw Error(path + ": write error (" + std::strerror(errno) + ")");
+  }
+  file.commit();
 }
 
 }  // namespace isoloft

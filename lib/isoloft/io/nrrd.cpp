@@ -1,5 +1,7 @@
 #include "isoloft/io/nrrd.h"
 
+#include <Eigen/Dense>
+#include <teem/nrrd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -12,6 +14,8 @@
 #include <sstream>
 #include <string_view>
 #include <vector>
+#include <cstdlib>
+#include <memory>
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/file_util.h"
@@ -63,21 +67,27 @@ std::string fmt(double v) {
 
 NrrdWriter::NrrdWriter(const std::string& path, int nx, int ny, int nz, std::array<double, 3> spacing,
                        std::array<double, 3> origin, NrrdEncoding encoding)
+    : NrrdWriter(path, nx, ny, nz, [&] {
+        for (double s : spacing)
+          if (!(std::isfinite(s) && s > 0.0)) throw ParamError(path + ": NRRD spacing must be finite and > 0");
+        return NrrdGeometry{Eigen::Vector3d(spacing[0], spacing[1], spacing[2]).asDiagonal(), origin, false};
+      }(), encoding) {}
+
+NrrdWriter::NrrdWriter(const std::string& path, int nx, int ny, int nz, const NrrdGeometry& g, NrrdEncoding encoding)
     : nx_(nx), ny_(ny), nz_(nz) {
   if (nx < 1 || ny < 1 || nz < 1)
     throw ParamError(path + ": NRRD sizes must be >= 1, got " + std::to_string(nx) + "x" + std::to_string(ny) + "x" +
                      std::to_string(nz));
-  for (int a = 0; a < 3; ++a) {
-    if (!(std::isfinite(spacing[std::size_t(a)]) && spacing[std::size_t(a)] > 0.0))
-      throw ParamError(path + ": NRRD spacing must be finite and > 0");
-    if (!std::isfinite(origin[std::size_t(a)])) throw ParamError(path + ": NRRD origin must be finite");
-  }
+  if (!g.axes.allFinite() || !(std::abs(g.axes.determinant()) > 0)) throw ParamError(path + ": NRRD axes must be finite and independent");
+  for (double o : g.origin)
+    if (!std::isfinite(o)) throw ParamError(path + ": NRRD origin must be finite");
   if (std::uint64_t(nx) * std::uint64_t(ny) * 4 > std::uint64_t(1) << 31)
     throw ParamError(path + ": NRRD plane too large");
   impl_ = std::make_unique<Impl>(path);
   impl_->gzip = encoding == NrrdEncoding::Gzip;
   impl_->fp = std::fopen(impl_->file.temp_path().c_str(), "wb");
   if (!impl_->fp) throw Error(path + ": cannot create file (" + std::strerror(errno) + ")");
+  auto vec = [](double x, double y, double z) { return "(" + fmt(x) + "," + fmt(y) + "," + fmt(z) + ")"; };
   std::ostringstream h;
   h << "NRRD0004\n"
     << "# Complete NRRD file format specification at:\n"
@@ -85,14 +95,14 @@ NrrdWriter::NrrdWriter(const std::string& path, int nx, int ny, int nz, std::arr
     << "# written by isoloft\n"
     << "type: float\n"
     << "dimension: 3\n"
-    << "space dimension: 3\n"
+    << (g.patient ? "space: left-posterior-superior\n" : "space dimension: 3\n")
     << "sizes: " << nx << ' ' << ny << ' ' << nz << '\n'
-    << "space directions: (" << fmt(spacing[0]) << ",0,0) (0," << fmt(spacing[1]) << ",0) (0,0," << fmt(spacing[2])
-    << ")\n"
+    << "space directions: " << vec(g.axes(0, 0), g.axes(1, 0), g.axes(2, 0)) << ' '
+    << vec(g.axes(0, 1), g.axes(1, 1), g.axes(2, 1)) << ' ' << vec(g.axes(0, 2), g.axes(1, 2), g.axes(2, 2)) << '\n'
     << "kinds: domain domain domain\n"
     << "endian: little\n"
     << "encoding: " << (impl_->gzip ? "gzip" : "raw") << '\n'
-    << "space origin: (" << fmt(origin[0]) << ',' << fmt(origin[1]) << ',' << fmt(origin[2]) << ")\n\n";
+    << "space origin: " << vec(g.origin[0], g.origin[1], g.origin[2]) << "\n\n";
   const std::string header = h.str();
   impl_->put(reinterpret_cast<const unsigned char*>(header.data()), header.size());
   if (impl_->gzip) {
@@ -156,228 +166,168 @@ void write_nrrd(const std::string& path, const Volume& v, NrrdEncoding encoding)
   w.finish();
 }
 
-// ------------------------------------------------------------------ reader
+// ------------------------------------------------------------------ reader (teem)
 
 namespace {
 
-std::string trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return std::string(s);
+struct NrrdDeleter {
+  void operator()(Nrrd* n) const { nrrdNuke(n); }
+};
+
+// teem's biff message for NRRD, first line only (the rest is the call stack).
+std::string teem_error() {
+  char* e = biffGetDone(NRRD);
+  std::string s = e ? e : "unknown error";
+  std::free(e);
+  const std::size_t nl = s.find('\n');
+  if (nl != std::string::npos) s.resize(nl);
+  const std::size_t colon = s.find(": ");  // "[nrrd] _nrrdRead: ..." -> the message
+  return colon != std::string::npos && colon + 2 < s.size() ? s.substr(colon + 2) : s;
 }
 
-std::vector<std::string> words(const std::string& s) {
-  std::istringstream in(s);
-  std::vector<std::string> out;
-  for (std::string w; in >> w;) out.push_back(w);
-  return out;
-}
+using detail::kOrthogonalityTolerance;
 
-bool to_double(const std::string& s, double& v) {
-  const char* b = s.data();
-  if (!s.empty() && s[0] == '+') ++b;
-  const auto r = std::from_chars(b, s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
-}
-
-/// "(a,b,c) (d,e,f) none" -> vectors (empty for "none").
-std::vector<std::vector<double>> parse_vectors(const std::string& s, const std::string& path) {
-  std::vector<std::vector<double>> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    if (std::isspace(static_cast<unsigned char>(s[i]))) {
-      ++i;
-    } else if (s.compare(i, 4, "none") == 0) {
-      out.emplace_back();
-      i += 4;
-    } else if (s[i] == '(') {
-      const std::size_t e = s.find(')', i);
-      if (e == std::string::npos) throw InputError(path, "bad vector '" + s + "'");
-      std::vector<double> v;
-      std::string item;
-      std::istringstream parts(s.substr(i + 1, e - i - 1));
-      while (std::getline(parts, item, ',')) {
-        double d;
-        if (!to_double(trim(item), d)) throw InputError(path, "bad number in vector '" + s + "'");
-        v.push_back(d);
-      }
-      out.push_back(v);
-      i = e + 1;
-    } else {
-      throw InputError(path, "bad vector list '" + s + "'");
-    }
+// Patient LPS from the NRRD's space: diagonal sign flips.
+bool lps_flip(int space, Eigen::Vector3d& flip) {
+  switch (space) {
+    case nrrdSpaceLeftPosteriorSuperior: flip = {1, 1, 1}; return true;
+    case nrrdSpaceRightAnteriorSuperior: flip = {-1, -1, 1}; return true;
+    case nrrdSpaceLeftAnteriorSuperior: flip = {1, -1, 1}; return true;
+    case nrrdSpaceUnknown:  // "space dimension: 3": an unnamed space, taken as LPS
+    case nrrdSpaceScannerXYZ:
+    case nrrdSpace3DRightHanded:
+    case nrrdSpace3DLeftHanded: flip = {1, 1, 1}; return true;  // taken as LPS (no anatomical naming)
+    default: return false;
   }
-  return out;
 }
 
-bool nrrd_type(const std::string& t, detail::ScalarType& out) {
-  using detail::ScalarType;
-  static const std::pair<const char*, ScalarType> names[] = {{"signed char", ScalarType::I8},
-                                                             {"int8", ScalarType::I8},
-                                                             {"int8_t", ScalarType::I8},
-                                                             {"uchar", ScalarType::U8},
-                                                             {"unsigned char", ScalarType::U8},
-                                                             {"uint8", ScalarType::U8},
-                                                             {"uint8_t", ScalarType::U8},
-                                                             {"short", ScalarType::I16},
-                                                             {"short int", ScalarType::I16},
-                                                             {"signed short", ScalarType::I16},
-                                                             {"signed short int", ScalarType::I16},
-                                                             {"int16", ScalarType::I16},
-                                                             {"int16_t", ScalarType::I16},
-                                                             {"ushort", ScalarType::U16},
-                                                             {"unsigned short", ScalarType::U16},
-                                                             {"unsigned short int", ScalarType::U16},
-                                                             {"uint16", ScalarType::U16},
-                                                             {"uint16_t", ScalarType::U16},
-                                                             {"int", ScalarType::I32},
-                                                             {"signed int", ScalarType::I32},
-                                                             {"int32", ScalarType::I32},
-                                                             {"int32_t", ScalarType::I32},
-                                                             {"uint", ScalarType::U32},
-                                                             {"unsigned int", ScalarType::U32},
-                                                             {"uint32", ScalarType::U32},
-                                                             {"uint32_t", ScalarType::U32},
-                                                             {"float", ScalarType::F32},
-                                                             {"double", ScalarType::F64}};
-  for (const auto& [n, v] : names)
-    if (t == n) {
-      out = v;
-      return true;
-    }
-  return false;
+
+// teem stops reading gzip data once it has the bytes it needs, so a damaged
+// member passes unnoticed; this inflates the attached member to its end,
+// which checks the gzip CRC and length.
+void check_attached_gzip(const std::string& path, const std::vector<unsigned char>& bytes) {
+  const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  const std::size_t end = text.find("\n\n");
+  if (end == std::string_view::npos || text.substr(0, end).find("\ndata file:") != std::string_view::npos ||
+      text.substr(0, end).find("\ndatafile:") != std::string_view::npos)
+    return;  // detached data: teem's own checks only
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 16) != Z_OK) return;
+  zs.next_in = const_cast<unsigned char*>(bytes.data() + end + 2);
+  zs.avail_in = uInt(bytes.size() - end - 2);
+  std::vector<unsigned char> sink(1 << 16);
+  int rc = Z_OK;
+  while (rc == Z_OK) {
+    zs.next_out = sink.data();
+    zs.avail_out = uInt(sink.size());
+    rc = inflate(&zs, Z_NO_FLUSH);
+    if (rc == Z_BUF_ERROR && zs.avail_in == 0) break;
+  }
+  inflateEnd(&zs);
+  if (rc != Z_STREAM_END) throw InputError(path, "corrupt or truncated gzip data (its checksum does not match)");
 }
 
 }  // namespace
 
 Volume read_nrrd(const std::string& path) {
-  const std::vector<unsigned char> bytes = detail::read_file_bytes(path);
-  const char* p = reinterpret_cast<const char*>(bytes.data());
-  const char* end = p + bytes.size();
-  auto next_line = [&](std::string& line) {
-    if (p >= end) return false;
-    const char* e = static_cast<const char*>(std::memchr(p, '\n', std::size_t(end - p)));
-    if (!e) e = end;
-    line.assign(p, e);
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    p = e < end ? e + 1 : end;
-    return true;
-  };
-  std::string line;
-  if (!next_line(line) || line.rfind("NRRD000", 0) != 0) throw InputError(path, "not a NRRD file");
-
-  int dimension = 0;
-  std::vector<long long> sizes;
-  detail::ScalarType type = detail::ScalarType::F32;
-  bool have_type = false, gzip = false, big = false;
-  std::array<double, 3> spacing{1.0, 1.0, 1.0}, origin{0.0, 0.0, 0.0};
-  std::string data_file;
-  bool blank_seen = false;
-  while (next_line(line)) {
-    if (line.empty()) {
-      blank_seen = true;
-      break;
-    }
-    if (line[0] == '#') continue;
-    if (line.find(":=") != std::string::npos) continue;  // key/value pairs: not needed
-    const std::size_t colon = line.find(": ");
-    if (colon == std::string::npos) throw InputError(path, "bad header line '" + line + "'");
-    const std::string key = line.substr(0, colon);
-    const std::string val = trim(std::string_view(line).substr(colon + 2));
-    if (key == "type") {
-      if (!nrrd_type(val, type)) throw InputError(path, "unsupported NRRD type '" + val + "'");
-      have_type = true;
-    } else if (key == "dimension") {
-      if (val != "2" && val != "3") throw InputError(path, "NRRD dimension " + val + " (need 2 or 3)");
-      dimension = std::stoi(val);
-    } else if (key == "sizes") {
-      for (const auto& w : words(val)) {
-        long long n = 0;
-        const auto r = std::from_chars(w.data(), w.data() + w.size(), n);
-        if (r.ec != std::errc() || r.ptr != w.data() + w.size()) throw InputError(path, "bad sizes '" + val + "'");
-        sizes.push_back(n);
-      }
-    } else if (key == "encoding") {
-      if (val == "raw") {
-        gzip = false;
-      } else if (val == "gzip" || val == "gz") {
-        gzip = true;
-      } else {
-        throw InputError(path, "unsupported NRRD encoding '" + val + "' (raw or gzip)");
-      }
-    } else if (key == "endian") {
-      big = val == "big";
-    } else if (key == "space directions") {
-      const auto dirs = parse_vectors(val, path);
-      for (std::size_t a = 0; a < dirs.size() && a < 3; ++a) {
-        const auto& d = dirs[a];
-        if (d.empty()) continue;
-        for (std::size_t b = 0; b < d.size(); ++b)
-          if (b != a && d[b] != 0.0) throw InputError(path, "space directions are not axis-aligned (unsupported)");
-        if (a < d.size()) spacing[a] = d[a];
-      }
-    } else if (key == "spacings") {
-      const auto w = words(val);
-      for (std::size_t a = 0; a < w.size() && a < 3; ++a) {
-        double d;
-        if (to_double(w[a], d) && std::isfinite(d)) spacing[a] = d;  // "nan" = unknown
-      }
-    } else if (key == "space origin") {
-      const auto o = parse_vectors(val, path);
-      if (o.size() != 1) throw InputError(path, "bad space origin '" + val + "'");
-      for (std::size_t a = 0; a < o[0].size() && a < 3; ++a) origin[a] = o[0][a];
-    } else if (key == "data file" || key == "datafile") {
-      data_file = val;
-    } else if (key == "byte skip" || key == "byteskip" || key == "line skip" || key == "lineskip") {
-      if (val != "0") throw InputError(path, "'" + key + ": " + val + "' is not supported");
-    }
-    // kinds, centers, space, space dimension, units, content, ...: not needed
+  // A missing or unreadable file named as such, not by teem.
+  const std::vector<unsigned char> bytes = detail::read_file_bytes(path, 0);
+  std::unique_ptr<Nrrd, NrrdDeleter> n(nrrdNew());
+  if (nrrdLoad(n.get(), path.c_str(), nullptr)) throw InputError(path, "not a readable NRRD: " + teem_error());
+  if (n->dim >= 1 && nrrdEncodingGzip->available() && std::string_view(reinterpret_cast<const char*>(bytes.data()),
+                                                                         std::min<std::size_t>(bytes.size(), 4096))
+                                                            .find("encoding: gz") != std::string_view::npos)
+    check_attached_gzip(path, bytes);
+  if (n->dim != 2 && n->dim != 3)
+    throw InputError(path, "NRRD of dimension " + std::to_string(n->dim) + " (need one 2D or 3D scalar volume)");
+  for (unsigned a = 0; a < n->dim; ++a)
+    if (n->axis[a].kind != nrrdKindUnknown && !nrrdKindIsDomain(n->axis[a].kind))
+      throw InputError(path, std::string("axis ") + std::to_string(a) + " is of kind " +
+                                 airEnumStr(nrrdKind, n->axis[a].kind) + " (need scalar samples on a spatial grid)");
+  using detail::ScalarType;
+  ScalarType type;
+  switch (n->type) {
+    case nrrdTypeChar: type = ScalarType::I8; break;
+    case nrrdTypeUChar: type = ScalarType::U8; break;
+    case nrrdTypeShort: type = ScalarType::I16; break;
+    case nrrdTypeUShort: type = ScalarType::U16; break;
+    case nrrdTypeInt: type = ScalarType::I32; break;
+    case nrrdTypeUInt: type = ScalarType::U32; break;
+    case nrrdTypeFloat: type = ScalarType::F32; break;
+    case nrrdTypeDouble: type = ScalarType::F64; break;
+    default: throw InputError(path, std::string("unsupported NRRD type ") + airEnumStr(nrrdType, n->type));
   }
-  if (!have_type) throw InputError(path, "NRRD header lacks 'type'");
-  if (dimension == 0) throw InputError(path, "NRRD header lacks 'dimension'");
-  if (int(sizes.size()) != dimension)
-    throw InputError(path, "NRRD 'sizes' has " + std::to_string(sizes.size()) + " entries for dimension " +
-                               std::to_string(dimension));
-  for (long long s : sizes)
-    if (s < 1 || s > (1 << 30)) throw InputError(path, "bad NRRD size " + std::to_string(s));
   Volume v;
-  v.nx = int(sizes[0]);
-  v.ny = int(sizes[1]);
-  v.nz = dimension == 3 ? int(sizes[2]) : 1;
-  v.spacing = spacing;
-  v.origin = origin;
+  v.nx = int(n->axis[0].size);
+  v.ny = int(n->axis[1].size);
+  v.nz = n->dim == 3 ? int(n->axis[2].size) : 1;
   const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, path);
-  const std::size_t nbytes = count * detail::scalar_size(type);
-
-  std::vector<unsigned char> detached;
-  const unsigned char* data = nullptr;
-  std::size_t available = 0;
-  std::string data_name = path;
-  if (!data_file.empty()) {
-    if (data_file.rfind("LIST", 0) == 0 || data_file.find('%') != std::string::npos)
-      throw InputError(path, "multi-file NRRD data is not supported");
-    std::filesystem::path dp(data_file);
-    if (dp.is_relative()) dp = std::filesystem::path(path).parent_path() / dp;
-    data_name = dp.string();
-    detached = detail::read_file_bytes(data_name);
-    data = detached.data();
-    available = detached.size();
+  if (n->spaceDim == 3) {
+    Eigen::Vector3d flip;
+    if (!lps_flip(n->space, flip))
+      throw InputError(path, std::string("unsupported NRRD space ") + airEnumStr(nrrdSpace, n->space));
+    auto dir = [&](unsigned a) {
+      return Eigen::Vector3d(n->axis[a].spaceDirection[0], n->axis[a].spaceDirection[1], n->axis[a].spaceDirection[2]);
+    };
+    for (unsigned a = 0; a < 3; ++a) {
+      // A 2D image: its third axis is its normal, unit spacing.
+      const Eigen::Vector3d d = a < n->dim ? dir(a) : Eigen::Vector3d(dir(0).cross(dir(1)).normalized());
+      const double len = d.norm();
+      if (!(std::isfinite(len) && len > 0))
+        throw InputError(path, "space direction of axis " + std::to_string(a) + " is missing or zero");
+      v.spacing[a] = len;
+      v.direction.col(a) = flip.asDiagonal() * (d / len);
+    }
+    for (unsigned s = 0; s < 3; ++s) v.origin[s] = std::isfinite(n->spaceOrigin[s]) ? flip[s] * n->spaceOrigin[s] : 0.0;
+  } else if (n->spaceDim == 0) {
+    for (unsigned a = 0; a < n->dim; ++a) {
+      const double s = n->axis[a].spacing;
+      if (std::isfinite(s) && s <= 0) throw InputError(path, "spacing of axis " + std::to_string(a) + " must be > 0");
+      v.spacing[a] = std::isfinite(s) ? s : 1.0;
+      const double lo = n->axis[a].min;
+      v.origin[a] = std::isfinite(lo) ? lo : 0.0;
+    }
   } else {
-    if (!blank_seen) throw InputError(path, "NRRD header not followed by data");
-    data = reinterpret_cast<const unsigned char*>(p);
-    available = std::size_t(end - p);
+    throw InputError(path, "NRRD space of dimension " + std::to_string(n->spaceDim) + " (need 3)");
   }
-  std::vector<unsigned char> inflated;
-  if (gzip) {
-    inflated = detail::inflate_exact(data, available, nbytes, data_name);
-    data = inflated.data();
-  } else if (available < nbytes) {
-    throw InputError(data_name,
-                     "NRRD data truncated: " + std::to_string(available) + " of " + std::to_string(nbytes) + " bytes");
-  }
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b)
+      if (std::abs(v.direction.col(a).dot(v.direction.col(b))) > kOrthogonalityTolerance)
+        throw InputError(path, "sheared voxel axes (space directions not orthogonal): not supported");
+  v.integer = type != ScalarType::F32 && type != ScalarType::F64;
   v.data.resize(count);
-  detail::decode_scalars(data, count, type, big, v.data.data());
+  detail::decode_scalars(static_cast<const unsigned char*>(n->data), count, type,
+                         std::endian::native == std::endian::big, v.data.data());
   return v;
+}
+
+void write_nrrd_volume(const std::string& path, const Volume& v) {
+  const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, path);
+  if (v.data.size() != count) throw ParamError(path + ": volume data size does not match its sizes");
+  const detail::ScalarType stored = detail::storage_type(v);
+  const int type = stored == detail::ScalarType::U8 ? nrrdTypeUChar : stored == detail::ScalarType::U16 ? nrrdTypeUShort
+                   : stored == detail::ScalarType::I32 ? nrrdTypeInt : nrrdTypeFloat;
+  std::vector<unsigned char> bytes = detail::encode_scalars(v, stored);
+  std::unique_ptr<Nrrd, NrrdDeleter> n(nrrdNew());
+  if (nrrdWrap_va(n.get(), bytes.data(), type, 3, std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)))
+    throw Error(path + ": " + teem_error());
+  nrrdSpaceSet(n.get(), nrrdSpaceLeftPosteriorSuperior);
+  double d[3][NRRD_SPACE_DIM_MAX];
+  for (int a = 0; a < 3; ++a)
+    for (int r = 0; r < 3; ++r) d[a][r] = v.direction(r, a) * v.spacing[std::size_t(a)];
+  nrrdAxisInfoSet_va(n.get(), nrrdAxisInfoSpaceDirection, d[0], d[1], d[2]);
+  const int kinds[3] = {nrrdKindDomain, nrrdKindDomain, nrrdKindDomain};
+  nrrdAxisInfoSet_nva(n.get(), nrrdAxisInfoKind, kinds);
+  double origin[NRRD_SPACE_DIM_MAX] = {v.origin[0], v.origin[1], v.origin[2]};
+  nrrdSpaceOriginSet(n.get(), origin);
+  NrrdIoState* io = nrrdIoStateNew();
+  nrrdIoStateEncodingSet(io, nrrdEncodingGzip);
+  AtomicFile file(path);
+  const int rc = nrrdSave(file.temp_path().c_str(), n.get(), io);
+  nrrdIoStateNix(io);
+  n->data = nullptr;  // ours
+  if (rc) throw Error(path + ": " + teem_error());
+  file.commit();
 }
 
 }  // namespace isoloft

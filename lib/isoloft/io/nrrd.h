@@ -8,6 +8,8 @@
 #include <memory>
 #include <string>
 
+#include <Eigen/Core>
+
 #include "isoloft/core/grid.h"
 #include "isoloft/io/volume.h"
 
@@ -18,14 +20,25 @@ enum class NrrdEncoding {
   Gzip,  ///< "encoding: gzip" (zlib deflate, gzip wrapper)
 };
 
-/// NRRD0004 writer, axis-aligned, `space origin` = centre of voxel (0, 0, 0)
-/// (physical units); the file appears atomically at finish(), else never.
+/// Where the samples lie: sample (i, j, k) at origin + axes * (i, j, k).
+struct NrrdGeometry {
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< columns: the step of each voxel axis
+  std::array<double, 3> origin{0.0, 0.0, 0.0};          ///< centre of sample (0, 0, 0)
+  bool patient = false;  ///< axes in DICOM patient space ("space: left-posterior-superior"), else unnamed
+};
+
+/// NRRD0004 float32 writer, `space origin` = centre of sample (0, 0, 0); the
+/// file appears atomically at finish(), else never.
 class NrrdWriter {
  public:
+  /// Axis-aligned samples, `spacing` apart, in an unnamed 3D space.
   /// \throw ParamError unless sizes >= 1, spacing finite > 0, origin finite;
   ///        Error naming the path if the file cannot be created.
   NrrdWriter(const std::string& path, int nx, int ny, int nz, std::array<double, 3> spacing,
              std::array<double, 3> origin, NrrdEncoding encoding = NrrdEncoding::Raw);
+  /// \throw ParamError unless sizes >= 1, the axes finite and independent, the origin finite.
+  NrrdWriter(const std::string& path, int nx, int ny, int nz, const NrrdGeometry& geometry,
+             NrrdEncoding encoding = NrrdEncoding::Raw);
   ~NrrdWriter();
   NrrdWriter(const NrrdWriter&) = delete;
   NrrdWriter& operator=(const NrrdWriter&) = delete;
@@ -47,9 +60,19 @@ class NrrdWriter {
 /// A whole volume through NrrdWriter.
 void write_nrrd(const std::string& path, const Volume& v, NrrdEncoding encoding = NrrdEncoding::Raw);
 
-/// Reads 2D (nz = 1) or 3D NRRD: integer or float types, raw or gzip, either
-/// endian, attached or detached data, axis-aligned spacing.
-/// \throw InputError(path, ...) for missing/corrupt files and unsupported features.
+/// Reads a 2D (nz = 1) or 3D scalar NRRD with teem: every encoding and type
+/// teem reads (integers up to 32 bit, float, double), attached or detached
+/// data; geometry from `space directions` and `space origin` (LPS, RAS, LAS
+/// and unnamed spaces, taken to patient LPS) or from `spacings`.
+/// \throw InputError naming the file and teem's reason for a corrupt or
+///        truncated file, or for attached gzip data that fails its checksum
+///        (teem reads only the bytes it needs); for 4D data, non-scalar axes,
+///        sheared axes. NaN samples are kept as they are.
 Volume read_nrrd(const std::string& path);
+
+/// Writes `v` with teem (gzip), its geometry in patient LPS; integer volumes
+/// as uint8, uint16 or int32, else float32; atomically.
+/// \throw Error naming the path on failure.
+void write_nrrd_volume(const std::string& path, const Volume& v);
 
 }  // namespace isoloft

@@ -4,9 +4,56 @@
 #include <bit>
 #include <cstring>
 
+#include <cmath>
+#include <filesystem>
+
 #include "isoloft/core/error.h"
+#include "isoloft/io/metaimage.h"
+#include "isoloft/io/nifti.h"
+#include "isoloft/io/nrrd.h"
 
 namespace isoloft {
+
+namespace {
+
+enum class VolumeFormat { Nifti, Nrrd, MetaImage, None };
+
+VolumeFormat volume_format(const std::string& path) {
+  std::string name = std::filesystem::path(path).filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  auto ends = [&](const char* e) {
+    const std::size_t n = std::strlen(e);
+    return name.size() > n && name.compare(name.size() - n, n, e) == 0;
+  };
+  if (ends(".nii") || ends(".nii.gz") || ends(".hdr") || ends(".hdr.gz")) return VolumeFormat::Nifti;
+  if (ends(".nrrd") || ends(".nhdr")) return VolumeFormat::Nrrd;
+  if (ends(".mha") || ends(".mhd")) return VolumeFormat::MetaImage;
+  return VolumeFormat::None;
+}
+
+}  // namespace
+
+bool is_volume_path(const std::string& path) { return volume_format(path) != VolumeFormat::None; }
+
+Volume read_volume(const std::string& path) {
+  switch (volume_format(path)) {
+    case VolumeFormat::Nifti: return read_nifti(path);
+    case VolumeFormat::Nrrd: return read_nrrd(path);
+    case VolumeFormat::MetaImage: return read_metaimage(path);
+    case VolumeFormat::None: break;
+  }
+  throw InputError(path, "not a volume file name (.nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd)");
+}
+
+void write_volume(const std::string& path, const Volume& v) {
+  switch (volume_format(path)) {
+    case VolumeFormat::Nifti: return write_nifti(path, v);
+    case VolumeFormat::Nrrd: return write_nrrd_volume(path, v);
+    case VolumeFormat::MetaImage: return write_metaimage(path, v);
+    case VolumeFormat::None: break;
+  }
+  throw ParamError(path + ": not a volume file name (use .nii.gz, .nii, .nrrd or .mha)");
+}
 
 Grid2f Volume::plane(int z) const {
   Grid2f g(nx, ny);
@@ -16,6 +63,39 @@ Grid2f Volume::plane(int z) const {
 }
 
 namespace detail {
+
+ScalarType storage_type(const Volume& v) {
+  if (!v.integer) return ScalarType::F32;
+  float lo = 0, hi = 0;
+  for (float x : v.data) lo = std::min(lo, x), hi = std::max(hi, x);
+  return lo >= 0 && hi <= 255 ? ScalarType::U8 : lo >= 0 && hi <= 65535 ? ScalarType::U16 : ScalarType::I32;
+}
+
+std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t) {
+  std::vector<unsigned char> out(v.data.size() * scalar_size(t));
+  auto put = [&](std::size_t i, auto value) { std::memcpy(&out[i * sizeof value], &value, sizeof value); };
+  for (std::size_t i = 0; i < v.data.size(); ++i) {
+    const float x = v.data[i];
+    switch (t) {
+      case ScalarType::U8: put(i, std::uint8_t(x)); break;
+      case ScalarType::U16: put(i, std::uint16_t(x)); break;
+      case ScalarType::I32: put(i, std::int32_t(x)); break;
+      default: put(i, x); break;
+    }
+  }
+  return out;
+}
+
+void check_finite_voxels(const Volume& v, const std::string& file) {
+  for (std::size_t i = 0; i < v.data.size(); ++i)
+    if (!std::isfinite(v.data[i])) {
+      const std::size_t plane = std::size_t(v.nx) * std::size_t(v.ny);
+      throw InputError(file, std::string(std::isnan(v.data[i]) ? "NaN" : "infinite") + " voxel at (" +
+                                 std::to_string(i % std::size_t(v.nx)) + ", " +
+                                 std::to_string(i / std::size_t(v.nx) % std::size_t(v.ny)) + ", " +
+                                 std::to_string(i / plane) + ")");
+    }
+}
 
 std::size_t scalar_size(ScalarType t) {
   switch (t) {

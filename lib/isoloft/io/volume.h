@@ -1,8 +1,14 @@
 // @file io/volume.h
-// @brief A dense 3D scalar volume, as read from NRRD / MetaImage.
-// Sample (i, j, k) at origin + (i sx, j sy, k sz), physical units.
+// @brief A dense 3D scalar volume (label maps, distance fields) in DICOM
+// patient space, and reading and writing it by file name.
+//
+// Sample (i, j, k) sits at origin + direction * (i sx, j sy, k sz): patient
+// coordinates in mm, LPS (x to the patient's left, y posterior, z superior;
+// NIfTI's RAS is converted on reading). Formats: NIfTI (.nii, .nii.gz,
+// niftilib), NRRD (.nrrd, .nhdr, teem), MetaImage (.mha, .mhd, our own).
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -10,14 +16,25 @@
 #include <vector>
 
 #include "isoloft/core/grid.h"
+#include "isoloft/core/mesh.h"
 
 namespace isoloft {
 
 struct Volume {
   int nx = 0, ny = 0, nz = 0;
-  std::array<double, 3> spacing{1.0, 1.0, 1.0};  ///< physical size of a voxel along x, y, z
-  std::array<double, 3> origin{0.0, 0.0, 0.0};   ///< physical position of voxel (0, 0, 0)'s centre
+  std::array<double, 3> spacing{1.0, 1.0, 1.0};  ///< voxel size along voxel axes i, j, k (mm)
+  std::array<double, 3> origin{0.0, 0.0, 0.0};   ///< patient position of voxel (0, 0, 0)'s centre
+  /// Column a: the patient (LPS) unit direction of voxel axis a.
+  Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();
+  bool integer = false;                          ///< the file holds integers (a label map), not floats
   std::vector<float> data;                       ///< x fastest, then y, then z; size nx*ny*nz
+  std::vector<std::string> warnings;             ///< what the reader assumed (e.g. an unknown orientation)
+
+  /// Patient position of the (fractional) voxel index ijk.
+  [[nodiscard]] Vec3d to_patient(const Vec3d& ijk) const {
+    return Eigen::Map<const Eigen::Vector3d>(origin.data()) +
+           direction * Eigen::Map<const Eigen::Vector3d>(spacing.data()).cwiseProduct(ijk);
+  }
 
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
     return (std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x);
@@ -26,10 +43,35 @@ struct Volume {
   [[nodiscard]] Grid2f plane(int z) const;
 };
 
+/// The extension names a volume format this library reads.
+[[nodiscard]] bool is_volume_path(const std::string& path);
+
+/// Reads a volume by extension (.nii .nii.gz .hdr .nrrd .nhdr .mha .mhd).
+/// \throw InputError naming the file and the problem (each reader's list).
+Volume read_volume(const std::string& path);
+
+/// Writes a volume by extension (.nii .nii.gz .nrrd .mha), with its geometry;
+/// integer volumes as the smallest unsigned/int32 type that holds them;
+/// atomically. \throw ParamError for another extension, Error on failure.
+void write_volume(const std::string& path, const Volume& v);
+
 namespace detail {
 
-/// Element types of both readers.
+/// Cosine beyond which two unit axes count as not orthogonal (a shear): the
+/// per-slice distances are computed in voxel space and need right angles.
+inline constexpr double kOrthogonalityTolerance = 1e-4;
+
+/// \throw InputError naming `file` and the first voxel that is NaN or infinite.
+void check_finite_voxels(const Volume& v, const std::string& file);
+
+/// Element types of the files.
 enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
+
+/// How a volume's samples are written: uint8, uint16 or int32 for an integer
+/// volume (the smallest that holds its range), else float32.
+ScalarType storage_type(const Volume& v);
+/// The samples as native-endian bytes of type t (U8, U16, I32 or F32).
+std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t);
 
 std::size_t scalar_size(ScalarType t);
 

@@ -87,6 +87,9 @@ struct MeshOut {
   Scaled vertices;
   const std::vector<Rgb>* colors;  ///< one per vertex, or null
   bool ascii;
+  /// Patient space of the coordinates ("LPS", "RAS"), written into the header
+  /// as 3D Slicer reads it ("SPACE=LPS"); empty: none.
+  std::string space;
 };
 
 void write_ply(const std::string& path, Out& o, const MeshOut& m);

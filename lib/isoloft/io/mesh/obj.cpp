@@ -17,6 +17,7 @@ void write_obj(const std::string& /*path*/, Out& o, const MeshOut& mo) {
   const TriMesh& m = mo.mesh;
   const Scaled& v = mo.vertices;
   const std::vector<Rgb>* colors = mo.colors;
+  if (!mo.space.empty()) o.text("# SPACE=", mo.space, '\n');
   o.text("# written by isoloft\n");
   for (std::size_t i = 0; i < m.vertices.size(); ++i) {
     const Vec3f p = v[i];

@@ -18,6 +18,7 @@ void write_off(const std::string& /*path*/, Out& o, const MeshOut& mo) {
   const Scaled& v = mo.vertices;
   const std::vector<Rgb>* colors = mo.colors;
   o.text(colors ? "COFF\n" : "OFF\n");
+  if (!mo.space.empty()) o.text("# SPACE=", mo.space, '\n');
   o.text(m.vertices.size(), ' ', m.triangles.size(), " 0\n");
   for (std::size_t i = 0; i < m.vertices.size(); ++i) {
     const Vec3f p = v[i];

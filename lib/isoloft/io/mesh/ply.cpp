@@ -19,6 +19,7 @@ void write_ply(const std::string& /*path*/, Out& o, const MeshOut& mo) {
   const std::vector<Rgb>* colors = mo.colors;
   const bool ascii = mo.ascii;
   o.text("ply\nformat ", ascii ? "ascii" : "binary_little_endian", " 1.0\ncomment written by isoloft\n");
+  if (!mo.space.empty()) o.text("comment SPACE=", mo.space, '\n');
   o.text("element vertex ", m.vertices.size(), "\nproperty float x\nproperty float y\nproperty float z\n");
   if (colors) o.text("property uchar red\nproperty uchar green\nproperty uchar blue\n");
   o.text("element face ", m.triangles.size(), "\nproperty list uchar int vertex_indices\nend_header\n");

@@ -28,7 +28,7 @@ void write_stl(const std::string& path, Out& o, const MeshOut& mo) {
   const Scaled& v = mo.vertices;
   const bool ascii = mo.ascii;
   if (ascii) {
-    o.text("solid isoloft\n");
+    o.text("solid isoloft", mo.space.empty() ? "" : " SPACE=", mo.space, '\n');
     for (const auto& t : m.triangles) {
       const Vec3f a = v[std::size_t(t[0])], b = v[std::size_t(t[1])], c = v[std::size_t(t[2])];
       const Vec3f n = facet_normal(a, b, c);
@@ -47,8 +47,8 @@ void write_stl(const std::string& path, Out& o, const MeshOut& mo) {
   // The 80-byte header must not start with "solid", or readers take it for ASCII.
   char header[80];
   std::memset(header, ' ', sizeof header);
-  const char* text = "binary STL written by isoloft";
-  std::memcpy(header, text, std::strlen(text));
+  const std::string text = "binary STL written by isoloft" + (mo.space.empty() ? std::string() : " SPACE=" + mo.space);
+  std::memcpy(header, text.data(), text.size());
   o.text(std::string_view(header, sizeof header));
   o.bin(std::uint32_t(m.triangles.size()));
   for (const auto& t : m.triangles) {

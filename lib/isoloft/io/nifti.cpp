@@ -1,0 +1,211 @@
+#include "isoloft/io/nifti.h"
+
+#include <Eigen/Dense>
+#include <nifti2_io.h>
+#include <zlib.h>
+
+#include <algorithm>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "isoloft/core/error.h"
+#include "isoloft/io/atomic_file.h"
+#include "isoloft/io/file_util.h"
+
+namespace isoloft {
+
+namespace {
+
+
+
+using detail::kOrthogonalityTolerance;
+
+struct NiftiImageDeleter {
+  void operator()(nifti_image* n) const { nifti_image_free(n); }
+};
+using NiftiImage = std::unique_ptr<nifti_image, NiftiImageDeleter>;
+
+// RAS (NIfTI) to LPS (DICOM): x and y change sign.
+const Eigen::Matrix3d kRasToLps = Eigen::Vector3d(-1, -1, 1).asDiagonal();
+
+template <class T>
+void decode(const unsigned char* src, std::size_t n, double slope, double inter, float* dst) {
+  for (std::size_t i = 0; i < n; ++i) {
+    T v;
+    std::memcpy(&v, src + i * sizeof(T), sizeof(T));
+    dst[i] = float(slope * double(v) + inter);
+  }
+}
+
+// The header, checked before niftilib sees the file (it prints its own
+// complaints): NIfTI-1 (348 bytes) or NIfTI-2 (540), either byte order, and
+// the voxel sizes of the dimensions in use, as stored (niftilib turns a
+// non-positive size into 1). .hdr/.img pairs are left to niftilib.
+void check_header(const std::string& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) return;  // niftilib names the problem
+  unsigned char h[540];
+  const int got = gzread(f, h, sizeof h);
+  gzclose(f);
+  auto get32 = [&](std::size_t off, bool swap) {
+    std::uint32_t v;
+    std::memcpy(&v, h + off, 4);
+    return swap ? __builtin_bswap32(v) : v;
+  };
+  if (got < 4) throw InputError(path, "not a readable NIfTI file (" + std::to_string(std::max(got, 0)) + " bytes)");
+  const bool v1 = get32(0, false) == 348 || get32(0, true) == 348, v2 = get32(0, false) == 540 || get32(0, true) == 540;
+  if (!v1 && !v2) throw InputError(path, "not a readable NIfTI file (no NIfTI-1 or NIfTI-2 header)");
+  const bool swap = v1 ? get32(0, false) != 348 : get32(0, false) != 540;
+  if (got < (v1 ? 348 : 540)) throw InputError(path, "not a readable NIfTI file (truncated header)");
+  if (!v1) return;  // NIfTI-2 stores doubles; niftilib reports their sizes as read
+  std::int16_t ndim;
+  std::memcpy(&ndim, h + 40, 2);
+  if (swap) ndim = std::int16_t(__builtin_bswap16(std::uint16_t(ndim)));
+  for (int d = 1; d <= std::clamp<int>(ndim, 0, 3); ++d) {
+    const std::uint32_t bits = get32(76 + 4 * std::size_t(d), swap);
+    float dx;
+    std::memcpy(&dx, &bits, 4);
+    if (!(std::isfinite(dx) && dx > 0))
+      throw InputError(path, "voxel size (pixdim[" + std::to_string(d) + "] = " + std::to_string(dx) + ") is not finite and > 0");
+  }
+}
+
+}  // namespace
+
+Volume read_nifti(const std::string& path) {
+  (void)detail::read_file_bytes(path, 0);  // a missing or unreadable file named as such
+  check_header(path);
+  nifti_set_debug_level(0);  // its own stderr messages; we say what is wrong
+  nifti_image* raw = nullptr;
+  znzFile fp = nifti_image_open(path.c_str(), const_cast<char*>("rb"), &raw);
+  const NiftiImage nim(raw);
+  if (!nim || znz_isnull(fp)) {
+    if (!znz_isnull(fp)) znzclose(fp);
+    throw InputError(path, "not a readable NIfTI file (bad or truncated header)");
+  }
+  struct Closer {
+    znzFile& f;
+    ~Closer() { znzclose(f); }
+  } closer{fp};
+
+  // One 3D volume: dimensions beyond z must all be 1.
+  for (int d = 4; d <= std::min<int>(int(nim->dim[0]), 7); ++d)
+    if (nim->dim[d] > 1)
+      throw InputError(path, std::to_string(nim->dim[0]) + "D image (dim[" + std::to_string(d) + "] = " +
+                                 std::to_string(nim->dim[d]) + "): one 3D label volume is needed");
+  if (nim->dim[0] < 2) throw InputError(path, "fewer than 2 dimensions");
+  Volume v;
+  v.nx = int(nim->nx);
+  v.ny = int(nim->ny);
+  v.nz = nim->dim[0] >= 3 ? int(nim->nz) : 1;
+  const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, path);
+  for (const double d : {double(nim->dx), double(nim->dy), double(nim->dz)})
+    if (!(std::isfinite(d) && d > 0) && v.nz > 1)
+      throw InputError(path, "voxel size (pixdim) " + std::to_string(d) + " is not finite and > 0");
+
+  // Geometry: sform, else qform, else NIfTI method 1.
+  nifti_dmat44 m = nim->sform_code > 0 ? nim->sto_xyz : nim->qto_xyz;
+  if (nim->sform_code <= 0 && nim->qform_code <= 0) {
+    std::memset(&m, 0, sizeof m);
+    m.m[0][0] = nim->dx, m.m[1][1] = nim->dy, m.m[2][2] = nim->dz, m.m[3][3] = 1;
+    v.warnings.push_back(path + ": neither sform nor qform: voxel axes taken as RAS (NIfTI method 1)");
+  }
+  Eigen::Matrix3d axes;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) axes(r, c) = m.m[r][c];
+  for (int a = 0; a < 3; ++a) {
+    const double len = axes.col(a).norm();
+    if (!(std::isfinite(len) && len > 0))
+      throw InputError(path, "the voxel-to-patient matrix is singular (voxel axis " + std::to_string(a) + " has length " +
+                                 std::to_string(len) + ")");
+    v.spacing[std::size_t(a)] = len;
+  }
+  const Eigen::Matrix3d dir_ras = axes * Eigen::Vector3d(1 / v.spacing[0], 1 / v.spacing[1], 1 / v.spacing[2]).asDiagonal();
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b)
+      if (std::abs(dir_ras.col(a).dot(dir_ras.col(b))) > kOrthogonalityTolerance)
+        throw InputError(path, "sheared voxel axes (the sform/qform is not a rotation times a scale): not supported");
+  v.direction = kRasToLps * dir_ras;
+  const Eigen::Vector3d origin = kRasToLps * Eigen::Vector3d(m.m[0][3], m.m[1][3], m.m[2][3]);
+  for (int a = 0; a < 3; ++a) v.origin[std::size_t(a)] = origin[a];
+
+  // Data, read raw (niftilib's own loader turns NaN into 0 silently).
+  const int dt = nim->datatype;
+  const bool integer = dt == DT_UINT8 || dt == DT_INT8 || dt == DT_UINT16 || dt == DT_INT16 || dt == DT_UINT32 ||
+                       dt == DT_INT32;
+  if (!integer && dt != DT_FLOAT32 && dt != DT_FLOAT64)
+    throw InputError(path, std::string("unsupported NIfTI datatype ") + nifti_datatype_string(dt) +
+                               " (need a scalar 8/16/32-bit integer or float32/64)");
+  const std::size_t nbytes = count * std::size_t(nim->nbyper);
+  std::vector<unsigned char> bytes(nbytes);
+  if (znzseek(fp, long(nim->iname_offset), SEEK_SET) < 0 || znzread(bytes.data(), 1, nbytes, fp) != nbytes)
+    throw InputError(path, "voxel data truncated (expected " + std::to_string(nbytes) + " bytes)");
+  if (nim->byteorder != nifti_short_order() && nim->swapsize > 1)
+    nifti_swap_Nbytes(int64_t(count), nim->swapsize, bytes.data());
+  const bool scaled = nim->scl_slope != 0 && std::isfinite(nim->scl_slope) && std::isfinite(nim->scl_inter) &&
+                      (nim->scl_slope != 1 || nim->scl_inter != 0);
+  const double slope = scaled ? nim->scl_slope : 1.0, inter = scaled ? nim->scl_inter : 0.0;
+  v.data.resize(count);
+  float* out = v.data.data();
+  switch (dt) {
+    case DT_UINT8: decode<std::uint8_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_INT8: decode<std::int8_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_UINT16: decode<std::uint16_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_INT16: decode<std::int16_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_UINT32: decode<std::uint32_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_INT32: decode<std::int32_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_FLOAT32: decode<float>(bytes.data(), count, slope, inter, out); break;
+    default: decode<double>(bytes.data(), count, slope, inter, out); break;
+  }
+  v.integer = integer && (!scaled || (slope == std::floor(slope) && inter == std::floor(inter)));
+  return v;
+}
+
+void write_nifti(const std::string& path, const Volume& v) {
+  detail::checked_voxel_count(v.nx, v.ny, v.nz, path);
+  const detail::ScalarType type = detail::storage_type(v);
+  const int dt = type == detail::ScalarType::U8 ? DT_UINT8 : type == detail::ScalarType::U16 ? DT_UINT16
+                 : type == detail::ScalarType::I32 ? DT_INT32 : DT_FLOAT32;
+  const int64_t dims[8] = {3, v.nx, v.ny, v.nz, 1, 1, 1, 1};
+  const NiftiImage nim(nifti_make_new_nim(dims, dt, 0));
+  if (!nim) throw Error(path + ": cannot create a NIfTI image");
+  nim->dx = nim->pixdim[1] = v.spacing[0];
+  nim->dy = nim->pixdim[2] = v.spacing[1];
+  nim->dz = nim->pixdim[3] = v.spacing[2];
+  nim->xyz_units = NIFTI_UNITS_MM;
+  // LPS geometry back to RAS.
+  const Eigen::Matrix3d axes = kRasToLps * v.direction * Eigen::Vector3d(v.spacing[0], v.spacing[1], v.spacing[2]).asDiagonal();
+  const Eigen::Vector3d origin = kRasToLps * Eigen::Vector3d(v.origin[0], v.origin[1], v.origin[2]);
+  nifti_dmat44 m{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) m.m[r][c] = axes(r, c);
+    m.m[r][3] = origin[r];
+  }
+  m.m[3][3] = 1;
+  nim->sform_code = nim->qform_code = NIFTI_XFORM_SCANNER_ANAT;
+  nim->sto_xyz = m;
+  nim->sto_ijk = nifti_dmat44_inverse(m);
+  nifti_dmat44_to_quatern(m, &nim->quatern_b, &nim->quatern_c, &nim->quatern_d, &nim->qoffset_x, &nim->qoffset_y,
+                          &nim->qoffset_z, nullptr, nullptr, nullptr, &nim->qfac);
+  nim->qto_xyz = nifti_quatern_to_dmat44(nim->quatern_b, nim->quatern_c, nim->quatern_d, nim->qoffset_x, nim->qoffset_y,
+                                         nim->qoffset_z, nim->dx, nim->dy, nim->dz, nim->qfac);
+  nim->qto_ijk = nifti_dmat44_inverse(nim->qto_xyz);
+  std::vector<unsigned char> data = detail::encode_scalars(v, type);
+  nim->data = data.data();
+  AtomicFile file(path);
+  nim->nifti_type = NIFTI_FTYPE_NIFTI1_1;
+  if (nifti_set_filenames(nim.get(), file.temp_path().c_str(), 0, 1) != 0) {
+    nim->data = nullptr;
+    throw Error(path + ": not a NIfTI file name (use .nii or .nii.gz)");
+  }
+  nim->nifti_type = NIFTI_FTYPE_NIFTI1_1;  // nifti_set_filenames resets it
+  nifti_image_write(nim.get());
+  nim->data = nullptr;  // ours, not niftilib's to free
+  file.commit();
+}
+
+}  // namespace isoloft

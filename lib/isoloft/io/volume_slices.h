@@ -1,0 +1,72 @@
+// @file io/volume_slices.h
+// @brief A sparsely annotated label volume as a slice stack, and the dense
+// label map back from the reconstruction ("fill between slices").
+//
+// The annotated slices are the slices along one voxel axis (the sparse one,
+// or the one asked for) that hold any non-zero voxel; the slices between them
+// are what the reconstruction fills. The working grid is the volume's own:
+// pixel (x, y) of the slice at index t along axis a is voxel (x, y) of the
+// two other axes in order (i, j for a = k; i, k for a = j; j, k for a = i),
+// z = t s_a / s (pixels of the in-plane voxel size s). Its patient frame maps
+// working pixels to the volume's patient space.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "isoloft/core/grid.h"
+#include "isoloft/core/slice_stack.h"
+#include "isoloft/io/volume.h"
+
+namespace isoloft {
+
+/// How to slice a volume.
+struct VolumeSlicing {
+  int axis = -1;                        ///< voxel axis 0, 1, 2 (i, j, k); -1 = the sparse one
+  InputKind kind = InputKind::Labels;   ///< Labels (each value an object) or Masks (any non-zero voxel)
+};
+
+struct VolumeStack {
+  SliceStack stack;            ///< the annotated slices, kind Labels or Masks, with the patient frame
+  int axis = 2;                ///< the slicing axis used
+  std::vector<int> annotated;  ///< voxel index along `axis` of each slice of the stack
+  std::vector<std::string> warnings;
+};
+
+/// The annotated slices of `v`.
+/// \throw InputError naming `path` for: a NaN or infinite voxel (named);
+///        non-integer or negative values with Labels; in-plane voxels that are
+///        not square along the axis; fewer than 2 annotated slices.
+/// @warning A volume annotated on every slice of every axis is sliced along k.
+VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path);
+
+/// The dense label map on the volume's grid: the annotated slices as they
+/// were (Masks: 1 where non-zero), every other voxel the label whose
+/// interpolated field is largest there and positive, else 0.
+class LabelmapBuilder {
+ public:
+  LabelmapBuilder(const Volume& input, const VolumeStack& vs);
+  /// The working z (pixels) of every voxel slice that is not annotated: the
+  /// planes at which to sample the fields (ReconstructOptions::sample_z).
+  [[nodiscard]] std::vector<double> sample_z() const;
+  /// Object `label`'s field over its crop box at working height z (one of sample_z()).
+  void add(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z);
+  /// The label volume (integer, the input's geometry).
+  [[nodiscard]] Volume finish() const;
+
+ private:
+  Volume out_;
+  std::vector<float> best_;  // the winning field value per voxel
+  int axis_, u_, v_;
+  double z_per_index_;
+  std::vector<std::uint8_t> annotated_;  // per index along the axis
+};
+
+namespace detail {
+/// The voxel axis along which annotations are sparsest (most empty slices
+/// between the first and the last annotated one); k when none is sparse.
+int sparse_axis(const Volume& v);
+}  // namespace detail
+
+}  // namespace isoloft

@@ -1,0 +1,282 @@
+// DICOM RT Structure Sets (io/rtstruct.h): the real breast structure set in
+// data/rtstruct (a copy of ../shared/data/rtstruct), keyhole and XOR contours made by hand, and the
+// reconstruction of Heart and Lt Lung against their own contour vertices.
+#include <gtest/gtest.h>
+
+#include "dcmtk/config/osconfig.h"
+#include "dcmtk/dcmdata/dcdeftag.h"
+#include "dcmtk/dcmdata/dcfilefo.h"
+#include "dcmtk/dcmdata/dcuid.h"
+#include "dcmtk/dcmrt/drtstrct.h"
+
+#include <algorithm>
+#include <fstream>
+#include <iterator>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "isoloft/core/error.h"
+#include "isoloft/io/rtstruct.h"
+#include "io/io_test_util.h"
+#include "isoloft/mesh/mesh_check.h"
+#include "isoloft/pipeline.h"
+#include "validation/hausdorff.h"
+
+using namespace isoloft;
+
+namespace {
+
+const std::string kRtss = std::string(ISOLOFT_SOURCE_DIR) + "/data/rtstruct/rtss.dcm";
+
+// The vertices of the contours the stack keeps (loops of at least a pixel), patient mm.
+std::vector<Vec3d> kept_vertices(const SliceStack& st) {
+  std::vector<Vec3d> out;
+  for (const auto& s : st.slices)
+    for (const auto& poly : s.polygons)
+      for (const Vec2d& p : poly.points) out.push_back(st.patient->to_patient(Vec3d(p.x(), p.y(), s.z)));
+  return out;
+}
+
+std::size_t closed_vertices(const RtRoi& roi) {
+  std::size_t n = 0;
+  for (const auto& c : roi.contours) n += c.type == "CLOSED_PLANAR" ? c.points.size() : 0;
+  return n;
+}
+
+TriMesh in_patient_mm(const TriMesh& m, const PatientFrame& f) {
+  TriMesh out = m;
+  for (auto& v : out.vertices) v = f.to_patient(v.cast<double>()).cast<float>();
+  return out;
+}
+
+using Contour = std::vector<Vec3d>;
+
+// The real structure set with Heart's contours replaced by `contours`
+// (hand-made files on a real header).
+void write_heart_as(const std::string& out, const std::vector<Contour>& contours) {
+  DcmFileFormat ff;
+  ASSERT_TRUE(ff.loadFile(kRtss.c_str()).good());
+  DRTStructureSetIOD rt;
+  ASSERT_TRUE(rt.read(*ff.getDataset()).good());
+  DRTROIContourSequence& rcs = rt.getROIContourSequence();
+  for (std::size_t r = 0; r < rcs.getNumberOfItems(); ++r) {
+    Sint32 ref = -1;
+    rcs.getItem(r).getReferencedROINumber(ref);
+    if (ref != 5) continue;  // Heart
+    DRTContourSequence& cs = rcs.getItem(r).getContourSequence();
+    cs.clear();
+    for (const Contour& c : contours) {
+      DRTContourSequence::Item* item = nullptr;
+      ASSERT_TRUE(cs.addItem(item).good());
+      std::string data;
+      for (const Vec3d& p : c)
+        for (double v : {p.x(), p.y(), p.z()}) data += (data.empty() ? "" : "\\") + std::to_string(v);
+      item->setContourGeometricType("CLOSED_PLANAR");
+      item->setNumberOfContourPoints(std::to_string(c.size()).c_str());
+      item->setContourData(data.c_str());
+    }
+  }
+  ASSERT_TRUE(rt.write(*ff.getDataset()).good());
+  ASSERT_TRUE(ff.saveFile(out.c_str(), EXS_LittleEndianExplicit).good());
+}
+
+// A square of side a (mm) centred at (cx, cy) on plane z, counter-clockwise.
+Contour square(double cx, double cy, double a, double z) {
+  const double h = a / 2;
+  return {{cx - h, cy - h, z}, {cx + h, cy - h, z}, {cx + h, cy + h, z}, {cx - h, cy + h, z}};
+}
+
+// The outer square with the inner one cut in along a zero-width keyhole from
+// the outer's corner 0 to the inner's corner 0, traversed out and back.
+Contour keyhole(const Contour& outer, const Contour& inner) {
+  Contour c{outer[0], inner[0]};
+  for (std::size_t i = inner.size() - 1; i > 0; --i) c.push_back(inner[i]);  // the hole the other way round
+  c.push_back(inner[0]);
+  for (const Vec3d& p : outer) c.push_back(p);
+  return c;
+}
+
+ReconstructResult reconstruct_heart(const std::string& path) {
+  std::vector<std::string> warnings;
+  const SliceStack st = roi_stack(*read_rtstruct(path).find("Heart"), RoiGrid{}, path, warnings);
+  return reconstruct(st, ReconstructParams{});
+}
+
+double quantile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  return v[std::size_t(std::floor(q * double(v.size() - 1)))];
+}
+
+}  // namespace
+
+TEST(RtStruct, ReadsTheRoisOfTheBreastStructureSet) {
+  const RtStructureSet set = read_rtstruct(kRtss);
+  ASSERT_EQ(set.rois.size(), 10u);
+  const RtRoi* heart = set.find("Heart");
+  ASSERT_NE(heart, nullptr);
+  EXPECT_EQ(heart->number, 5);
+  EXPECT_EQ(heart->closed_contours(), 33);
+  ASSERT_NE(set.find("lt lung"), nullptr) << "names match ignoring case";
+  EXPECT_EQ(set.find("Lt Lung")->closed_contours(), 165);
+  EXPECT_EQ(set.find("Areola")->contours.size(), 0u);
+  EXPECT_EQ(set.find("Nowhere"), nullptr);
+  for (const Vec3d& p : heart->contours.front().points) EXPECT_NEAR(p.z(), -98.44, 1e-9);
+}
+
+// Acceptance (medical-formats issue): 95 % of the contour vertices of Heart
+// and Lt Lung within 0.5 mm of their mesh, all within 1 mm. The vertices are
+// the input itself, so this bounds the fit (mpu.tol 0.75 px = 0.375 mm on the
+// default 0.5 mm grid) plus Marching Cubes' chords. Lt Lung holds sub-pixel
+// specks (4-point contours 0.1-0.7 mm across) that the grid cannot hold and
+// roi_stack drops; they are at most this share of its vertices.
+constexpr double kP95Mm = 0.5, kMaxMm = 1.0;
+constexpr double kMaxDroppedShare = 0.005;
+
+TEST(RtStruct, HeartAndLungMeshesPassThroughTheirContours) {
+  const RtStructureSet set = read_rtstruct(kRtss);
+  for (const char* name : {"Heart", "Lt Lung"}) {
+    const RtRoi& roi = *set.find(name);
+    std::vector<std::string> warnings;
+    const SliceStack st = roi_stack(roi, RoiGrid{}, kRtss, warnings);
+    ASSERT_TRUE(st.patient.has_value());
+    const ReconstructResult r = reconstruct(st, ReconstructParams{});
+    ASSERT_EQ(r.objects.size(), 1u) << name;
+    EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold) << name;
+    const std::vector<Vec3d> vertices = kept_vertices(st);
+    EXPECT_LE(double(closed_vertices(roi) - vertices.size()), kMaxDroppedShare * double(closed_vertices(roi))) << name;
+    const std::vector<double> d = point_to_mesh_distances(in_patient_mm(r.objects[0].mesh, *st.patient), vertices);
+    const double p95 = quantile(d, 0.95), worst = *std::max_element(d.begin(), d.end());
+    const double mean = std::accumulate(d.begin(), d.end(), 0.0) / double(d.size());
+    std::printf("%s: %zu of %zu vertices kept, mean %.3f mm, p95 %.3f mm, max %.3f mm\n", name, d.size(),
+                closed_vertices(roi), mean, p95, worst);
+    EXPECT_LE(p95, kP95Mm) << name;
+    EXPECT_LE(worst, kMaxMm) << name;
+  }
+}
+
+// Holes and islands by the XOR (even-odd) rule: a 40 mm square with a 16 mm
+// square hole on three planes is a tube (genus 1); with a 6 mm island in the
+// hole, two pieces.
+TEST(RtStruct, XorHolesAndIslands) {
+  isoloft::test::TempDir dir;
+  std::vector<Contour> tube, nested;
+  for (double z : {0.0, 3.0, 6.0}) {
+    tube.push_back(square(0, 0, 40, z));
+    tube.push_back(square(0, 0, 16, z));
+    nested.push_back(square(0, 0, 40, z));
+    nested.push_back(square(0, 0, 16, z));
+    nested.push_back(square(0, 0, 6, z));
+  }
+  write_heart_as(dir.file("tube.dcm"), tube);
+  write_heart_as(dir.file("nested.dcm"), nested);
+  const ReconstructResult t = reconstruct_heart(dir.file("tube.dcm"));
+  ASSERT_EQ(t.objects.size(), 1u);
+  EXPECT_TRUE(t.objects[0].check.closed && t.objects[0].check.manifold);
+  EXPECT_EQ(t.objects[0].check.components, 1);
+  EXPECT_EQ(t.objects[0].check.euler, 0) << "a tube: genus 1";
+  const ReconstructResult n = reconstruct_heart(dir.file("nested.dcm"));
+  ASSERT_EQ(n.objects.size(), 1u);
+  EXPECT_EQ(n.objects[0].check.components, 2) << "the island is its own piece";
+}
+
+// A keyhole contour (the hole joined to the outer contour by a zero-width
+// cut) gives the XOR tube's surface: the cut leaves no trace.
+constexpr double kKeyholeSameMm = 0.05;  // the loops start at other vertices: sampling differs by a fraction of a pixel
+
+TEST(RtStruct, KeyholeContoursComeOutAsTheirLoops) {
+  isoloft::test::TempDir dir;
+  std::vector<Contour> xor_set, keyholed;
+  for (double z : {0.0, 3.0, 6.0}) {
+    const Contour outer = square(0, 0, 40, z), inner = square(0, 0, 16, z);
+    xor_set.push_back(outer);
+    xor_set.push_back(inner);
+    keyholed.push_back(keyhole(outer, inner));
+  }
+  write_heart_as(dir.file("xor.dcm"), xor_set);
+  write_heart_as(dir.file("keyhole.dcm"), keyholed);
+  std::vector<std::string> warnings;
+  const SliceStack ks = roi_stack(*read_rtstruct(dir.file("keyhole.dcm")).find("Heart"), RoiGrid{}, "k", warnings);
+  for (const auto& s : ks.slices) EXPECT_EQ(s.polygons.size(), 2u) << "one keyhole contour, two loops";
+  const ReconstructResult a = reconstruct_heart(dir.file("xor.dcm")), b = reconstruct_heart(dir.file("keyhole.dcm"));
+  ASSERT_EQ(b.objects.size(), 1u);
+  EXPECT_EQ(b.objects[0].check.euler, 0) << "a tube, as the XOR contours give";
+  std::vector<Vec3d> vb;
+  for (const auto& v : b.objects[0].mesh.vertices) vb.push_back(v.cast<double>());
+  double worst = 0;
+  for (double d : point_to_mesh_distances(a.objects[0].mesh, vb)) worst = std::max(worst, d);
+  EXPECT_LE(worst * RoiGrid{}.voxel_size, kKeyholeSameMm);
+}
+
+TEST(RtStruct, SplitKeyholesHandlesCutsNestedCutsAndSpikes) {
+  const std::vector<Vec2d> outer{{0, 0}, {10, 0}, {10, 10}, {0, 10}};
+  // outer[0] -> (3,3) around a hole back to (3,3) -> outer[0] -> the rest.
+  const std::vector<Vec2d> cut{{0, 0}, {3, 3}, {3, 6}, {6, 6}, {6, 3}, {3, 3}, {0, 0}, {10, 0}, {10, 10}, {0, 10}};
+  const auto loops = detail::split_keyholes(cut, 1e-6);
+  ASSERT_EQ(loops.size(), 2u);
+  std::size_t sizes = loops[0].size() + loops[1].size();
+  EXPECT_EQ(sizes, 8u) << "4 + 4 vertices, the cut's repeated ends dropped";
+  const std::vector<Vec2d> spike{{0, 0}, {10, 0}, {10, 5}, {15, 5}, {10, 5}, {10, 10}, {0, 10}};
+  const auto s = detail::split_keyholes(spike, 1e-6);
+  ASSERT_EQ(s.size(), 1u) << "a zero-width spike is cut off";
+  EXPECT_EQ(s[0].size(), 5u);
+  EXPECT_EQ(detail::split_keyholes(outer, 1e-6).size(), 1u);
+}
+
+TEST(RtStruct, BadFilesAndRoisAreClearErrors) {
+  isoloft::test::TempDir dir;
+  auto expect_error = [](auto&& f, const std::string& words) {
+    try {
+      f();
+      ADD_FAILURE() << "accepted (" << words << ")";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  // Truncated.
+  std::ifstream in(kRtss, std::ios::binary);
+  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ofstream(dir.file("trunc.dcm"), std::ios::binary).write(bytes.data(), std::streamsize(bytes.size() / 3));
+  expect_error([&] { (void)read_rtstruct(dir.file("trunc.dcm")); }, "not a readable DICOM file");
+  isoloft::test::write_text(dir.file("junk.dcm"), "hello");
+  expect_error([&] { (void)read_rtstruct(dir.file("junk.dcm")); }, "not a readable DICOM file");
+  // A DICOM of another SOP class.
+  DcmFileFormat ff;
+  ASSERT_TRUE(ff.loadFile(kRtss.c_str()).good());
+  ff.getDataset()->putAndInsertString(DCM_SOPClassUID, UID_CTImageStorage);
+  ASSERT_TRUE(ff.saveFile(dir.file("ct.dcm").c_str(), EXS_LittleEndianExplicit).good());
+  expect_error([&] { (void)read_rtstruct(dir.file("ct.dcm")); }, "not a DICOM RT Structure Set (SOP class CTImageStorage)");
+  // A ROI without contours, an oblique and a non-planar one.
+  const RtStructureSet set = read_rtstruct(kRtss);
+  std::vector<std::string> w;
+  expect_error([&] { (void)roi_stack(*set.find("Areola"), RoiGrid{}, kRtss, w); }, "ROI 'Areola' has no closed planar contour");
+  RtRoi tilted{99, "Tilted", std::nullopt, {}};
+  for (double z : {0.0, 3.0}) {
+    RtContour c{"CLOSED_PLANAR", {}};
+    for (const Vec3d& p : square(0, 0, 20, z)) c.points.push_back(p + Vec3d(0, 0, 0.2 * p.x()));  // a plane tilted in x
+    tilted.contours.push_back(c);
+  }
+  expect_error([&] { (void)roi_stack(tilted, RoiGrid{}, "t.dcm", w); }, "ROI 'Tilted' contour 0 lies on an oblique plane");
+  tilted.contours[0].points[2].z() += 1.0;
+  expect_error([&] { (void)roi_stack(tilted, RoiGrid{}, "t.dcm", w); }, "ROI 'Tilted' contour 0 is not planar");
+  RtRoi open{98, "Open", std::nullopt, {{"OPEN_PLANAR", square(0, 0, 20, 0)}, {"CLOSED_PLANAR", square(0, 0, 20, 3)},
+                                        {"CLOSED_PLANAR", square(0, 0, 20, 6)}}};
+  w.clear();
+  EXPECT_NO_THROW((void)roi_stack(open, RoiGrid{}, "o.dcm", w));
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("ROI 'Open': 1 contour(s) not CLOSED_PLANAR"), std::string::npos) << w[0];
+}
+
+// Planes with no contour inside a ROI's z range (two lobes with a gap) get
+// empty slices, so each lobe closes instead of being bridged.
+TEST(RtStruct, GapsBetweenContourPlanesCloseBothSides) {
+  RtRoi two{1, "Two", std::nullopt, {}};
+  for (double z : {0.0, 3.0, 6.0, 18.0, 21.0, 24.0}) two.contours.push_back({"CLOSED_PLANAR", square(0, 0, 20, z)});
+  std::vector<std::string> w;
+  const SliceStack st = roi_stack(two, RoiGrid{}, "two.dcm", w);
+  EXPECT_EQ(st.slices.size(), 6u + 3u) << "z 9, 12, 15 inserted empty";
+  const ReconstructResult r = reconstruct(st, ReconstructParams{});
+  ASSERT_EQ(r.objects.size(), 1u);
+  EXPECT_EQ(r.objects[0].check.components, 2);
+}
