@@ -68,6 +68,76 @@ bool inside_even_odd(const std::vector<Polygon>& polygons, const Vec2d& p) {
 
 }  // namespace detail
 
+namespace {
+
+// Even-odd inside test of many points against many polygons in O(log n + k)
+// per point (k: edges in the point's row): each edge is filed in the rows of
+// a uniform y grid its y extent meets, so a query tests only the edges near
+// its y, by the same crossing rule as detail::crossing_parity (same bits).
+class EdgeRows {
+ public:
+  EdgeRows(const std::vector<Polygon>& polygons, const std::vector<Eigen::AlignedBox2d>& boxes, const Eigen::AlignedBox2d& all)
+      : polygons_(polygons), boxes_(boxes), y0_(all.min().y()) {
+    std::size_t n = 0;
+    double extent = 0;  // summed y extent of the edges
+    for (const Polygon& p : polygons) {
+      const auto& v = p.points;
+      n += v.size();
+      for (std::size_t i = 0, j = v.size() - 1; i < v.size(); j = i++) extent += std::abs(v[i].y() - v[j].y());
+    }
+    // Row height: at least the mean edge extent (so an edge meets ~2 rows on
+    // average and filing costs O(n)), at least the height / n (so n rows).
+    const double height = all.max().y() - y0_;
+    h_ = std::max(extent / double(n), height / double(n));
+    if (!(h_ > 0)) h_ = 1;
+    rows_ = std::size_t(std::min(double(n), std::floor(height / h_))) + 1;
+    std::vector<std::uint32_t> count(rows_ + 1, 0);
+    auto each_edge = [&](auto&& f) {
+      for (std::size_t k = 0; k < polygons.size(); ++k) {
+        const auto& v = polygons[k].points;
+        for (std::size_t i = 0, j = v.size() - 1; i < v.size(); j = i++) {
+          const auto [lo, hi] = std::minmax(v[i].y(), v[j].y());
+          for (std::size_t r = row(lo), e = row(hi); r <= e; ++r) f(r, Edge{std::uint32_t(k), std::uint32_t(i), std::uint32_t(j)});
+        }
+      }
+    };
+    each_edge([&](std::size_t r, const Edge&) { ++count[r + 1]; });
+    for (std::size_t r = 0; r < rows_; ++r) count[r + 1] += count[r];
+    start_ = count;
+    edges_.resize(count[rows_]);
+    each_edge([&](std::size_t r, const Edge& e) { edges_[count[r]++] = e; });
+  }
+
+  [[nodiscard]] bool inside(const Vec2d& p) const {
+    const std::size_t r = row(p.y());
+    bool in = false;
+    for (std::size_t e = start_[r]; e < start_[r + 1]; ++e) {
+      const Edge& ed = edges_[e];
+      if (!boxes_[ed.poly].contains(p)) continue;
+      const auto& v = polygons_[ed.poly].points;
+      const Vec2d &a = v[ed.i], &b = v[ed.j];
+      if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) in = !in;
+    }
+    return in;
+  }
+
+ private:
+  struct Edge {
+    std::uint32_t poly, i, j;
+  };
+  [[nodiscard]] std::size_t row(double y) const {
+    return std::min(rows_ - 1, std::size_t(std::max(0.0, std::floor((y - y0_) / h_))));
+  }
+  const std::vector<Polygon>& polygons_;
+  const std::vector<Eigen::AlignedBox2d>& boxes_;
+  double y0_, h_ = 1;
+  std::size_t rows_ = 1;
+  std::vector<std::uint32_t> start_;
+  std::vector<Edge> edges_;
+};
+
+}  // namespace
+
 OrientedPoints contour_normals(const Grid2u8& contour, const Grid2u8& filled_mask, const NormalsParams& params) {
   params_table<NormalsParams>().validate(params);
   if (contour.width != filled_mask.width || contour.height != filled_mask.height)
@@ -122,13 +192,8 @@ OrientedPoints polygon_points(const std::vector<Polygon>& polygons, double spaci
   if (polygons.empty()) return out;
   // Side test offset: far below any sample spacing, far above rounding.
   const double eps = 1e-7 * (1.0 + all.diagonal().norm());
-  auto inside = [&](const Vec2d& p) {
-    bool in = false;
-    for (std::size_t k = 0; k < polygons.size(); ++k) {
-      if (boxes[k].contains(p)) in ^= detail::crossing_parity(polygons[k].points, p);
-    }
-    return in;
-  };
+  const EdgeRows rows(polygons, boxes, all);
+  auto inside = [&](const Vec2d& p) { return rows.inside(p); };
   for (const Polygon& poly : polygons) {
     const auto& v = poly.points;
     for (std::size_t i = 0; i < v.size(); ++i) {
