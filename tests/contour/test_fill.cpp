@@ -199,14 +199,31 @@ TEST(ContourFill, TwoPixelGapIsRepaired) {
 TEST(ContourFill, LargeGapIsReportedNotRepaired) {
   const Grid2u8 c = square_with_gap(10);
   const FillResult r = fill_even_odd(c);
-  expect_grid_eq(r.contour, c, "contour");
-  expect_grid_eq(r.inside, c, "inside (an open curve has no inside)");
+  // Left open, the curve bounds nothing: it leaves the contour, and its
+  // pixels take the outside around it (no surface may wrap the bare curve).
+  const Grid2u8 none(c.width, c.height, 0);
+  expect_grid_eq(r.contour, none, "contour (the open curve is no boundary)");
+  expect_grid_eq(r.inside, none, "inside (an open curve has no inside)");
   ASSERT_EQ(r.open_contours.size(), 1u);
   const OpenContour& o = r.open_contours[0];
   EXPECT_FALSE(o.repaired);
   EXPECT_EQ(o.gap, 11.0);
   EXPECT_EQ(o.y0, 23);
   EXPECT_EQ(o.y1, 34);
+}
+
+TEST(ContourFill, AnOpenCurveInsideAClosedContourTakesItsInside) {
+  // A closed square and, inside it, a straight 11 px stroke (two ends 10 px
+  // apart, wider than max_gap): the stroke bounds nothing, so its pixels are
+  // inside like the square's interior and are no contour.
+  Grid2u8 c = square(10, 10, 40, 40);
+  for (int x = 20; x <= 30; ++x) c(x, 25) = 1;
+  const FillResult r = fill_even_odd(c);
+  ASSERT_EQ(r.open_contours.size(), 1u);
+  EXPECT_FALSE(r.open_contours[0].repaired);
+  expect_grid_eq(r.contour, square(10, 10, 40, 40), "contour (the stroke is no boundary)");
+  expect_grid_eq(r.inside, make(kW, kH, [](int x, int y) { return x >= 10 && x <= 40 && y >= 10 && y <= 40; }),
+                 "inside");
 }
 
 TEST(ContourFill, GapNextToASpurIsRepaired) {
@@ -256,8 +273,9 @@ TEST(ContourFill, IgnorePolicyReportsButDoesNotRepair) {
   p.open_policy = OpenContourPolicy::Ignore;
   const Grid2u8 c = square_with_gap(2);
   const FillResult r = fill_even_odd(c, p);
-  expect_grid_eq(r.contour, c, "contour");
-  expect_grid_eq(r.inside, c, "inside");
+  const Grid2u8 none(c.width, c.height, 0);
+  expect_grid_eq(r.contour, none, "contour (the unrepaired curve is no boundary)");
+  expect_grid_eq(r.inside, none, "inside");
   ASSERT_EQ(r.open_contours.size(), 1u);
   EXPECT_FALSE(r.open_contours[0].repaired);
 }

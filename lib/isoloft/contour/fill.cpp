@@ -246,9 +246,26 @@ FillResult fill_even_odd(const Grid2u8& contour, const FillParams& params) {
     region_inside[std::size_t(r)] = depth % 2 == 1;
     res.max_depth = std::max(res.max_depth, depth);
   }
+  // An open contour left open bounds nothing: its pixels leave the contour
+  // and take the inside/outside of the one region around them, so no
+  // surface wraps the bare curve.
+  std::vector<int> open_side(std::size_t(nc), -2);  // -2: closed; else 0/1 for the region around it
+  for (const OpenContour& o : res.open_contours) {
+    if (o.repaired) continue;
+    const int c = t.comp(o.x0, o.y0);
+    if (c < 0) continue;
+    const int a = t.comp_start[std::size_t(c)], b = t.comp_start[std::size_t(c) + 1];
+    open_side[std::size_t(c)] = b > a ? region_inside[std::size_t(t.comp_adj[std::size_t(a)])] : 0;
+  }
   res.inside = Grid2u8(contour.width, contour.height);
   for (std::size_t i = 0; i < contour.size(); ++i) {
     const int r = t.region.data[i];
+    const int c = t.comp.data[i];
+    if (c >= 0 && open_side[std::size_t(c)] != -2) {
+      res.inside.data[i] = std::uint8_t(open_side[std::size_t(c)]);
+      res.contour.data[i] = 0;
+      continue;
+    }
     res.inside.data[i] = (r < 0 || region_inside[std::size_t(r)]) ? 1 : 0;
   }
   res.contour_components = nc;

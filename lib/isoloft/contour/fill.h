@@ -5,7 +5,8 @@
 // components crossed from beyond the image; odd = inside, contour pixels too.
 // A component next to at most one region, with endpoints, is open: its
 // closest ends are joined if at most max_gap apart (docs/decisions.md: open
-// contours), else it stays a curve without inside.
+// contours), else it is a curve without inside: it leaves the contour and
+// takes the inside/outside of the region around it.
 // @warning Touching or crossing curves merge: no even-odd overlap.
 // @warning A contour ending on the image border encloses nothing; a dot or
 // solid blob has no interior and is not reported.
@@ -60,7 +61,7 @@ struct OpenContour {
 
 struct FillResult {
   Grid2u8 inside;            ///< 1 = interior (odd depth) or contour pixel
-  Grid2u8 contour;           ///< 0/1 contour after repair
+  Grid2u8 contour;           ///< 0/1 contour after repair, without the open contours left open
   int contour_components = 0;  ///< 8-connected components of `contour`
   int max_depth = 0;         ///< deepest background region (0: no closed contour)
   std::vector<OpenContour> open_contours;
