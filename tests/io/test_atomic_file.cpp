@@ -101,3 +101,30 @@ TEST(AtomicFile, UnfinishedStreamingWriterLeavesNoFile) {
   }
   EXPECT_TRUE(dir.entries().empty()) << "left: " << dir.entries().front();
 }
+
+// One output that cannot be placed (its path is a directory): none of the
+// run's outputs appear, and no staged file is left.
+TEST(OutputSet, AFailingOutputLeavesNone) {
+  TempDir dir;
+  fs::create_directories(dir.file("b.ply"));
+  {
+    isoloft::OutputSet out;
+    isoloft::test::write_text(out.stage(dir.file("a.ply")), "a");
+    isoloft::test::write_text(out.stage(dir.file("b.ply")), "b");
+    isoloft::test::write_text(out.stage(dir.file("c.ply")), "c");
+    EXPECT_THROW(out.commit(), isoloft::Error);
+  }
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"b.ply"}) << "only the directory that was there";
+}
+
+TEST(OutputSet, AnExceptionBeforeCommitLeavesNone) {
+  TempDir dir;
+  try {
+    isoloft::OutputSet out;
+    isoloft::test::write_text(out.stage(dir.file("a.ply")), "a");
+    isoloft::test::write_text(out.stage(dir.file("r.json")), "{}");
+    throw std::runtime_error("a later output failed");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_TRUE(dir.entries().empty());
+}

@@ -1,7 +1,10 @@
 // @file io/atomic_file.h
 // @brief Atomic outputs: a hidden temp file renamed onto the path when complete.
 // Every writer in io/ uses it (rename is atomic on POSIX), so a failure never
-// leaves a partial file (docs/decisions.md: temp file and rename).
+// leaves a partial file (docs/decisions.md: temp file and rename). Every temp
+// and staged path is also held in a process-wide registry that a signal
+// handler (remove_temp_files_on_signals) unlinks, so SIGINT, SIGTERM and
+// SIGHUP leave none either.
 #pragma once
 
 #include <string>
@@ -35,8 +38,19 @@ class AtomicFile {
  private:
   std::string final_;
   std::string temp_;
+  int slot_ = -1;  // in the signal registry
   bool committed_ = false;
 };
+
+/// Installs handlers for SIGINT, SIGTERM and SIGHUP that unlink every
+/// registered temp and staged file (async-signal-safe: unlink() only), then
+/// re-raise the signal with its default action (the exit status shows it).
+void remove_temp_files_on_signals();
+
+/// Removes hidden temp and staged siblings of `final_path` left by processes
+/// that no longer exist (a run killed by SIGKILL or a power cut); returns how
+/// many. Their names carry the writer's pid, so a live run's are kept.
+std::size_t remove_stale_temp_files(const std::string& final_path) noexcept;
 
 /// The outputs of one run, appearing together or not at all: each is written
 /// (atomically) to a hidden staged sibling, and commit() renames them all into
@@ -61,7 +75,11 @@ class OutputSet {
   [[nodiscard]] std::vector<std::string> staged() const;
 
  private:
-  std::vector<std::pair<std::string, std::string>> files_;  // (final, staged)
+  struct File {
+    std::string final_path, staged;
+    int slot;  // in the signal registry
+  };
+  std::vector<File> files_;
 };
 
 }  // namespace isoloft
