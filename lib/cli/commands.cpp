@@ -2,6 +2,9 @@
 
 #include <sys/resource.h>
 
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 
 #include "isoloft/core/error.h"
@@ -17,6 +20,35 @@ void write_text_atomic(const std::string& path, const std::string& text) {
     if (!out) throw InputError(path, "cannot write file");
   }
   f.commit();
+}
+
+double parse_size(const std::string& text, const std::string& flag) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  double unit = 1;
+  std::string suffix(end ? end : "");
+  if (!suffix.empty() && (suffix.back() == 'B' || suffix.back() == 'b')) suffix.pop_back();
+  if (suffix == "K" || suffix == "k") unit = 1024.0;
+  else if (suffix == "M" || suffix == "m") unit = 1024.0 * 1024;
+  else if (suffix == "G" || suffix == "g") unit = 1024.0 * 1024 * 1024;
+  else if (suffix == "T" || suffix == "t") unit = 1024.0 * 1024 * 1024 * 1024;
+  else if (!suffix.empty()) unit = -1;
+  if (text.empty() || end == text.c_str() || unit < 0 || !std::isfinite(v) || v < 0)
+    throw ParamError(flag + ": '" + text + "' is not a size (e.g. 4G, 512M, 64K, bytes; 0 = no limit)");
+  return v * unit;
+}
+
+std::string size_text(double bytes) {
+  char buf[64];
+  if (bytes >= 1024.0 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.3g GiB", bytes / (1024.0 * 1024 * 1024));
+  else std::snprintf(buf, sizeof buf, "%.3g MiB", bytes / (1024.0 * 1024));
+  return buf;
+}
+
+void check_budget(const std::string& flag, const std::string& what, double need, double limit) {
+  if (limit > 0 && need > limit)
+    throw ParamError(flag + ": " + what + " needs about " + size_text(need) + ", over the budget of " + size_text(limit) +
+                     " (raise " + flag + ", or 0 for no limit)");
 }
 
 double peak_memory_mib() {
@@ -36,9 +68,18 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl or .off; with labels also one file per label");
   R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
       ->check(CLI::IsMember({"contours", "masks", "labels"}));
-  r_.z_spacing_opt = R->add_option("--z-spacing", r_.z_spacing, "Slice spacing in pixel units (default 1)")->check(CLI::PositiveNumber);
+  // PositiveNumber lets NaN through (every comparison with it is false).
+  const CLI::Validator positive_finite(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (text.empty() || *end != '\0' || !std::isfinite(v) || !(v > 0)) return "'" + text + "' is not a finite number > 0";
+        return {};
+      },
+      "POSITIVE", "");
+  r_.z_spacing_opt = R->add_option("--z-spacing", r_.z_spacing, "Slice spacing in pixel units (default 1)")->check(positive_finite);
   r_.slice_z_opt = R->add_option("--slice-z", r_.slice_z, "Comma-separated z of every slice, pixel units (non-uniform spacing)");
-  r_.pixel_size_opt = R->add_option("--pixel-size", r_.pixel_size, "Physical size of a pixel; scales x, y and z of the outputs")->check(CLI::PositiveNumber);
+  r_.pixel_size_opt = R->add_option("--pixel-size", r_.pixel_size, "Physical size of a pixel; scales x, y and z of the outputs")->check(positive_finite);
   R->add_option("--volume", r_.volume, "Write the interpolated signed distance volume (.nrrd, float, positive inside)");
   R->add_option("--labels", r_.labels, "With label input: comma-separated labels to reconstruct (default all)");
   R->add_option("--axis", r_.axis, "Volumes: the voxel axis whose slices are annotated (default: the sparse one)")
@@ -46,7 +87,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--roi", r_.rois, "RT Structure Sets: a ROI to reconstruct, by name (repeatable; default every ROI with closed planar contours)");
   R->add_flag("--list-rois", r_.list_rois, "RT Structure Sets: print each ROI's name, number, contour count and z range, and exit");
   r_.voxel_size_opt = R->add_option("--voxel-size", r_.voxel_size, "RT Structure Sets: in-plane pixel of the working grid, mm (default 0.5)")
-                          ->check(CLI::PositiveNumber);
+                          ->check(positive_finite);
   R->add_option("--space", r_.space, "Volumes and RT Structure Sets: patient space of the outputs, lps (default; DICOM, ITK, 3D Slicer files) or ras")
       ->check(CLI::IsMember({"lps", "ras"}));
   R->add_option("--labelmap", r_.labelmap, "Volumes: write the dense label map on the input's grid (.nii.gz, .nii, .nrrd, .mha): annotated slices as given, the others from the interpolated fields");
@@ -56,6 +97,13 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--report", r_.report, "Write a JSON report: per-stage wall times, counts, parameters, version");
   R->add_option("--threads", r_.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
   R->add_flag("--ascii", r_.ascii, "ASCII instead of binary PLY/STL");
+  R->add_option("--max-memory", r_.max_memory,
+                "Memory budget (e.g. 4G, 512M; 0 = no limit): the run stops before the work if its estimate (decoded "
+                "images, fields, mesh) is larger (default 4G)");
+  R->add_option("--max-output", r_.max_output,
+                "Output budget (e.g. 4G; 0 = no limit): the run stops before the work if the estimated files (mesh, "
+                "--volume, --labelmap, --dump-stages) are larger (default 4G)");
+  R->add_flag("--allow-empty", r_.allow_empty, "Write a surface with no triangles instead of failing on it");
   R->add_flag("-q,--quiet", r_.quiet, "No progress display and no warnings on stderr");
   param_flags_.add_to(*R);
 
@@ -63,7 +111,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   synth_->add_option("shape", s_.shape, "sphere, ellipsoid, torus, tilted-torus, branching-cylinders, two-blobs");
   synth_->add_option("--out", s_.out, "Output directory (slice_000.png ... and shape.json)");
   synth_->add_option("--size", s_.size, "Image width and height in pixels")->check(CLI::Range(8, 20000));
-  synth_->add_option("--z-spacing", s_.z_spacing, "Slice spacing in pixels (the z ratio)")->check(CLI::PositiveNumber);
+  synth_->add_option("--z-spacing", s_.z_spacing, "Slice spacing in pixels (the z ratio)")->check(positive_finite);
   synth_->add_option("--kind", s_.kind, "contours or masks (PNG images), or polylines (stack.txt)")->check(CLI::IsMember({"contours", "masks", "polylines"}));
   synth_->add_flag("--list", s_.list, "List the shapes and exit");
 
@@ -71,9 +119,9 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   eval_->add_option("--mesh", e_.mesh, "Mesh to evaluate")->required();
   eval_->add_option("--truth", e_.truth, "shape.json written by isoloft synth (analytic truth)");
   eval_->add_option("--reference", e_.reference, "A reference mesh: two-sided distances and CGAL's bounded-error Hausdorff distance");
-  eval_->add_option("--error-bound", e_.error_bound, "Error bound of the Hausdorff computation, pixels")->check(CLI::PositiveNumber);
-  eval_->add_option("--threshold", e_.threshold, "Hausdorff threshold for a pass/fail/undecided verdict, pixels")->check(CLI::PositiveNumber);
-  eval_->add_option("--pixel-size", e_.pixel_size, "Pixel size the mesh was written with")->check(CLI::PositiveNumber);
+  eval_->add_option("--error-bound", e_.error_bound, "Error bound of the Hausdorff computation, pixels")->check(positive_finite);
+  eval_->add_option("--threshold", e_.threshold, "Hausdorff threshold for a pass/fail/undecided verdict, pixels")->check(positive_finite);
+  eval_->add_option("--pixel-size", e_.pixel_size, "Pixel size the mesh was written with")->check(positive_finite);
   eval_->add_option("--report", e_.report, "Write the metrics as JSON");
 }
 
@@ -97,7 +145,10 @@ void ParamFlags::add_to(CLI::App& app) {
               ReconstructParams scratch;
               r.set(scratch, parse_value(r.type, text, flag), flag);
             } catch (const ParamError& e) {
-              return e.what();
+              // CLI11 puts the flag in front of the message already.
+              std::string m = e.what();
+              if (m.rfind(flag + ": ", 0) == 0) m.erase(0, flag.size() + 2);
+              return m;
             }
             return {};
           },
@@ -115,6 +166,12 @@ void ParamFlags::apply(ReconstructParams& params) const {
     row.set(params, row.type == ParamType::Bool ? nlohmann::json(row.flag_sets) : parse_value(row.type, f->text, row.flag),
             row.flag);
   }
+}
+
+std::string ParamFlags::given(const std::string& key) const {
+  for (const auto& f : flags_)
+    if (f->key == key && f->option->count() > 0) return f->option->get_name(false, true);
+  return {};
 }
 
 int Commands::run() {

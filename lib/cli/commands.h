@@ -26,7 +26,9 @@ struct ReconstructArgs {
   std::string space;               ///< patient space of the outputs: lps (default) or ras
   std::string labelmap;            ///< volumes: the dense label map out
   int threads = 0;
-  bool print_params = false, quiet = false, ascii = false, list_rois = false;
+  std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output); parsed below
+  double max_memory_bytes = 0, max_output_bytes = 0;  ///< 0 = no limit
+  bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
 
@@ -37,6 +39,8 @@ class ParamFlags {
   void add_to(CLI::App& app);
   /// \throw ParamError naming the flag if a value is out of range.
   void apply(isoloft::ReconstructParams& params) const;
+  /// The flag of parameter `key` if it was given on the command line, else "".
+  [[nodiscard]] std::string given(const std::string& key) const;
 
  private:
   struct Flag {
@@ -64,6 +68,9 @@ class Commands {
  public:
   Commands(CLI::App& app, int argc, char** argv);
   int run();
+  /// What the command is doing ("reading X", "reconstructing Y", "writing Z"),
+  /// for an error that has no context of its own (e.g. out of memory).
+  [[nodiscard]] const std::string& activity() const { return activity_; }
 
  private:
   int reconstruct();
@@ -75,7 +82,16 @@ class Commands {
   SynthOptions s_;
   EvalOptions e_;
   std::string command_line_;
+  std::string activity_;
 };
+
+/// A byte count from "4G", "512M", "64K", "1.5G" (binary units) or plain
+/// bytes; 0 = no limit. \throw ParamError naming `flag`.
+double parse_size(const std::string& text, const std::string& flag);
+/// E.g. "3.2 GiB", "512 MiB".
+std::string size_text(double bytes);
+/// \throw ParamError "<flag>: <what> needs about X, over the budget of Y ..." if need > limit > 0.
+void check_budget(const std::string& flag, const std::string& what, double need, double limit);
 
 /// Writes text to `path` atomically (temp file + rename).
 void write_text_atomic(const std::string& path, const std::string& text);

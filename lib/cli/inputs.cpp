@@ -1,5 +1,7 @@
 #include "cli/inputs.h"
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -9,6 +11,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/params.h"
+#include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/slice_images.h"
 
@@ -46,9 +49,29 @@ void reject(const CLI::Option* opt, bool given, const std::string& flag, const s
   if ((opt && opt->count() > 0) || given) throw ParamError(flag + ": " + why);
 }
 
+// Before any decoding: the images' size from their headers against --max-memory.
+void check_image_budget(const std::vector<std::string>& files, double limit) {
+  if (limit <= 0) return;
+  std::uint32_t w = 0, h = 0;
+  double pixels = 0, largest = 0;
+  std::string big;
+  for (const auto& f : files) {
+    if (!read_png_size(f, w, h)) continue;  // the decoder names the problem
+    const double px = double(w) * double(h);
+    pixels += px;
+    if (px > largest) largest = px, big = f + " is " + std::to_string(w) + "x" + std::to_string(h);
+  }
+  const double n = double(files.size());
+  check_budget("--max-memory",
+               "decoding " + std::to_string(files.size()) + " slice image(s) (" + big + ")",
+               stack_bytes(n, std::sqrt(pixels / n), std::sqrt(pixels / n), true), limit);
+}
+
 Inputs read_images(const ReconstructArgs& a) {
   Inputs in;
-  SliceStack st = read_slice_images(list_slice_files(a.inputs));
+  const std::vector<std::string> files = list_slice_files(a.inputs);
+  check_image_budget(files, a.max_memory_bytes);
+  SliceStack st = read_slice_images(files);
   if (!a.input_kind.empty()) st.kind = enum_from_string<InputKind>(a.input_kind, "--input");
   if (a.slice_z_opt->count()) {
     if (a.z_spacing_opt->count()) throw ParamError("give either --z-spacing or --slice-z, not both");
@@ -180,6 +203,15 @@ Inputs read_inputs(const ReconstructArgs& a) {
   }
   in.format = format;
   return in;
+}
+
+double stack_bytes(double slices, double width, double height, bool images) {
+  // Per pixel of every slice: the decoded image (Grid2u32) and the contour and
+  // inside masks, all held until the fit; per pixel of a slice in flight: the
+  // fill's two int label grids and its binarized copy.
+  constexpr double kImageBytes = 4, kMaskBytes = 2, kFillBytes = 9;
+  const double in_flight = std::min(slices, double(tbb::this_task_arena::max_concurrency()));
+  return width * height * (slices * ((images ? kImageBytes : 0) + kMaskBytes) + in_flight * kFillBytes);
 }
 
 void list_rois(const std::string& path, std::ostream& out) {

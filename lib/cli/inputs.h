@@ -45,6 +45,12 @@ InputFormat detect_input(const std::vector<std::string>& inputs);
 /// \throw InputError / ParamError naming the file or the flag.
 Inputs read_inputs(const ReconstructArgs& args);
 
+/// Bytes a stack of `slices` width x height slices holds up to and through
+/// the contour stage: decoded images (`images`: 4 bytes a pixel), every
+/// slice's contour and inside masks, and the fill's temporaries of the slices
+/// in flight (docs/decisions.md, work budget).
+double stack_bytes(double slices, double width, double height, bool images);
+
 /// Prints the ROIs of an RT Structure Set: name, number, contours, z range.
 void list_rois(const std::string& path, std::ostream& out);
 

@@ -3,7 +3,8 @@
 //   synth        analytic shape -> contour/mask PNG stack + truth JSON
 //   eval         mesh vs analytic truth -> distances and normal angles
 // Exit codes: 0 success, 1 bad input or parameters (one line naming the file
-// and the problem), 2 command-line usage errors (from CLI11).
+// and the problem), 2 command-line usage errors (from CLI11); a run ended by
+// SIGINT, SIGTERM or SIGHUP dies by that signal with its temp files removed.
 #include <CLI/CLI.hpp>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -22,6 +23,7 @@
 
 #include "cli/commands.h"
 #include "isoloft/core/error.h"
+#include "isoloft/io/atomic_file.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"isoloft: smooth closed surfaces from parallel planar contours (Marker, Braude, Museth & Breen 2006)"};
@@ -33,8 +35,14 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
+  // A run ended by SIGINT, SIGTERM or SIGHUP removes its temp files first.
+  isoloft::remove_temp_files_on_signals();
   try {
     return commands.run();
+  } catch (const std::bad_alloc&) {
+    std::cerr << "isoloft: error: out of memory" << (commands.activity().empty() ? "" : " while " + commands.activity())
+              << " (within the --max-memory estimate, but more than this machine could give)\n";
+    return 1;
   } catch (const isoloft::Error& e) {
     std::cerr << "isoloft: error: " << e.what() << "\n";
     return 1;

@@ -174,10 +174,44 @@ nlohmann::json read_params_file(const std::string& path, ReconstructParams& para
   return j;
 }
 
+// A parameter flag given for a method or input that never reads it: an error
+// naming the flag and where it applies.
+void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Method method, InputFormat format, InputKind kind) {
+  const bool marker = method == Method::Marker2006;
+  const bool images = format == InputFormat::Images;
+  struct Use {
+    const char* key;
+    bool used;
+    const char* where;
+  };
+  const Use uses[] = {
+      {"polyline_raster_width", marker && kind == InputKind::Polylines, "only with --method marker2006 and a polyline input"},
+      {"sign_guard", marker, "only with --method marker2006"},
+      {"mpu.n_min", marker, "only with --method marker2006 (the MPU fit)"},
+      {"mpu.tol", marker, "only with --method marker2006 (the MPU fit)"},
+      {"extend.method", marker, "only with --method marker2006 (the distance extension)"},
+      {"filter.enabled", marker, "only with --method marker2006 (the filter)"},
+      {"fill.max_gap", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
+      {"fill.open_contours", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
+      {"binarize", images && kind != InputKind::Labels, "only with contour or mask images"},
+  };
+  for (const Use& u : uses)
+    if (!u.used)
+      if (const std::string flag = flags.given(u.key); !flag.empty()) throw ParamError(flag + ": has no effect here, " + u.where);
+  if (!o.dump_stages.empty() && !marker) throw ParamError("--dump-stages: has no effect here, only with --method marker2006");
+}
+
+// Bytes per triangle of a mesh file: binary STL (50, the largest binary
+// format) and ASCII STL (~250, the largest text one), upper bounds for PLY,
+// OBJ and OFF.
+constexpr double kMeshFileBytesPerTriangle = 50, kAsciiMeshFileBytesPerTriangle = 250;
+
 }  // namespace
 
 int Commands::reconstruct() {
   const auto t_start = Clock::now();
+  r_.max_memory_bytes = parse_size(r_.max_memory, "--max-memory");
+  r_.max_output_bytes = parse_size(r_.max_output, "--max-output");
   const ReconstructArgs& o = r_;
 
   // Parameters: defaults < --params file < flags.
@@ -209,8 +243,29 @@ int Commands::reconstruct() {
   const int thread_count = int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 
   auto t0 = Clock::now();
+  activity_ = "reading " + o.inputs.front();
   Inputs in = read_inputs(o);
   const double read_seconds = seconds_since(t0);
+  {
+    const SliceStack& first = in.jobs.front().stack;
+    const InputFormat f = in.format;
+    reject_unused_flags(param_flags_, o, params.method, f, first.kind);
+  }
+  // The input's own footprint, before the work: polyline and volume slices
+  // become full-size masks in the contour stage.
+  double input_bytes = 0;
+  for (const Job& job : in.jobs) {
+    const SliceStack& st = job.stack;
+    input_bytes = std::max(input_bytes, stack_bytes(double(st.slices.size()), st.width, st.height, !st.has_polygons()));
+  }
+  if (in.volume) input_bytes += double(in.volume->data.size()) * sizeof(float);
+  {
+    const SliceStack& st = in.jobs.front().stack;
+    check_budget("--max-memory",
+                 "the contour stage of " + std::to_string(st.slices.size()) + " slices of " + std::to_string(st.width) +
+                     "x" + std::to_string(st.height) + " px",
+                 input_bytes, o.max_memory_bytes);
+  }
   const std::vector<std::uint32_t> labels = o.labels.empty() ? std::vector<std::uint32_t>{} : parse_labels(o.labels);
   if (!labels.empty() && in.jobs.front().stack.kind != InputKind::Labels)
     throw ParamError("--labels: only with label input (--input labels, or an integer label volume)");
@@ -263,6 +318,19 @@ int Commands::reconstruct() {
       };
     }
     if (!o.dump_stages.empty()) ropt.on_slice_fields = stage_dumper(o.dump_stages, stack, outputs, dump_mutex);
+    ropt.on_estimate = [&](const WorkEstimate& e) {
+      std::ostringstream what;
+      what << (job.name.empty() ? "" : "ROI '" + job.name + "': ") << (e.label ? "label " + std::to_string(e.label) : "the object")
+           << " (" << e.planes << " z planes of " << e.box.width() << "x" << e.box.height() << " px, ~" << e.triangles
+           << " triangles)";
+      check_budget("--max-memory", what.str(), input_bytes + e.field_bytes + e.mesh_bytes, o.max_memory_bytes);
+      double files = e.triangles * (o.ascii ? kAsciiMeshFileBytesPerTriangle : kMeshFileBytesPerTriangle);
+      if (!o.volume.empty()) files += e.planes * e.plane_bytes;
+      if (!o.dump_stages.empty()) files += double(e.slices) * e.plane_bytes * 4;
+      if (labelmap) files += double(in.volume->data.size()) * 4;
+      check_budget("--max-output", what.str() + (o.volume.empty() ? "" : " with --volume"), files, o.max_output_bytes);
+      activity_ = "reconstructing " + what.str();
+    };
     if (labelmap) {
       ropt.sample_z = labelmap->sample_z();
       ropt.on_sample = [&](std::uint32_t label, const Grid2f& field, const PixelBox& box, double z) {
@@ -283,7 +351,14 @@ int Commands::reconstruct() {
   }
   if (!o.quiet)
     for (const auto& w : all.warnings) std::cerr << "isoloft: warning: " << w << "\n";
-  if (results.empty()) throw InputError(o.inputs.front(), "nothing to reconstruct: no slice contains a contour");
+  if (results.empty()) throw InputError(o.inputs.front(), "nothing to reconstruct: no slice has an inside (a closed contour, or mask pixels)");
+  for (const auto& r : results)
+    if (r.mesh.triangles.empty() && !o.allow_empty)
+      throw InputError(o.inputs.front(), (r.job->name.empty() ? "" : "ROI '" + r.job->name + "': ") +
+                                             (r.object.label ? "label " + std::to_string(r.object.label) : "the surface") +
+                                             " is empty (0 triangles): " + r.object.empty_reason +
+                                             " (--allow-empty writes it anyway)");
+  activity_ = "writing " + o.output;
 
   // Meshes: one object -> OUT; several -> OUT_<label or ROI> each and OUT with a colour per object.
   t0 = Clock::now();

@@ -1,10 +1,13 @@
 #include "isoloft/pipeline.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -238,6 +241,97 @@ std::vector<Grid2f> marker_stages(const Run& run, std::vector<SliceMasks>& masks
   return fields;
 }
 
+// Estimate constants (docs/decisions.md, work budget: measured on the
+// synthetic sphere and the frog).
+// Live float copies of each slice field: the fields, the spline's
+// coefficients and one stage's output beside its input.
+constexpr double kFieldCopies = 3;
+// Bytes of a mesh triangle before decimation, at the peak: vertices and
+// triangles, the decimator's quadrics, edge heap and links, the mesh check's
+// edge map.
+constexpr double kBytesPerTriangle = 160;
+// Bytes a fine polyline raster pixel holds while fitted: the contour and
+// inside masks.
+constexpr double kRasterBytesPerPixel = 2;
+
+// Plane count of sample_planes() over the capped z range, without making it.
+double plane_count(const std::vector<double>& z, double step) {
+  return std::max(0.0, std::ceil((z.back() - z.front()) / step - 1e-9)) + 1;
+}
+
+// The z of the fields once end caps are added (add_end_caps).
+std::vector<double> capped_z(const SliceStack& stack, const InterpParams& interp) {
+  std::vector<double> z;
+  const auto& s = stack.slices;
+  z.push_back(s[0].z - interp.cap_extent * (s[1].z - s[0].z));
+  for (const auto& sl : s) z.push_back(sl.z);
+  z.push_back(s.back().z + interp.cap_extent * (s.back().z - s[s.size() - 2].z));
+  return z;
+}
+
+// Marching Cubes crosses the surface ~2 triangles per pixel of contour per
+// plane: between two slices the contour length runs from one's to the
+// other's; the caps add their end contour's band and ~2 triangles per
+// inside pixel of the end slices.
+WorkEstimate estimate_work(const Run& run, const std::vector<SliceMasks>& masks, const ObjectResult& obj) {
+  const ReconstructParams& p = run.params;
+  WorkEstimate e;
+  e.label = obj.label;
+  e.box = obj.box;
+  e.slices = long(run.slices());
+  const std::vector<double> z = capped_z(run.stack, p.interp);
+  e.planes = plane_count(z, p.interp.z_step);
+  const std::size_t n = masks.size();
+  std::vector<double> perimeter(n + 2, 0.0), area(n + 2, 0.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (masks[k].empty) continue;
+    for (int y = obj.box.y0; y < obj.box.y1; ++y)
+      for (int x = obj.box.x0; x < obj.box.x1; ++x) {
+        perimeter[k + 1] += masks[k].contour(x, y) != 0;
+        area[k + 1] += masks[k].inside(x, y) != 0;
+      }
+  }
+  perimeter[0] = perimeter[1], perimeter[n + 1] = perimeter[n];
+  for (std::size_t k = 0; k + 1 < z.size(); ++k)
+    e.triangles += (perimeter[k] + perimeter[k + 1]) * (z[k + 1] - z[k]) / p.interp.z_step;
+  e.triangles += 2 * (area[1] + area[n]);
+  const double pixels = double(obj.box.width()) * double(obj.box.height());
+  e.plane_bytes = double(obj.box.width() + 2) * double(obj.box.height() + 2) * sizeof(float);
+  e.field_bytes = double(n + 2) * pixels * sizeof(float) * kFieldCopies;
+  if (run.stack.kind == InputKind::Polylines && p.method == Method::Marker2006 && p.polyline_raster_width > 0) {
+    const double k = double(p.polyline_raster_width) / run.stack.width;
+    const double in_flight = std::min(double(n), double(tbb::this_task_arena::max_concurrency()));
+    e.field_bytes += in_flight * k * k * pixels * kRasterBytesPerPixel;
+  }
+  e.mesh_bytes = e.triangles * kBytesPerTriangle;
+  return e;
+}
+
+// The largest value of the slice fields (the end caps lie below it).
+float field_max(const std::vector<Grid2f>& fields) {
+  float top = -std::numeric_limits<float>::infinity();
+  for (const auto& f : fields)
+    for (float v : f.data) top = std::max(top, v);
+  return top;
+}
+
+// Why an object's mesh came out empty, given its fields' maximum.
+std::string empty_reason(const Run& run, float top, const ObjectResult& obj) {
+  std::ostringstream o;
+  if (!(top > run.params.mc.iso)) {
+    o << "the interpolated field never rises above mc.iso = " << run.params.mc.iso << " (its maximum is " << top
+      << " px): no surface crosses it";
+  } else if (const double span = run.stack.slices.back().z - run.stack.slices.front().z; span < run.params.interp.z_step) {
+    o << "the slices span " << span << " px in z, less than one plane step interp.z_step = " << run.params.interp.z_step
+      << " px (check --z-spacing / the slice z)";
+  } else {
+    o << "the object (" << obj.slices_with_contours << " slice(s) with contours, box " << obj.box.width() << "x"
+      << obj.box.height() << " px) is smaller than the sampling grid (a pixel in the plane, interp.z_step = "
+      << run.params.interp.z_step << " px in z)";
+  }
+  return o.str();
+}
+
 // Stages (paper 2.4-2.5): z splines with end caps, streamed into Marching Cubes.
 TriMesh mesh_stage(const Run& run, std::vector<Grid2f> fields, const ObjectResult& obj) {
   const ReconstructParams& p = run.params;
@@ -245,6 +339,12 @@ TriMesh mesh_stage(const Run& run, std::vector<Grid2f> fields, const ObjectResul
   std::vector<double> z(run.slices());
   for (std::size_t k = 0; k < z.size(); ++k) z[k] = run.stack.slices[k].z;
   add_end_caps(fields, z, p.interp);
+  if (plane_count(z, p.interp.z_step) < 2) {
+    std::ostringstream o;
+    o << "the slices span " << z.back() - z.front() << " px in z (end caps included), less than one plane step "
+      << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check --z-spacing / the slice z)";
+    throw InputError(run.stack.slices.front().source, o.str());
+  }
   const ZInterpolator field(std::move(fields), z, p.interp.spline);
   const std::vector<double> planes = sample_planes(z.front(), z.back(), p.interp.z_step);
   if (run.options.on_sample) {
@@ -309,6 +409,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
       run.warn(object_name(label) + ": no slice has an inside; nothing to reconstruct");
       continue;
     }
+    if (options.on_estimate) options.on_estimate(estimate_work(run, masks, obj));
     std::vector<Grid2f> fields;
     if (params.method == Method::Levin) {
       t0 = Clock::now();
@@ -320,7 +421,9 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
     t0 = Clock::now();
     detail::fill_empty_slices(fields, obj.box, params.interp);
     result.times.dist += seconds_since(t0);
+    const float top = field_max(fields);
     obj.mesh = mesh_stage(run, std::move(fields), obj);
+    if (obj.mesh.triangles.empty()) obj.empty_reason = empty_reason(run, top, obj);
     decimate_stage(run, obj);
     check_stage(run, obj);
     result.objects.push_back(std::move(obj));

@@ -84,7 +84,8 @@ struct StageTimes {
 
 struct ObjectResult {
   std::uint32_t label = 0;     ///< label value (labels input); 0 otherwise
-  TriMesh mesh;                ///< closed, outward-oriented, pixel units
+  TriMesh mesh;                ///< closed, outward-oriented, pixel units (possibly empty: empty_reason)
+  std::string empty_reason;    ///< why the mesh has no triangles ("" if it has some)
   MeshCheck check;
   long triangles_before_decimation = 0;
   int slices_with_contours = 0;
@@ -103,7 +104,24 @@ struct SliceStageFields {
   Grid2f filtered;              ///< after the distance-dependent filter
 };
 
+/// One object's cost, known after its contour stage and before any fit, for
+/// a budget check (ReconstructOptions::on_estimate). Estimates, not bounds:
+/// docs/decisions.md (work budget) has their measured accuracy.
+struct WorkEstimate {
+  std::uint32_t label = 0;
+  PixelBox box;             ///< the crop of every field
+  long slices = 0;          ///< input slices (the fields add 2 end caps)
+  double planes = 0;        ///< z planes sampled for Marching Cubes
+  double triangles = 0;     ///< Marching Cubes triangles before decimation
+  double field_bytes = 0;   ///< per-slice fields, spline and fine rasters in flight
+  double mesh_bytes = 0;    ///< the mesh before decimation and its checks
+  double plane_bytes = 0;   ///< one sampled plane (float, padded crop), e.g. of --volume
+};
+
 struct ReconstructOptions {
+  /// Per object after its contour stage, before the fit; may throw to stop
+  /// the run (e.g. over a memory budget).
+  std::function<void(const WorkEstimate&)> on_estimate;
   std::vector<std::uint32_t> labels;  ///< labels input: only these (empty = all); an error with other inputs
   /// Per slice (marker2006), from worker threads.
   std::function<void(const SliceStageFields&)> on_slice_fields;
@@ -126,7 +144,8 @@ struct ReconstructResult {
 };
 
 /// Reconstructs one object, or one per label with InputKind::Labels.
-/// \throw InputError for < 2 slices, z not increasing, an empty image size,
+/// \throw InputError for < 2 slices, z not increasing, slices (end caps
+///        included) thinner than one interp.z_step, an empty image size,
 ///        non-binary contour/mask values or a rejected open contour (naming the
 ///        slice file); ParamError naming a parameter, or for labels without labels input.
 /// @warning An object without inside, or a selected label found nowhere, is

@@ -188,6 +188,22 @@ RawImage read_png(const std::string& path) {
   return img;
 }
 
+bool read_png_size(const std::string& path, std::uint32_t& width, std::uint32_t& height) {
+  unsigned char b[24];
+  std::FILE* fp = std::fopen(path.c_str(), "rb");
+  if (!fp) return false;
+  const bool got = std::fread(b, 1, sizeof b, fp) == sizeof b;
+  std::fclose(fp);
+  // Signature (8), IHDR length (4), "IHDR" (4), width (4), height (4), big-endian.
+  if (!got || png_sig_cmp(b, 0, 8) != 0 || std::memcmp(b + 12, "IHDR", 4) != 0) return false;
+  auto be32 = [](const unsigned char* q) {
+    return (std::uint32_t(q[0]) << 24) | (std::uint32_t(q[1]) << 16) | (std::uint32_t(q[2]) << 8) | q[3];
+  };
+  width = be32(b + 16);
+  height = be32(b + 20);
+  return true;
+}
+
 void write_png(const std::string& path, const Grid2<std::uint8_t>& image) {
   PngCtx c;
   c.width = png_uint_32(image.width);

@@ -24,6 +24,11 @@ struct RawImage {
 /// \throw InputError(path, ...) if the file is missing, not a PNG or corrupt.
 RawImage read_png(const std::string& path);
 
+/// Width and height from the IHDR chunk (the first, by the PNG spec), without
+/// decoding: for a memory estimate before read_png(). False if the file
+/// cannot be read or does not start like a PNG (read_png() then names the problem).
+bool read_png_size(const std::string& path, std::uint32_t& width, std::uint32_t& height);
+
 /// Writers (8-bit gray, 16-bit gray, 8-bit RGB from 0xRRGGBB), atomic.
 /// \throw Error naming the path if the image is empty or writing fails.
 void write_png(const std::string& path, const Grid2<std::uint8_t>& image);

@@ -39,6 +39,13 @@ SliceStack read_polylines(const std::string& path) {
     if (contour->points.size() < 3)
       throw fail(contour_line,
                  "contour with " + std::to_string(contour->points.size()) + " distinct points (need at least 3)");
+    double area2 = 0;  // shoelace; exactly 0 only for collinear points
+    const auto& v = contour->points;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const Vec2d& b = v[(i + 1) % v.size()];
+      area2 += v[i].x() * b.y() - b.x() * v[i].y();
+    }
+    if (area2 == 0) throw fail(contour_line, "contour has zero area (all its points lie on one line)");
     contour = nullptr;
   };
 
