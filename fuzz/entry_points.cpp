@@ -1,0 +1,111 @@
+#include "entry_points.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "isoloft/core/error.h"
+#include "isoloft/io/png.h"
+#include "isoloft/io/polylines.h"
+#include "isoloft/io/rtstruct.h"
+#include "isoloft/io/volume.h"
+#include "isoloft/io/volume_slices.h"
+#include "isoloft/pipeline.h"
+
+namespace isoloft::fuzz {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// The readers take paths: the bytes go to a per-process scratch file (in
+// /dev/shm when there is one, so an iteration costs no disk I/O).
+std::string scratch(const std::string& ext, const std::uint8_t* data, std::size_t size) {
+  static const fs::path dir = fs::exists("/dev/shm") ? fs::path("/dev/shm") : fs::temp_directory_path();
+  const std::string path = (dir / ("isoloft_fuzz_" + std::to_string(::getpid()) + ext)).string();
+  std::FILE* fp = std::fopen(path.c_str(), "wb");
+  if (!fp) std::abort();
+  if (size && std::fwrite(data, 1, size, fp) != size) std::abort();
+  std::fclose(fp);
+  return path;
+}
+
+bool gzip(const std::uint8_t* data, std::size_t size) { return size >= 2 && data[0] == 0x1f && data[1] == 0x8b; }
+
+// Runs the reader on the scratch file; a rejection (isoloft::Error) is fine.
+template <class F>
+void guarded(const std::string& path, F&& f) {
+  try {
+    f(path);
+  } catch (const Error&) {
+  }
+  std::remove(path.c_str());
+}
+
+// A read volume goes on as the CLI takes it: checked, then sliced.
+void slice_volume(const Volume& v, const std::string& path) {
+  detail::check_finite_voxels(v, path);
+  VolumeSlicing s;
+  s.kind = InputKind::Masks;
+  (void)volume_stack(v, s, path);
+}
+
+void png(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".png", d, n), [](const std::string& p) { (void)read_png(p); });
+}
+
+void polylines(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".txt", d, n), [](const std::string& p) { (void)read_polylines(p); });
+}
+
+void params(const std::uint8_t* d, std::size_t n) {
+  try {
+    const auto j = nlohmann::json::parse(d, d + n, nullptr, true, /*ignore_comments=*/true);
+    (void)params_from_json(j);
+  } catch (const nlohmann::json::exception&) {  // the CLI's "not valid JSON"
+  } catch (const Error&) {
+  }
+}
+
+void nifti(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(gzip(d, n) ? ".nii.gz" : ".nii", d, n), [](const std::string& p) { slice_volume(read_volume(p), p); });
+}
+
+void nrrd(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".nrrd", d, n), [](const std::string& p) { slice_volume(read_volume(p), p); });
+}
+
+void metaimage(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".mha", d, n), [](const std::string& p) { slice_volume(read_volume(p), p); });
+}
+
+void rtstruct(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".dcm", d, n), [](const std::string& p) {
+    const RtStructureSet set = read_rtstruct(p);
+    for (const RtRoi& roi : set.rois) {
+      std::vector<std::string> warnings;
+      try {
+        (void)roi_stack(roi, RoiGrid{}, p, warnings);
+      } catch (const Error&) {  // one ROI rejected, as the CLI skips it
+      }
+    }
+  });
+}
+
+}  // namespace
+
+const std::vector<Target>& targets() {
+  static const std::vector<Target> t{{"png", png},   {"polylines", polylines}, {"params", params},    {"nifti", nifti},
+                                     {"nrrd", nrrd}, {"metaimage", metaimage}, {"rtstruct", rtstruct}};
+  return t;
+}
+
+const Target* find_target(const std::string& name) {
+  for (const Target& t : targets())
+    if (name == t.name) return &t;
+  return nullptr;
+}
+
+}  // namespace isoloft::fuzz
