@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets with clang-14 (ASan + UBSan) into build-fuzz/
+# Builds the libFuzzer targets (sanitize_build.sh: clang-14, ASan + UBSan) in build-asan/
 # and runs each for SECONDS seconds (default 60) from the committed corpus
-# (fuzz/corpus/<target>/, read only; new inputs go to build-fuzz/corpus/).
-# Crashes are left as build-fuzz/crash-*: add each to fuzz/corpus/<target>/
+# (fuzz/corpus/<target>/, read only; new inputs go to build-asan/corpus/).
+# Crashes are left as build-asan/crash-*: add each to fuzz/corpus/<target>/
 # once fixed, and the replay test (fuzz_corpus_replay) keeps it fixed.
 #   fuzz.sh [SECONDS] [TARGET...]   targets: png polylines params nifti nrrd metaimage rtstruct
 set -euo pipefail
@@ -10,16 +10,12 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SECS="${1:-60}"; shift || true
 TARGETS=("$@")
 ((${#TARGETS[@]})) || TARGETS=(png polylines params nifti nrrd metaimage rtstruct)
-missing=()
-for p in clang-14 libclang-rt-14-dev; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+for p in clang-14 libclang-rt-14-dev; do  # as setup.sh --full installs them
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" ||
+    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$p"; }
 done
-if ((${#missing[@]})); then apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}"; fi
-B="$ROOT/build-fuzz"
-cmake -S "$ROOT" -B "$B" -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
-  -DISOLOFT_BUILD_FUZZERS=ON -DISOLOFT_BUILD_TESTS=OFF -DISOLOFT_BUILD_VALIDATION=OFF -DISOLOFT_BUILD_EXPERIMENTS=OFF \
-  > "$B.log" 2>&1 || { cat "$B.log"; exit 1; }
-cmake --build "$B" -j "${ISOLOFT_JOBS:-$(nproc)}" --target "${TARGETS[@]/#/fuzz_}" >> "$B.log" 2>&1 || { tail -n 60 "$B.log"; exit 1; }
+B="$ROOT/build-asan"
+"$ROOT/scripts/sanitize_build.sh" "${TARGETS[@]/#/fuzz_}"
 cd "$B"
 status=0
 for t in "${TARGETS[@]}"; do

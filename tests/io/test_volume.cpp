@@ -88,7 +88,9 @@ TriMesh reconstruct_file(const std::string& path, Method method = Method::Marker
   VolumeStack vs = volume_stack(v, {}, path);
   ReconstructParams p;
   p.method = method;
-  const ReconstructResult r = reconstruct(vs.stack, p, {{3}});
+  ReconstructOptions o;
+  o.labels = {3};
+  const ReconstructResult r = reconstruct(vs.stack, p, o);
   EXPECT_EQ(r.objects.size(), 1u) << path;
   return r.objects.empty() ? TriMesh{} : in_patient(r.objects[0].mesh, *vs.stack.patient);
 }
