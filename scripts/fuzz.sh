@@ -22,7 +22,7 @@ for t in "${TARGETS[@]}"; do
   mkdir -p "corpus/$t"
   echo "fuzz: $t for $SECS s"
   # 2 GB RSS and 10 s per input: a larger or slower one is a finding too.
-  ASAN_OPTIONS=detect_leaks=1 "./fuzz/fuzz_$t" -max_total_time="$SECS" -rss_limit_mb=2048 -timeout=10 \
+  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan.supp" "./fuzz/fuzz_$t" -max_total_time="$SECS" -rss_limit_mb=2048 -timeout=10 \
     -max_len=65536 -artifact_prefix="$B/crash-$t-" "corpus/$t" "$ROOT/fuzz/corpus/$t" 2>&1 | tail -n 4 || status=1
 done
 ls "$B"/crash-* 2>/dev/null && status=1

@@ -21,6 +21,7 @@ if [[ "${ISOLOFT_SANITIZE:-1}" != 0 ]]; then
   # leaks count.
   export ASAN_OPTIONS="exitcode=86:detect_leaks=1"
   export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:exitcode=87"
+  export LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan.supp"
   (cd "$ROOT/build-asan" && ctest --output-on-failure -j "$JOBS" --timeout 900)
   echo "test: sanitizer build and tests took $((SECONDS - t0)) s"
 fi
