@@ -268,6 +268,57 @@ Grid2u8 mask_boundary(const Grid2u8& mask) {
   return out;
 }
 
+namespace {
+/// Opening of the set {mask == fg} by a k x k square, pixels beyond the image
+/// counting as `beyond`; the result uses the same encoding as the input.
+Grid2u8 open_square(const Grid2u8& mask, int k, bool fg, bool beyond) {
+  const int w = mask.width, h = mask.height, pad = k - 1;
+  const int W = w + 2 * pad, H = h + 2 * pad;  // padded frame: beyond the image counts too
+  std::vector<std::uint8_t> a(std::size_t(W) * H), t(a.size()), e(a.size());
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int ix = x - pad, iy = y - pad;
+      const bool in = ix >= 0 && iy >= 0 && ix < w && iy < h;
+      a[std::size_t(y) * W + x] = in ? ((mask(ix, iy) != 0) == fg) : beyond;
+    }
+  // Erosion: e(x, y) = the square with top-left corner (x, y) lies in the set.
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      bool all = x + k <= W;
+      for (int i = 0; i < k && all; ++i) all = a[std::size_t(y) * W + x + i] != 0;
+      t[std::size_t(y) * W + x] = all;
+    }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      bool all = y + k <= H;
+      for (int j = 0; j < k && all; ++j) all = t[std::size_t(y + j) * W + x] != 0;
+      e[std::size_t(y) * W + x] = all;
+    }
+  // Dilation: a pixel is kept if some such square covers it.
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      bool any = false;
+      for (int i = 0; i < k && !any; ++i) any = x - i >= 0 && e[std::size_t(y) * W + x - i] != 0;
+      t[std::size_t(y) * W + x] = any;
+    }
+  Grid2u8 out(w, h);
+  for (int iy = 0; iy < h; ++iy)
+    for (int ix = 0; ix < w; ++ix) {
+      const int x = ix + pad, y = iy + pad;
+      bool any = false;
+      for (int j = 0; j < k && !any; ++j) any = y - j >= 0 && t[std::size_t(y - j) * W + x] != 0;
+      out(ix, iy) = any == fg ? 1 : 0;
+    }
+  return out;
+}
+}  // namespace
+
+Grid2u8 remove_thin_features(const Grid2u8& mask, int width) {
+  if (width <= 1) return mask;
+  // Opening of the mask (beyond = outside), then of its outside (beyond = outside too).
+  return open_square(open_square(mask, width, true, false), width, false, true);
+}
+
 Grid2u8 binarize(const Grid2u32& values, std::uint32_t threshold) {
   Grid2u8 out(values.width, values.height);
   for (std::size_t i = 0; i < values.size(); ++i) out.data[i] = values.data[i] > threshold ? 1 : 0;

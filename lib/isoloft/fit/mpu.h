@@ -34,10 +34,10 @@
 //     the other's mean normal), max at a concave one; 3 pieces (bar end,
 //     step): the min/max combination with the least error.
 // - Error and subdivision (MPU 2): the error of a local function is the
-//   maximum over the support points of the Taubin distance |Q(p)| / |grad Q(p)|;
-//   cells are subdivided into 4 while it exceeds tol. Cells are fitted
-//   eagerly, level by level (in parallel), not lazily during evaluation as in
-//   MPU; the function is the same.
+//   maximum over the support points of the Taubin distance |Q(p)| / |grad Q(p)|
+//   (weighted, see below); cells are subdivided into 4 while it exceeds tol.
+//   Cells are fitted eagerly, level by level (in parallel), not lazily during
+//   evaluation as in MPU; the function is the same.
 // - Blend (MPU 2): f(x) = sum_i w_i(x) Q_i(x) / sum_i w_i(x) over the leaves,
 //   w_i(x) = b(3 |x - c_i| / (2 R_i)), b the quadratic B-spline; the
 //   normalised weights are a partition of unity.
@@ -61,8 +61,17 @@
 //   nearest points. Those values grow linearly with the distance, a conic
 //   quadratically, so with cell corners 50-100 px from the data they moved the
 //   zero set by up to 20 px. Here the same points (plus the edge midpoints)
-//   only check the sign of Q where all 6 agree and |d| >= 2 px; a cell whose
-//   best fit fails one is subdivided.
+//   only check the sign of Q, taken from the nearest point p: (p - q) . n_p,
+//   where q is >= 2 px from the data and within 60 degrees of n_p (not MPU's
+//   6 nearest: in front of a wedge's tip both sides' tangents see q inside).
+//   A second set, the ring checks, covers the data itself: every lattice
+//   point (pixel centre) 1.5-3 px from its nearest point, its side by the same
+//   rule; a leaf must have each one's side within its core (weight >= b(0.75
+//   / alpha), the whole cell). They catch a curve that holds tol at every
+//   point but strays beside them: a spike's two sides running on 3-4 px past
+//   its tip, a wedge overshooting (measured on the frog labels: every pixel
+//   the sign guard overruled was one of these). A cell whose best fit fails a
+//   check is subdivided.
 // - Component rule: support growth also stops once the circle holds a point
 //   and every connected piece it touches lies wholly inside it, so an island
 //   or hole with fewer than N_min points gets fits of its own.
@@ -72,10 +81,30 @@
 //   cell's own circle holds n points, the cell is subdivided instead. Features
 //   smaller than N_min points (petals, bar ends) are otherwise never resolved:
 //   subdividing a support-bound cell gives children with the same support.
+//   Children start their reduction at the N_min their parent ended with (its
+//   larger circle already failed every larger one): on the frog labels this
+//   cut the fit time 3.4x for 3 % fewer leaves. n_floor = 8 (a conic has 5
+//   degrees of freedom): the 2 px bumps and bar ends of label boundaries need
+//   arcs of ~8-12 points (measured on the frog: 20 left 2-9 % of the leaves of
+//   some labels over tol, 12 left 0.1 %, 8 none).
 // - Stall rule: for the same reason a support-bound cell whose support radius
 //   exceeds 0.8 of its parent's (detail::kSupportShrink) is not subdivided,
 //   unless its support touches more than kMaxComponents pieces; MPU would
 //   subdivide it down to max_depth without reducing the error.
+// - Weighted error (weighted_error): a support point's Taubin distance counts
+//   by min(1, w(p) / b(0.75 / alpha)), the leaf's weight there over the least
+//   weight it has on its own cell. Every point of the cell (and of its
+//   circumcircle) counts fully, as in MPU; beyond, in the rim of a support
+//   grown to N_min points, a point counts as much as the leaf weighs in the
+//   blend there. MPU's plain maximum let rim points the leaf hardly weighs
+//   (down to 1e-12) decide: on the frog labels 80 % of the leaves were over
+//   tol, mostly cells 20-150 px from any data whose supports only reach the
+//   data with their rim, and subdividing them only multiplied them (42,522
+//   leaves; up to 746 covering one point).
+// - Domain (domain_distance): with a narrow band to fill (paper 2.2: the MPU
+//   values are used only in a band around the data), cells farther than
+//   domain_distance from every point get no local function; f is then MPU's
+//   within that distance, the fallback below beyond it.
 // - Outside the root square, where the leaf weights fade out, f blends into a
 //   fallback F(x) = s |x - p| with p the nearest data point and s the sign of
 //   (p - x) . n_p (behind the nearest point's normal = inside):
@@ -88,16 +117,19 @@
 // pixel (measured; the tests bound it by tol + 1 px).
 //
 // What tol bounds: the Taubin distance (the first-order Euclidean distance)
-// from every input point in a leaf's support circle to that leaf's local zero
-// set, in pixels. f at a data point is a convex combination of local
-// functions that all vanish within tol of it and all have |grad| ~ 1 there,
-// so the zero set of f passes within ~tol of every input point. It bounds the
-// fit to the points, not to the unknown true curve (digitised contour pixels
-// lie up to 1 px inside it, see the tests). Leaves can exceed tol only when
-// stopped by max_depth or by the stall rule with n_floor points still too
-// many (MpuResult reports them, Leaf::support_bound marks the latter). At
-// tol = 1, circle, ellipse, annulus, two circles, square with hole fit with
-// no leaf over tol (tests/fit/test_mpu.cpp).
+// from every input point in a leaf's cell (its core circle) to that leaf's
+// local zero set, in pixels, and beyond it in the support that distance times
+// the leaf's relative weight (weighted error). f at a data point is a convex
+// combination of local functions, those of full weight all vanishing within
+// tol of it, all with |grad| ~ 1 there, so the zero set of f passes within
+// ~tol of every input point. It bounds the fit to the points, not to the
+// unknown true curve (digitised contour pixels lie up to 1 px inside it, see
+// the tests; mask edge points within 0.5 px of a digitised disk's edge,
+// measured for radii 5-80 px, so tol = 0.75 is above that noise). Leaves can
+// exceed tol only when stopped by max_depth or by the stall rule with n_floor
+// points still too many (MpuResult reports them, Leaf::support_bound marks the
+// latter). At tol = 1, circle, ellipse, annulus, two circles, square with
+// hole fit with no leaf over tol (tests/fit/test_mpu.cpp).
 //
 // Thread safety: fit_mpu runs its levels in parallel (TBB); an MpuCurve is
 // immutable and may be evaluated from any number of threads.
@@ -121,17 +153,22 @@ namespace isoloft {
 
 struct MpuParams {
   int n_min = 150;
-  int n_floor = 20;
+  int n_floor = 8;
   double tol = 0.75;
   double alpha = 0.75;
   double lambda = 0.1;
   int max_depth = 10;
   double corner_angle = 25.8;
   double component_link = 2.0;
+  bool weighted_error = true;
   /// Not a user parameter: the region the curve will be evaluated on, pixels
   /// (e.g. [-0.5, w - 0.5] x [-0.5, h - 0.5] for a w x h grid); the root
   /// square covers it and the points. Empty: the points' bounding box alone.
   Eigen::AlignedBox2d domain;
+  /// Not a user parameter: > 0: the curve will be evaluated only within this
+  /// distance of a point (the narrow band, paper 2.2); cells farther away get
+  /// no local function (file comment, "Domain"). 0: the whole root square.
+  double domain_distance = 0.0;
 };
 
 /// Deepest quadtree level accepted (2^-24 of the root cell).
@@ -157,6 +194,9 @@ inline const ParamTable<MpuParams>& params_table<MpuParams>() {
             open_between(0, 180)),
       field("component_link", &MpuParams::component_link, "spacings",
             "points closer than this many median point spacings form one connected piece", at_least(0)),
+      field("weighted_error", &MpuParams::weighted_error, "",
+            "a support point's error counts by the leaf's weight there relative to the least weight the leaf has on its "
+            "own cell, at most fully (not in MPU; false = every support point fully)"),
   });
   return t;
 }
@@ -178,6 +218,7 @@ class MpuCurve {
     int depth = 0;
     int support = 0;     ///< points in the support circle
     int n_target = 0;    ///< N_min used (n_min, or less after support reduction)
+    int n_last = 0;      ///< smallest N_min the support reduction tried (a child starts from it)
     bool grown = false;  ///< the support radius grew beyond alpha x diagonal
     /// Grown, and no smaller n fitted inside the cell's own circle: the fit is
     /// bound by its support, not by the cell size (stall rule).
@@ -207,7 +248,7 @@ class MpuCurve {
 
  private:
   friend class MpuBuilder;
-  friend Grid2f evaluate_on_grid(const MpuCurve&, int, int, double, double, double);
+  friend Grid2f evaluate_on_grid(const MpuCurve&, int, int, double, double, double, const Grid2u8*);
 
   struct Node {
     Eigen::AlignedBox2d box;  ///< bounds of the support circles of the leaves below
@@ -232,6 +273,7 @@ class MpuCurve {
 struct MpuResult {
   MpuCurve curve;
   int cells = 0;  ///< quadtree cells fitted (internal + leaves)
+  int cells_outside_domain = 0;  ///< cells beyond MpuParams::domain_distance: no local function
   int leaves = 0;
   int max_depth_reached = 0;
   double max_local_error = 0.0;          ///< max leaf error (Taubin distance, px)
@@ -256,8 +298,11 @@ MpuResult fit_mpu(const OrientedPoints& points, const MpuParams& params = {});
 /// f at the points (x0 + i step, y0 + j step), i < width, j < height: pixel
 /// (i, j) of the result. Parallel over rows (TBB); equal to value() up to
 /// rounding (the same sums in another order).
-/// \throw ParamError if width or height < 0 or step <= 0.
+/// \param where if given (width x height): only pixels where it is non-zero
+///        are evaluated, the others are -MpuCurve::kEmpty.
+/// \throw ParamError if width or height < 0, step <= 0, or `where` has
+///        another size.
 Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0 = 0.0, double y0 = 0.0,
-                        double step = 1.0);
+                        double step = 1.0, const Grid2u8* where = nullptr);
 
 }  // namespace isoloft

@@ -246,11 +246,30 @@ bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& id
 
 double FitInput::weight(const Vec2d& p) const { return std::max(bspline2(1.5 * (p - centre).norm() / radius), 1e-12); }
 
+double FitInput::error(const LocalFn& fn, const std::vector<int>& ids, double bound) const {
+  double err = 0.0;
+  for (int i : ids) {
+    double v;
+    Vec2d g;
+    fn.eval(points[i], v, g);
+    const double gn = g.norm();
+    double e = gn > 1e-12 ? std::abs(v) / gn : (v == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+    if (weight_ref > 0.0 && e > 0.0) {
+      const double share = std::min(1.0, bspline2(1.5 * (points[i] - centre).norm() / radius) / weight_ref);
+      e = share > 0.0 ? e * share : 0.0;  // no inf x 0 on the circle itself
+    }
+    err = std::max(err, e);
+    if (err > bound) break;
+  }
+  return err;
+}
+
 namespace {
-double group_error(const FitInput& in, const Group& g, const std::vector<int>& ids) {
+double group_error(const FitInput& in, const Group& g, const std::vector<int>& ids,
+                   double bound = std::numeric_limits<double>::infinity()) {
   LocalFn fn;
   fn.group[0] = g;
-  return taubin_error(fn, in.points, ids);
+  return in.error(fn, ids, bound);
 }
 
 /// Weighted mean normal of ids; `agree` if it is well defined and every normal
@@ -277,7 +296,7 @@ CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& er
   if (agree) {
     Group h;
     h.piece[0].h = fit_height(in.points, ids, w, in.centre, n, in.radius);
-    const double e = group_error(in, h, ids);
+    const double e = group_error(in, h, ids, error);
     if (e <= error) {
       error = e;
       return h.piece[0];
@@ -351,7 +370,7 @@ bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& g
       Group g = group;
       g.op = op;
       g.lone = lone;
-      if (const double e = group_error(in, g, ids); e < best_err) {
+      if (const double e = group_error(in, g, ids, best_err); e < best_err) {
         best_err = e;
         best = g;
       }
@@ -366,7 +385,7 @@ Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, dou
   for (int k = 2; k <= 3 && error > tol; ++k) {
     Group c;
     if (!fit_corner(in, ids, k, c)) continue;
-    if (const double e = group_error(in, c, ids); e < error) {
+    if (const double e = group_error(in, c, ids, error); e < error) {
       error = e;
       best = c;
     }
@@ -397,7 +416,7 @@ LocalFn fit_components(const FitInput& in, const std::vector<std::vector<int>>& 
           trial.join[trial.joins] = {use_min, static_cast<std::int8_t>(open[i]), static_cast<std::int8_t>(open[j])};
           ++trial.joins;
           // Evaluate the new node alone: it is the last one.
-          if (const double e = taubin_error(trial, in.points, both); e < best) {
+          if (const double e = in.error(trial, both, best); e < best) {
             best = e;
             best_fn = trial;
             bi = i;

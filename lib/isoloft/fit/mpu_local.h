@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "isoloft/core/mesh.h"
@@ -105,9 +106,22 @@ struct AuxPoint {
   double d;
 };
 
-/// Aux points with |d| below this many pixels are not used as sign checks:
-/// nearer than that to digitised data the sign of d is noise.
+/// Aux points nearer than this many pixels to a data point are not used as
+/// sign checks: that near digitised data their side is noise.
 inline constexpr double kSignCheckMargin = 2.0;
+
+/// Ring of sign checks around the data (fit/mpu.h): lattice points whose
+/// nearest point lies this far, pixels. Near: twice tol (0.75 px), where a
+/// curve holding its bound has the data's side; also where the sign guard's
+/// pixels begin on the outside of a mask (2 px from a boundary pixel centre
+/// is 1.5 px from its edge point). Far: the band a stray curve piece beside
+/// the data would cross on its way out to the sign guard's pixels.
+inline constexpr double kRingNear = 1.5, kRingFar = 3.0;
+/// A sign check takes its side from its nearest point's tangent only if it
+/// lies within this angle of that point's normal, radians (60 degrees: the
+/// nearest point of a curve sees q along its normal; the angle allows for the
+/// point spacing, ~14 degrees at 2 px, and for noisy normals).
+inline constexpr double kSideAngle = M_PI / 3.0;
 
 /// A grown cell is not subdivided if its support radius exceeds this fraction
 /// of its parent's (an ungrown child has half its parent's radius): the
@@ -142,7 +156,8 @@ double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const s
 bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
                    int min_size, std::vector<std::vector<int>>& parts);
 
-/// What a local fit sees: the data and the support circle (centre, radius).
+/// What a local fit sees: the data and the support circle (centre, radius),
+/// and how its error is measured (fit/mpu.h, "What tol bounds").
 struct FitInput {
   const std::vector<Vec2d>& points;
   const std::vector<Vec2d>& normals;
@@ -150,9 +165,19 @@ struct FitInput {
   double radius;
   double corner_angle;  ///< radians, MpuParams::corner_angle
   double link = 0.0;    ///< points closer than this are connected (MpuParams::component_link x spacing)
+  /// > 0: a point's error counts by min(1, w(p) / weight_ref), its weight in
+  /// this leaf relative to the least weight the leaf has on its own cell
+  /// (MpuParams::weighted_error); 0: every support point counts fully (MPU).
+  double weight_ref = 0.0;
   /// MPU weight of a point: b(3 |p - centre| / (2 radius)), floored at 1e-12
   /// so that points on the circle itself still count a little.
   [[nodiscard]] double weight(const Vec2d& p) const;
+  /// The error of fn over the points ids: max over them of
+  /// Taubin distance x (weighted share, above). Stops once it
+  /// exceeds `bound` (returning a value > bound): callers that only keep a
+  /// candidate beating the best so far pass that best.
+  [[nodiscard]] double error(const LocalFn& fn, const std::vector<int>& ids,
+                             double bound = std::numeric_limits<double>::infinity()) const;
 };
 
 /// Clusters of a corner split need this many points: a quadratic needs 3,
