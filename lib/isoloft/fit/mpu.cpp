@@ -5,9 +5,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <array>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -286,9 +285,10 @@ class MpuBuilder {
     link_ = p_.component_link * med;
     comp_ = point_components(grid_, link_, ncomp_);
     ring_checks();
-    // Least weight of a leaf on its own cell: at a corner, t = 0.75 / alpha.
-    core_fraction_ = 0.5 / p_.alpha;
+    // A leaf's least weight on its own cell, at a corner (t = 0.75 / alpha),
+    // and the radius over R within which it has at least that weight.
     weight_ref_ = p_.weighted_error ? bspline2(0.75 / p_.alpha) : 0.0;
+    core_fraction_ = 0.5 / p_.alpha;
     comp_size_.assign(ncomp_, 0);
     for (int c : comp_) ++comp_size_[c];
   }
@@ -562,49 +562,50 @@ class MpuBuilder {
 
   /// Sign checks on the ring around the data: the integer lattice points q
   /// (pixel centres of the grid the points came from) whose nearest point lies
-  /// kRingNear .. kRingFar away, their side from that point's tangent
-  /// (nearest_side). A curve within tol of every point has
-  /// these sides unless it strays from the data, which is what they catch
-  /// (e.g. a spike's curve running on past its tip).
+  /// kRingNear .. kRingFar away, their side from that point's tangent (as
+  /// nearest_side). A curve within tol of every point has these sides unless
+  /// it strays from the data, which is what they catch (e.g. a spike's two
+  /// sides running on past its tip).
   void ring_checks() {
     const std::vector<Vec2d>& pts = grid_.points();
-    std::unordered_map<std::int64_t, std::pair<double, int>> near;  // lattice point -> (distance, nearest point)
+    // Lattice point (x, y) -> (distance, index) of its nearest point within kRingFar.
+    std::unordered_map<std::int64_t, std::pair<double, int>> near;
+    const auto key = [](std::int64_t x, std::int64_t y) { return x * (std::int64_t(1) << 32) + (y & 0xffffffff); };
     const int reach = static_cast<int>(std::ceil(detail::kRingFar));
-    auto key = [](std::int64_t x, std::int64_t y) { return (x << 32) ^ (y & 0xffffffff); };
     for (std::size_t i = 0; i < pts.size(); ++i) {
-      const auto cx = static_cast<std::int64_t>(std::floor(pts[i].x())), cy = static_cast<std::int64_t>(std::floor(pts[i].y()));
+      const auto cx = static_cast<std::int64_t>(std::floor(pts[i].x()));
+      const auto cy = static_cast<std::int64_t>(std::floor(pts[i].y()));
       for (std::int64_t y = cy - reach; y <= cy + reach + 1; ++y)
         for (std::int64_t x = cx - reach; x <= cx + reach + 1; ++x) {
           const double d = (Vec2d(double(x), double(y)) - pts[i]).norm();
           if (d > detail::kRingFar) continue;
-          auto [it, fresh] = near.try_emplace(key(x, y), d, static_cast<int>(i));
+          const auto [it, fresh] = near.try_emplace(key(x, y), d, static_cast<int>(i));
           if (!fresh && d < it->second.first) it->second = {d, static_cast<int>(i)};
         }
     }
-    std::vector<Vec2d> where;
+    struct Check {
+      Vec2d q;
+      bool inside;
+    };
+    std::vector<Check> checks;
     for (const auto& [k, e] : near) {
       if (e.first < detail::kRingNear) continue;
       const Vec2d q(double(k >> 32), double(static_cast<std::int32_t>(k & 0xffffffff)));
-      const Vec2d& p = pts[e.second];
-      const double d = (p - q).dot(normals_[e.second]);  // > 0: q is behind = inside
-      if (std::abs(d) < std::cos(detail::kSideAngle) * e.first) continue;
-      where.push_back(q);
-      ring_inside_.push_back(d > 0.0);
+      const double d = (pts[e.second] - q).dot(normals_[e.second]);  // > 0: q is behind = inside
+      if (std::abs(d) >= std::cos(detail::kSideAngle) * e.first) checks.push_back({q, d > 0.0});
     }
-    // Sorted so that the checks (and so the fit) do not depend on hash order.
-    std::vector<int> order(where.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](int a, int b) {
-      return where[a].y() < where[b].y() || (where[a].y() == where[b].y() && where[a].x() < where[b].x());
+    // In lattice order, so that the fit does not depend on the hash order.
+    std::sort(checks.begin(), checks.end(), [](const Check& a, const Check& b) {
+      return a.q.y() < b.q.y() || (a.q.y() == b.q.y() && a.q.x() < b.q.x());
     });
-    std::vector<Vec2d> sorted(where.size());
-    std::vector<char> inside(where.size());
-    for (std::size_t k = 0; k < order.size(); ++k) {
-      sorted[k] = where[order[k]];
-      inside[k] = ring_inside_[order[k]];
+    std::vector<Vec2d> where;
+    where.reserve(checks.size());
+    ring_inside_.reserve(checks.size());
+    for (const Check& c : checks) {
+      where.push_back(c.q);
+      ring_inside_.push_back(c.inside);
     }
-    ring_inside_ = std::move(inside);
-    ring_ = detail::PointGrid(std::move(sorted));
+    ring_ = detail::PointGrid(std::move(where));
   }
 
   /// MPU's auxiliary points (cell corners and centre, here also the edge
@@ -638,10 +639,10 @@ class MpuBuilder {
   int n_eff_ = 0;
   double link_ = 0.0;
   std::vector<int> comp_, comp_size_;
-  detail::PointGrid ring_;          ///< ring_checks: where
-  std::vector<char> ring_inside_;   ///< ring_checks: the side there (1 = inside)
-  double core_fraction_ = 0.0;      ///< a leaf has weight >= b(0.75 / alpha) within this x R: 1 / (2 alpha)
-  double weight_ref_ = 0.0;    ///< FitInput::weight_ref
+  detail::PointGrid ring_;         ///< ring_checks: where
+  std::vector<char> ring_inside_;  ///< ring_checks: the side there (1 = inside)
+  double weight_ref_ = 0.0;        ///< FitInput::weight_ref (0 without weighted_error)
+  double core_fraction_ = 0.0;     ///< a leaf weighs >= b(0.75 / alpha) within this x R: 1 / (2 alpha)
   int ncomp_ = 0;
 };
 

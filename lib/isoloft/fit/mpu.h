@@ -83,10 +83,12 @@
 //   subdividing a support-bound cell gives children with the same support.
 //   Children start their reduction at the N_min their parent ended with (its
 //   larger circle already failed every larger one): on the frog labels this
-//   cut the fit time 3.4x for 3 % fewer leaves. n_floor = 8 (a conic has 5
-//   degrees of freedom): the 2 px bumps and bar ends of label boundaries need
-//   arcs of ~8-12 points (measured on the frog: 20 left 2-9 % of the leaves of
-//   some labels over tol, 12 left 0.1 %, 8 none).
+//   cut the fit time 3.4x for 3 % fewer leaves. n_floor = 6 (a conic has 5
+//   degrees of freedom; one point to spare): the 2 px bumps, bar ends and
+//   strand tips of label boundaries need arcs that short (measured, leaves
+//   over tol / largest error: frog labels n_floor 20: 20 % / 69 px, 12: 2.1 %
+//   / 2.8 px, 8: 0.16 % / 1.35 px, 6: none; AAL Putamen_L from every 2nd
+//   slice 36 % / 3.4 px, 11 % / 2.3 px, 2.9 % / 6.9 px, 1.6 % / 1.0 px).
 // - Stall rule: for the same reason a support-bound cell whose support radius
 //   exceeds 0.8 of its parent's (detail::kSupportShrink) is not subdivided,
 //   unless its support touches more than kMaxComponents pieces; MPU would
@@ -153,7 +155,7 @@ namespace isoloft {
 
 struct MpuParams {
   int n_min = 150;
-  int n_floor = 8;
+  int n_floor = 6;
   double tol = 0.75;
   double alpha = 0.75;
   double lambda = 0.1;
