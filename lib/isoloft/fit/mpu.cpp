@@ -426,6 +426,7 @@ class MpuBuilder {
     // A child starts where its parent's support reduction ended: the parent's
     // larger circle failed with every larger N_min (file comment).
     int n = std::min(n_eff_, cell.n_start);
+    sign_checks(cell, s);  // the cell's, for every support below
     double radius = support_radius(cell.centre, r0, n, n < n_eff_, s, grown);
     MpuCurve::Leaf best = fit_support(cell, radius, grown, n, s);
     best.support_bound = grown;
@@ -479,8 +480,7 @@ class MpuBuilder {
 
     // Candidates are ranked by (passes the sign checks, error): a model that
     // contradicts the sign the nearest points give at a check point is kept
-    // only if every candidate does.
-    sign_checks(cell, s);
+    // only if every candidate does. s.aux: the cell's (fit_cell).
     ring_.in_ball(cell.centre, core_fraction_ * R, s.ring);
     leaf.error = std::numeric_limits<double>::infinity();
     bool leaf_checked = false;
