@@ -285,9 +285,10 @@ class MpuBuilder {
     link_ = p_.component_link * med;
     comp_ = point_components(grid_, link_, ncomp_);
     ring_checks();
-    // A leaf's least weight on its own cell, at a corner (t = 0.75 / alpha),
-    // and the radius over R within which it has at least that weight.
-    weight_ref_ = p_.weighted_error ? bspline2(0.75 / p_.alpha) : 0.0;
+    // Weighted error: full weight a little beyond the cell's corners (t =
+    // 0.75 / alpha there); ring checks: the radius over R within which a
+    // leaf weighs at least what it weighs on its own cell's corners.
+    weight_ref_ = p_.weighted_error ? bspline2(detail::kFullErrorReach * 0.75 / p_.alpha) : 0.0;
     core_fraction_ = 0.5 / p_.alpha;
     comp_size_.assign(ncomp_, 0);
     for (int c : comp_) ++comp_size_[c];
@@ -435,8 +436,12 @@ class MpuBuilder {
       n = std::max(floor, n / 2);
       radius = support_radius(cell.centre, r0, n, true, s, grown);
       if (!grown) {
-        // The cell's own circle holds n points: smaller cells, not smaller
-        // supports, are the way on; let it be subdivided.
+        // The cell's own circle holds n points: MPU's support for this N_min.
+        // If it misses tol too, smaller cells, not smaller supports, are the
+        // way on; let it be subdivided.
+        MpuCurve::Leaf leaf = fit_support(cell, radius, grown, n, s);
+        if ((leaf.sign_ok && !best.sign_ok) || (leaf.sign_ok == best.sign_ok && leaf.error < best.error))
+          best = std::move(leaf);
         best.support_bound = false;
         break;
       }

@@ -81,28 +81,32 @@
 //   cell's own circle holds n points, the cell is subdivided instead. Features
 //   smaller than N_min points (petals, bar ends) are otherwise never resolved:
 //   subdividing a support-bound cell gives children with the same support.
-//   Children start their reduction at the N_min their parent ended with (its
-//   larger circle already failed every larger one): on the frog labels this
-//   cut the fit time 3.4x for 3 % fewer leaves. n_floor = 6 (a conic has 5
+//   Once n is small enough for the cell's own circle, that circle (MPU's
+//   support for this N_min) is fitted too before the cell is subdivided
+//   (frog labels: 8,022 -> 5,845 leaves). Children start their reduction at
+//   the N_min their parent ended with (its larger circle already failed every
+//   larger one): on the frog labels this cut the fit time 3.4x for 3 % fewer
+//   leaves. n_floor = 6 (a conic has 5
 //   degrees of freedom; one point to spare): the 2 px bumps, bar ends and
 //   strand tips of label boundaries need arcs that short (measured, leaves
-//   over tol / largest error: frog labels n_floor 20: 20 % / 69 px, 12: 2.1 %
-//   / 2.8 px, 8: 0.16 % / 1.35 px, 6: none; AAL Putamen_L from every 2nd
-//   slice 36 % / 3.4 px, 11 % / 2.3 px, 2.9 % / 6.9 px, 1.6 % / 1.0 px).
+//   over tol / largest error: frog labels n_floor 20: 25 % / 108 px, 12:
+//   3.6 % / 3.3 px, 8: 0.29 % / 1.75 px, 6: 0.03 % / 1.50 px; AAL Putamen_L
+//   from every 2nd slice 45 % / 2.8 px, 13 % / 7.0 px, 2.9 % / 2.2 px,
+//   1.9 % / 1.1 px).
 // - Stall rule: for the same reason a support-bound cell whose support radius
 //   exceeds 0.8 of its parent's (detail::kSupportShrink) is not subdivided,
 //   unless its support touches more than kMaxComponents pieces; MPU would
 //   subdivide it down to max_depth without reducing the error.
 // - Weighted error (weighted_error): a support point's Taubin distance counts
-//   by min(1, w(p) / b(0.75 / alpha)), the leaf's weight there over the least
-//   weight it has on its own cell. Every point of the cell (and of its
-//   circumcircle) counts fully, as in MPU; beyond, in the rim of a support
-//   grown to N_min points, a point counts as much as the leaf weighs in the
-//   blend there. MPU's plain maximum let rim points the leaf hardly weighs
-//   (down to 1e-12) decide: on the frog labels 80 % of the leaves were over
-//   tol, mostly cells 20-150 px from any data whose supports only reach the
-//   data with their rim, and subdividing them only multiplied them (42,522
-//   leaves; up to 746 covering one point).
+//   by min(1, w(p) / b(1.1 x 0.75 / alpha)), the leaf's weight there over the
+//   weight it has a tenth beyond its own cell's corners
+//   (detail::kFullErrorReach). Every point of the cell counts fully, as in
+//   MPU; beyond, in the rim of a support grown to N_min points, a point
+//   counts as much as the leaf weighs in the blend there. MPU's plain maximum
+//   let rim points the leaf hardly weighs (down to 1e-12) decide: on the frog
+//   labels 80 % of the leaves were over tol, mostly cells 20-150 px from any
+//   data whose supports only reach the data with their rim, and subdividing
+//   them only multiplied them (42,522 leaves; up to 746 covering one point).
 // - Domain (domain_distance): with a narrow band to fill (paper 2.2: the MPU
 //   values are used only in a band around the data), cells farther than
 //   domain_distance from every point get no local function; f is then MPU's
@@ -197,8 +201,8 @@ inline const ParamTable<MpuParams>& params_table<MpuParams>() {
       field("component_link", &MpuParams::component_link, "spacings",
             "points closer than this many median point spacings form one connected piece", at_least(0)),
       field("weighted_error", &MpuParams::weighted_error, "",
-            "a support point's error counts by the leaf's weight there relative to the least weight the leaf has on its "
-            "own cell, at most fully (not in MPU; false = every support point fully)"),
+            "a support point's error counts fully within (a tenth beyond) the leaf's cell, beyond it by the leaf's "
+            "relative weight there (not in MPU; false = every support point fully)"),
   });
   return t;
 }
