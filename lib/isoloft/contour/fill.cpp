@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "isoloft/core/error.h"
 
@@ -271,43 +273,44 @@ Grid2u8 mask_boundary(const Grid2u8& mask) {
 namespace {
 /// Opening of the set {mask == fg} by a k x k square, pixels beyond the image
 /// counting as `beyond`; the result uses the same encoding as the input.
+/// Separable, by run lengths: O(1) per pixel for any k.
 Grid2u8 open_square(const Grid2u8& mask, int k, bool fg, bool beyond) {
   const int w = mask.width, h = mask.height, pad = k - 1;
-  const int W = w + 2 * pad, H = h + 2 * pad;  // padded frame: beyond the image counts too
-  std::vector<std::uint8_t> a(std::size_t(W) * H), t(a.size()), e(a.size());
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const int ix = x - pad, iy = y - pad;
-      const bool in = ix >= 0 && iy >= 0 && ix < w && iy < h;
-      a[std::size_t(y) * W + x] = in ? ((mask(ix, iy) != 0) == fg) : beyond;
+  const int W = w + 2 * pad, H = h + 2 * pad;  // padded frame: squares reaching beyond the image count too
+  const auto in = [&](int X, int Y) {
+    const int x = X - pad, y = Y - pad;
+    return (x < 0 || y < 0 || x >= w || y >= h) ? beyond : (mask(x, y) != 0) == fg;
+  };
+  const auto at = [W](int X, int Y) { return std::size_t(Y) * std::size_t(W) + std::size_t(X); };
+  std::vector<std::uint8_t> row(std::size_t(W) * H), sq(row.size());
+  std::vector<int> col(W);
+  // Erosion: sq(X, Y) = the square with top-left corner (X, Y) lies in the set
+  // (k set pixels from X to the right, then k such rows from Y down).
+  for (int Y = 0; Y < H; ++Y)
+    for (int X = W - 1, run = 0; X >= 0; --X) {
+      run = in(X, Y) ? run + 1 : 0;
+      row[at(X, Y)] = run >= k;
     }
-  // Erosion: e(x, y) = the square with top-left corner (x, y) lies in the set.
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      bool all = x + k <= W;
-      for (int i = 0; i < k && all; ++i) all = a[std::size_t(y) * W + x + i] != 0;
-      t[std::size_t(y) * W + x] = all;
+  std::fill(col.begin(), col.end(), 0);
+  for (int Y = H - 1; Y >= 0; --Y)
+    for (int X = 0; X < W; ++X) {
+      col[X] = row[at(X, Y)] ? col[X] + 1 : 0;
+      sq[at(X, Y)] = col[X] >= k;
     }
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      bool all = y + k <= H;
-      for (int j = 0; j < k && all; ++j) all = t[std::size_t(y + j) * W + x] != 0;
-      e[std::size_t(y) * W + x] = all;
+  // Dilation: a pixel is kept if such a square covers it (one starts at most
+  // k - 1 to its left, then at most k - 1 rows above).
+  for (int Y = 0; Y < H; ++Y)
+    for (int X = 0, last = -k; X < W; ++X) {
+      if (sq[at(X, Y)]) last = X;
+      row[at(X, Y)] = X - last < k;
     }
-  // Dilation: a pixel is kept if some such square covers it.
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      bool any = false;
-      for (int i = 0; i < k && !any; ++i) any = x - i >= 0 && e[std::size_t(y) * W + x - i] != 0;
-      t[std::size_t(y) * W + x] = any;
-    }
+  std::fill(col.begin(), col.end(), -k);
   Grid2u8 out(w, h);
-  for (int iy = 0; iy < h; ++iy)
-    for (int ix = 0; ix < w; ++ix) {
-      const int x = ix + pad, y = iy + pad;
-      bool any = false;
-      for (int j = 0; j < k && !any; ++j) any = y - j >= 0 && t[std::size_t(y - j) * W + x] != 0;
-      out(ix, iy) = any == fg ? 1 : 0;
+  for (int Y = 0; Y < H; ++Y)
+    for (int X = 0; X < W; ++X) {
+      if (row[at(X, Y)]) col[X] = Y;
+      const int x = X - pad, y = Y - pad;
+      if (x >= 0 && y >= 0 && x < w && y < h) out(x, y) = (Y - col[X] < k) == fg ? 1 : 0;
     }
   return out;
 }

@@ -533,10 +533,11 @@ class MpuBuilder {
       if (s.parts.size() >= 2) {
         consider(detail::fit_components(in, s.parts, p_.tol));
       } else {
+        const detail::NormalAngles angles = detail::normal_angles(normals_, s.idx);
         for (int k = 2; k <= 3 && !good(); ++k) {
           LocalFn corner;
           corner.kind = LocalFn::Kind::Corner;
-          if (detail::fit_corner(in, s.idx, k, corner.group[0])) consider(corner);
+          if (detail::fit_corner(in, s.idx, k, corner.group[0], &angles)) consider(corner);
         }
       }
     }

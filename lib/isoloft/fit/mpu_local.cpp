@@ -181,12 +181,12 @@ double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const s
   return err;
 }
 
-bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
-                   int min_size, std::vector<std::vector<int>>& parts) {
-  parts.clear();
+NormalAngles normal_angles(const std::vector<Vec2d>& normals, const std::vector<int>& idx) {
+  NormalAngles a;
   const int n = static_cast<int>(idx.size());
-  if (k < 2 || k > 3 || min_size < 1 || n < k * min_size) return false;
-  std::vector<std::pair<double, int>> ang(n);
+  if (n == 0) return a;
+  std::vector<std::pair<double, int>>& ang = a.order;
+  ang.resize(n);
   for (int i = 0; i < n; ++i) ang[i] = {std::atan2(normals[idx[i]].y(), normals[idx[i]].x()), idx[i]};
   std::sort(ang.begin(), ang.end());
   // Cut the circle open at its largest gap: start after it, unrolled increasing.
@@ -200,11 +200,27 @@ bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& id
   std::rotate(ang.begin(), ang.begin() + cut, ang.end());
   for (int i = 1; i < n; ++i)
     if (ang[i].first < ang[i - 1].first) ang[i].first += 2.0 * M_PI;
-  std::vector<double> pre(n + 1, 0.0), pre2(n + 1, 0.0);
+  a.pre.assign(n + 1, 0.0);
+  a.pre2.assign(n + 1, 0.0);
   for (int i = 0; i < n; ++i) {
-    pre[i + 1] = pre[i] + ang[i].first;
-    pre2[i + 1] = pre2[i] + ang[i].first * ang[i].first;
+    a.pre[i + 1] = a.pre[i] + ang[i].first;
+    a.pre2[i + 1] = a.pre2[i] + ang[i].first * ang[i].first;
   }
+  return a;
+}
+
+bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts) {
+  return split_normals(normals, normal_angles(normals, idx), k, min_angle, min_size, parts);
+}
+
+bool split_normals(const std::vector<Vec2d>& normals, const NormalAngles& angles, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts) {
+  parts.clear();
+  const std::vector<std::pair<double, int>>& ang = angles.order;
+  const int n = static_cast<int>(ang.size());
+  if (k < 2 || k > 3 || min_size < 1 || n < k * min_size) return false;
+  const std::vector<double>&pre = angles.pre, &pre2 = angles.pre2;
   auto sse = [&](int lo, int hi) {  // [lo, hi)
     const double s = pre[hi] - pre[lo], s2 = pre2[hi] - pre2[lo];
     return s2 - s * s / (hi - lo);
@@ -334,9 +350,11 @@ std::vector<std::vector<int>> connected_parts(const std::vector<Vec2d>& points, 
 }
 }  // namespace
 
-bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group) {
+bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group, const NormalAngles* angles) {
   std::vector<std::vector<int>> clusters, part;
-  if (!split_normals(in.normals, ids, k, in.corner_angle, kMinClusterSize, clusters)) return false;
+  const bool split = angles ? split_normals(in.normals, *angles, k, in.corner_angle, kMinClusterSize, clusters)
+                            : split_normals(in.normals, ids, k, in.corner_angle, kMinClusterSize, clusters);
+  if (!split) return false;
   for (const auto& c : clusters)
     for (auto& p : connected_parts(in.points, c, in.link)) {
       if (static_cast<int>(p.size()) < 3) return false;  // a stray point: no piece
@@ -382,9 +400,11 @@ bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& g
 Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, double& error) {
   Group best;
   best.piece[0] = fit_piece(in, ids, error);
+  NormalAngles angles;
   for (int k = 2; k <= 3 && error > tol; ++k) {
+    if (k == 2) angles = normal_angles(in.normals, ids);
     Group c;
-    if (!fit_corner(in, ids, k, c)) continue;
+    if (!fit_corner(in, ids, k, c, &angles)) continue;
     if (const double e = group_error(in, c, ids, error); e < error) {
       error = e;
       best = c;

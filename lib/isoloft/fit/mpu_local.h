@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "isoloft/core/mesh.h"
@@ -166,6 +167,17 @@ double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const s
 bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
                    int min_size, std::vector<std::vector<int>>& parts);
 
+/// The normals of points idx by angle, cut open at their largest gap (the
+/// first step of split_normals, shared by its k = 2 and k = 3 splits).
+struct NormalAngles {
+  std::vector<std::pair<double, int>> order;  ///< (unrolled angle, point index), increasing
+  std::vector<double> pre, pre2;              ///< prefix sums of the angles and of their squares
+};
+NormalAngles normal_angles(const std::vector<Vec2d>& normals, const std::vector<int>& idx);
+/// split_normals on angles prepared by normal_angles.
+bool split_normals(const std::vector<Vec2d>& normals, const NormalAngles& angles, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts);
+
 /// What a local fit sees: the data and the support circle (centre, radius),
 /// and how its error is measured (fit/mpu.h, "What tol bounds").
 struct FitInput {
@@ -208,7 +220,9 @@ CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& er
 /// all, else false. A piece (fit_piece) per part. Two pieces: min if convex
 /// (each part lies behind the other's mean normal), else max. Three: the
 /// min / max combination (Group::Op) with the least Taubin error over ids.
-bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group);
+/// `angles`: normal_angles(in.normals, ids) if the caller has them.
+bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group,
+                const NormalAngles* angles = nullptr);
 
 /// Best group for ids: fit_piece, or fit_corner (2, then 3 pieces) if that
 /// has a smaller error; stops at the first within `tol`.
