@@ -489,20 +489,33 @@ class MpuBuilder {
     ring_.in_ball(cell.centre, core_fraction_ * R, s.ring);
     leaf.error = std::numeric_limits<double>::infinity();
     bool leaf_checked = false;
-    auto consider = [&](const LocalFn& fn) {
-      bool ok = true;
-      for (const detail::AuxPoint& q : s.aux) ok = ok && (fn.value(q.q) > 0.0) == (q.d > 0.0);
+    const auto checks_pass = [&](const LocalFn& fn) {
+      for (const detail::AuxPoint& q : s.aux)
+        if ((fn.value(q.q) > 0.0) != (q.d > 0.0)) return false;
       // The ring checks where this leaf has full weight.
-      for (std::size_t k = 0; k < s.ring.size() && ok; ++k)
-        ok = (fn.value(ring_.points()[s.ring[k]]) > 0.0) == bool(ring_inside_[s.ring[k]]);
-      if (!ok && leaf_checked) return;  // cannot beat a candidate that passes them
-      // Only a smaller error than the best's can win (or any, passing checks the best fails).
-      const double e = in.error(fn, s.idx, ok && !leaf_checked ? std::numeric_limits<double>::infinity() : leaf.error);
-      if ((ok && !leaf_checked) || (ok == leaf_checked && e < leaf.error)) {
-        leaf.fn = fn;
-        leaf.error = e;
-        leaf_checked = ok;
+      for (int k : s.ring)
+        if ((fn.value(ring_.points()[k]) > 0.0) != bool(ring_inside_[k])) return false;
+      return true;
+    };
+    // Kept: the first candidate that passes the checks, then any that passes
+    // them with a smaller error; until one passes, the least error. Errors
+    // stop at the best so far, and a candidate that cannot win on error is
+    // not checked.
+    auto consider = [&](const LocalFn& fn) {
+      double e;
+      bool ok;
+      if (leaf_checked) {
+        e = in.error(fn, s.idx, leaf.error);
+        if (!(e < leaf.error) || !(ok = checks_pass(fn))) return;
+      } else if ((ok = checks_pass(fn))) {
+        e = in.error(fn, s.idx);
+      } else {
+        e = in.error(fn, s.idx, leaf.error);
+        if (!(e < leaf.error)) return;
       }
+      leaf.fn = fn;
+      leaf.error = e;
+      leaf_checked = ok;
     };
     auto good = [&] { return leaf_checked && leaf.error <= p_.tol; };
     auto height = [&] {
