@@ -40,12 +40,26 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
               "the MPU sign disagrees (not in the paper); 0 = the pure MPU sign",
               at_least(0))
             .cli("--sign-guard"),
+        field("mpu_band", &P::mpu_band, "px",
+              "marker2006: the MPU curve is fitted and evaluated only within this distance of a contour pixel, where "
+              "the narrow band needs it (paper 2.2); beyond it only the sign is needed and the contour fill gives it; 0 "
+              "= fit and evaluate the whole crop box",
+              Range{0.0, 1e4, false, false})
+            .cli("--mpu-band"),
+        field("mask_min_feature", &P::mask_min_feature, "px",
+              "marker2006, masks/labels: mask features (lines, spurs, islands; notches, holes, gaps) narrower than this "
+              "are removed before the contour points are taken, by an opening and a closing with a square of this side "
+              "(not in the paper); 1 = the mask as it is",
+              between(1, 16)),
         field("crop_margin", &P::crop_margin, "px",
               "each object is processed in the bounding box of its contours plus this margin (room for the filter's "
               "stencils)",
               at_least(1)),
     };
     std::vector<ParamTable<P>::Check> checks{[](const P& p, const std::string& at) {
+      if (p.mpu_band > 0 && p.mpu_band < kMinMpuBand)
+        throw ParamError(at + "mpu_band: must be 0 (the whole crop box) or at least " + std::to_string(kMinMpuBand) +
+                         " px, got " + std::to_string(p.mpu_band));
       if (!(-p.interp.cap_depth <= double(p.mc.iso)))
         throw ParamError(at + "mc.iso: must be above -interp.cap_depth (" + std::to_string(-p.interp.cap_depth) +
                          ", the value outside the end caps), got " + std::to_string(p.mc.iso));

@@ -49,6 +49,8 @@ struct ReconstructParams {
   double polyline_spacing = 0.5;
   int polyline_raster_width = 0;
   double sign_guard = 2.0;
+  double mpu_band = 4.0;
+  int mask_min_feature = 2;
   int crop_margin = 32;
   FillParams fill;              ///< contour/: even-odd fill, open contours
   NormalsParams normals;        ///< contour/: paper 2.1
@@ -61,7 +63,13 @@ struct ReconstructParams {
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
 
-/// Largest polyline_raster_width accepted, px.
+/// Least non-zero ReconstructParams::mpu_band, px: the fitted curve lies within
+/// about tol + pixel_slack (1.25 px at the defaults) of the contour points, which
+/// lie within 0.5 px of the contour pixels; the band must hold it and the pixel
+/// beyond, where marching squares sees the sign change.
+inline constexpr double kMinMpuBand = 2.0;
+
+/// Largest fine raster for polylines, pixels across (the paper's pelvis used 2000).
 inline constexpr int kMaxPolylineRaster = 20000;
 
 template <>

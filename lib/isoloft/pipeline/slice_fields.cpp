@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "isoloft/contour/fill.h"
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
@@ -104,21 +105,29 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   const bool fine = polylines && p.polyline_raster_width > 0;
   const double k = fine ? double(p.polyline_raster_width) / stack_width : 1.0;
   int fit_w = b.width(), fit_h = b.height();
+  // The contour pixels and inside over the crop; masks and labels without
+  // their features thinner than mask_min_feature (the points, the band and
+  // the sign guard all use this mask).
+  Grid2u8 contour = crop(m.contour, b), inside = crop(m.inside, b);
+  if ((kind == InputKind::Masks || kind == InputKind::Labels) && p.mask_min_feature > 1) {
+    inside = remove_thin_features(inside, p.mask_min_feature);
+    contour = mask_boundary(inside);
+  }
   if (fine) {
     std::vector<Polygon> polys = s.polygons;
     for (auto& poly : polys)
       for (auto& q : poly.points) q = Vec2d(k * (q.x() - b.x0 + 0.5) - 0.5, k * (q.y() - b.y0 + 0.5) - 0.5);
     fit_w = int(std::ceil(k * b.width())), fit_h = int(std::ceil(k * b.height()));
-    Grid2u8 contour, inside;
-    rasterize_polygons(polys, fit_w, fit_h, contour, inside);
-    r.points = contour_normals(contour, inside, p.normals);
+    Grid2u8 fine_contour, fine_inside;
+    rasterize_polygons(polys, fit_w, fit_h, fine_contour, fine_inside);
+    r.points = contour_normals(fine_contour, fine_inside, p.normals);
   } else if (polylines) {
     std::vector<Polygon> shifted = s.polygons;
     for (auto& poly : shifted)
       for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
     r.points = polygon_points(shifted, p.polyline_spacing);
   } else {
-    r.points = contour_normals(crop(m.contour, b), crop(m.inside, b), p.normals);
+    r.points = contour_normals(contour, inside, p.normals);
     if (kind != InputKind::Contours && p.mask_edge_offset != 0)
       for (std::size_t i = 0; i < r.points.size(); ++i) r.points.points[i] += p.mask_edge_offset * r.points.normals[i];
   }
@@ -133,18 +142,34 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   }
   MpuParams mp = p.mpu;
   mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(fit_w - 0.5, fit_h - 0.5));
+  // Signed distance to the contour pixels: far from them the fill's
+  // inside/outside is exact.
+  const bool band = p.mpu_band > 0;
+  Grid2f trust;
+  if (band || p.sign_guard > 0) trust = distance_to_contour_signed(contour, inside);
+  if (band) mp.domain_distance = k * (p.mpu_band + kBandPointMargin);
   r.fit = fit_mpu(r.points, mp);
   if (fine)  // report the points in working crop coordinates
     for (auto& q : r.points.points) q = (q + Vec2d(0.5, 0.5)) / k - Vec2d(0.5, 0.5);
-  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
+  // The narrow band needs f only near the curve (paper 2.2): with mpu_band,
+  // f is evaluated within mpu_band of a contour pixel and the pixels beyond
+  // take the fill's signed distance (only their sign is used).
+  Grid2u8 where;
+  if (band) {
+    where = Grid2u8(b.width(), b.height(), 0);
+    for (std::size_t i = 0; i < where.size(); ++i) where.data[i] = std::abs(trust.data[i]) <= p.mpu_band;
+  }
+  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k, band ? &where : nullptr);
   if (fine)
     for (float& v : f.data) v = float(v / k);
-  if (keep) r.mpu = f;  // the raw fit, before the sign guard
+  if (band)
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (!where.data[i]) f.data[i] = trust.data[i];
+  if (keep) r.mpu = f;  // the raw fit (the fill's distances beyond the band), before the sign guard
   if (p.sign_guard > 0) {
     // Far from every contour pixel the fill's inside/outside is exact; where
     // the fit disagrees there (a spurious zero crossing), the sample takes the
     // signed pixel distance instead, so no curve piece survives out there.
-    const Grid2f trust = distance_to_contour_signed(crop(m.contour, b), crop(m.inside, b));
     for (std::size_t i = 0; i < f.size(); ++i)
       if (std::abs(trust.data[i]) > p.sign_guard && (f.data[i] > 0) != (trust.data[i] > 0)) {
         f.data[i] = trust.data[i];
@@ -155,8 +180,8 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   t0 = Clock::now();
   const MpuCurve& curve = r.fit.curve;
   const auto f_working = [&curve, k](const Vec2d& q) { return curve.value(k * (q + Vec2d(0.5, 0.5)) - Vec2d(0.5, 0.5)) / k; };
-  const NarrowBandResult band = narrow_band_distance(f, f_working, p.band);
-  r.field = extend_distance(band, p.extend);
+  const NarrowBandResult nb = narrow_band_distance(f, f_working, p.band);
+  r.field = extend_distance(nb, p.extend);
   r.t_dist = seconds_since(t0);
   if (keep) r.distance = r.field;
   return r;

@@ -48,6 +48,15 @@ Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
 /// Fewer contour points than this cannot carry a conic fit (6 coefficients).
 inline constexpr std::size_t kMinMpuPoints = 6;
 
+/// Distance from a pixel within ReconstructParams::mpu_band of a contour pixel
+/// to the nearest contour point is at most mpu_band + this, px: a mask's
+/// points lie |mask_edge_offset| <= 2 px from their boundary pixels, polygon
+/// samples within 1 px of their rasterised pixels (and 1 px to spare). The
+/// MPU domain (MpuParams::domain_distance) is the band grown by it, so every
+/// evaluated pixel lies in a fitted cell.
+inline constexpr double kBandPointMargin = 3.0;
+
+/// One slice through the paper's stages 2.1-2.2.
 struct MarkerSlice {
   Grid2f field;            ///< signed distance (narrow band + extension), before the filter
   bool fallback = false;   ///< too few points for a curve: exact pixel distances instead
