@@ -117,6 +117,17 @@ void ParamFlags::apply(ReconstructParams& params) const {
   }
 }
 
+std::optional<Method> ParamFlags::method() const {
+  for (const auto& f : flags_)
+    if (f->key == "method" && f->option->count() > 0) {
+      ReconstructParams p;
+      const auto& row = *params_table<ReconstructParams>().find("method");
+      row.set(p, parse_value(row.type, f->text, row.flag), row.flag);
+      return p.method;
+    }
+  return std::nullopt;
+}
+
 int Commands::run() {
   if (reconstruct_->parsed()) return reconstruct();
   if (synth_->parsed()) return synth();

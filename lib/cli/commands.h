@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,8 @@ class ParamFlags {
   void add_to(CLI::App& app);
   /// \throw ParamError naming the flag if a value is out of range.
   void apply(isoloft::ReconstructParams& params) const;
+  /// The --method flag's value, if given. \throw ParamError for an unknown name.
+  std::optional<isoloft::Method> method() const;
 
  private:
   struct Flag {

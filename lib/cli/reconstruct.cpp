@@ -157,7 +157,9 @@ std::function<void(const SliceStageFields&)> stage_dumper(const std::string& dir
   };
 }
 
-nlohmann::json read_params_file(const std::string& path, ReconstructParams& params) {
+// The parameters of a --params file, on the defaults of `method` if given
+// (a flag), else of the file's own "method".
+ReconstructParams read_params_file(const std::string& path, std::optional<Method> method) {
   std::ifstream in(path);
   if (!in) throw InputError(path, "cannot open parameter file");
   nlohmann::json j;
@@ -167,11 +169,10 @@ nlohmann::json read_params_file(const std::string& path, ReconstructParams& para
     throw InputError(path, std::string("not valid JSON: ") + e.what());
   }
   try {
-    params = params_from_json(j, params);
+    return params_from_json(j, method);
   } catch (const ParamError& e) {
     throw InputError(path, e.what());
   }
-  return j;
 }
 
 }  // namespace
@@ -180,9 +181,11 @@ int Commands::reconstruct() {
   const auto t_start = Clock::now();
   const ReconstructArgs& o = r_;
 
-  // Parameters: defaults < --params file < flags.
-  ReconstructParams params;
-  if (!o.params_file.empty()) read_params_file(o.params_file, params);
+  // Parameters: the method's defaults < --params file < flags; the method
+  // from --method, else the file's, else the default.
+  const std::optional<Method> method_flag = param_flags_.method();
+  ReconstructParams params = o.params_file.empty() ? method_defaults(method_flag.value_or(ReconstructParams{}.method))
+                                                   : read_params_file(o.params_file, method_flag);
   param_flags_.apply(params);
   params_table<ReconstructParams>().validate(params);
   if (o.print_params) {
@@ -334,7 +337,7 @@ int Commands::reconstruct() {
     j["volume"] = ob.check.volume * s * s * s;
     j["area"] = ob.check.area * s * s;
     j["box_px"] = {ob.box.x0, ob.box.y0, ob.box.x1, ob.box.y1};
-    if (params.method == Method::Marker2006)
+    if (fits_curves(params.method))
       j["mpu"] = {{"points", ob.fit.points},
                   {"leaves", ob.fit.leaves},
                   {"leaves_over_tol", ob.fit.leaves_over_tol},

@@ -19,7 +19,9 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
   static const ParamTable<ReconstructParams> table = [] {
     using P = ReconstructParams;
     ParamTable<P>::Rows rows{
-        field("method", &P::method, "", "marker2006 (the paper) or levin (per-slice exact EDT baseline, no fit, no filter)")
+        field("method", &P::method, "",
+              "isoloft (marker2006 with measured departures, docs/decisions.md), marker2006 (the paper) or levin "
+              "(per-slice exact EDT baseline, no fit, no filter); picks the defaults of the other keys")
             .cli("--method"),
         field("binarize", &P::binarize, "",
               "threshold non-binary contour/mask images at half range instead of rejecting them")
@@ -82,6 +84,21 @@ nlohmann::json params_to_json(const ReconstructParams& p) { return params_table<
 
 ReconstructParams params_from_json(const nlohmann::json& j, const ReconstructParams& base) {
   return params_table<ReconstructParams>().from_json(j, base);
+}
+
+ReconstructParams method_defaults(Method m) {
+  ReconstructParams p;
+  p.method = m;
+  if (m != Method::Isoloft) p.interp.spline = InterpParams{}.spline;
+  return p;
+}
+
+ReconstructParams params_from_json(const nlohmann::json& j, std::optional<Method> method) {
+  if (!method && j.is_object() && j.contains("method"))
+    method = params_table<ReconstructParams>().from_json({{"method", j["method"]}}).method;
+  ReconstructParams p = params_from_json(j, method_defaults(method.value_or(ReconstructParams{}.method)));
+  if (method) p.method = *method;
+  return p;
 }
 
 namespace {

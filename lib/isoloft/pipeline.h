@@ -17,6 +17,8 @@
 #include <vector>
 
 #include "isoloft/contour/fill.h"
+#include <optional>
+
 #include "isoloft/contour/normals.h"
 #include "isoloft/core/params.h"
 #include "isoloft/field/filter.h"
@@ -33,17 +35,19 @@
 namespace isoloft {
 
 enum class Method {
-  Marker2006,  ///< the paper: MPU curve, distance extension, filter
+  Isoloft,     ///< the default: marker2006 with the departures method_defaults() names (each measured)
+  Marker2006,  ///< the paper: MPU curve, distance extension, filter, Hyman's monotone z spline
   Levin,       ///< baseline: exact EDT of the pixel contours (Levin 1986 style), no filter
 };
 
-inline constexpr std::array<EnumName<Method>, 2> kMethodNames{{{Method::Marker2006, "marker2006"}, {Method::Levin, "levin"}}};
+inline constexpr std::array<EnumName<Method>, 3> kMethodNames{
+    {{Method::Isoloft, "isoloft"}, {Method::Marker2006, "marker2006"}, {Method::Levin, "levin"}}};
 constexpr std::span<const EnumName<Method>> enum_names(Method) { return kMethodNames; }
 
 /// The pipeline's own parameters, then one struct per stage; docs in the rows
 /// of params_table<ReconstructParams>() (pipeline.cpp).
 struct ReconstructParams {
-  Method method = Method::Marker2006;
+  Method method = Method::Isoloft;
   bool binarize = false;
   double mask_edge_offset = 0.5;
   double polyline_spacing = 0.5;
@@ -58,7 +62,7 @@ struct ReconstructParams {
   NarrowBandParams band;        ///< field/: paper 2.2
   ExtendParams extend;          ///< field/: paper 2.2
   FilterParams filter;          ///< field/: paper 2.3
-  InterpParams interp;          ///< interp/: paper 2.4
+  InterpParams interp{.spline = SplineKind::ExtremumPreserving};  ///< interp/: paper 2.4 (spline: isoloft's)
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
@@ -133,6 +137,14 @@ struct ReconstructResult {
   std::vector<std::string> warnings;
 };
 
+/// True for the methods that fit MPU curves (isoloft, marker2006).
+constexpr bool fits_curves(Method m) { return m != Method::Levin; }
+
+/// A method's parameters: the stages' defaults (the paper's) with what the
+/// method changes. isoloft (== ReconstructParams{}): the extremum-preserving
+/// z spline; marker2006 and levin: Hyman's (docs/decisions.md: the isoloft method).
+ReconstructParams method_defaults(Method m);
+
 /// Reconstructs one object, or one per label with InputKind::Labels.
 /// \throw InputError for < 2 slices, z not increasing, an empty image size,
 ///        non-binary contour/mask values or a rejected open contour (naming the
@@ -146,6 +158,9 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
 /// Parameters as JSON and back; from_json applies the keys present to `base`.
 /// \throw ParamError naming a bad key, type or value.
 nlohmann::json params_to_json(const ReconstructParams&);
-ReconstructParams params_from_json(const nlohmann::json&, const ReconstructParams& base = {});
+ReconstructParams params_from_json(const nlohmann::json&, const ReconstructParams& base);
+/// The keys present applied to method_defaults() of j's "method" (or of
+/// `method` if given, e.g. from a flag; else the default method's).
+ReconstructParams params_from_json(const nlohmann::json& j, std::optional<Method> method = std::nullopt);
 
 }  // namespace isoloft

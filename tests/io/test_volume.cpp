@@ -86,8 +86,7 @@ double vertex_hausdorff(const TriMesh& a, const TriMesh& b) {
 TriMesh reconstruct_file(const std::string& path, Method method = Method::Marker2006) {
   const Volume v = read_volume(path);
   VolumeStack vs = volume_stack(v, {}, path);
-  ReconstructParams p;
-  p.method = method;
+  const ReconstructParams p = method_defaults(method);
   const ReconstructResult r = reconstruct(vs.stack, p, {{3}});
   EXPECT_EQ(r.objects.size(), 1u) << path;
   return r.objects.empty() ? TriMesh{} : in_patient(r.objects[0].mesh, *vs.stack.patient);

@@ -28,8 +28,7 @@ Case run(const std::string& shape, Method method, int size, double ratio) {
   sp.size = size;
   sp.z_spacing = ratio;
   Case c{synthesize(*make_default_shape(shape, size), sp), {}};
-  ReconstructParams p;
-  p.method = method;
+  const ReconstructParams p = method_defaults(method);
   c.result = reconstruct(c.synth.stack, p);
   return c;
 }

@@ -9,7 +9,8 @@
 // is bit for bit the one of visiting every cell (skip_cells = false, tested).
 // Sign convention: positive inside; a sample is inside iff value > iso.
 // @warning Layers more than one knot interval apart (slices denser than the
-// plane step) visit every cell; so do Catmull-Rom and natural splines.
+// plane step) visit every cell; splines that overshoot (all but monotone and
+// linear) skip less (sides() widens the knots by their overshoot bound).
 #pragma once
 
 #include <functional>
