@@ -1,7 +1,5 @@
 #include "cli/commands.h"
 
-#include <sys/resource.h>
-
 #include <fstream>
 
 #include "isoloft/core/error.h"
@@ -17,12 +15,6 @@ void write_text_atomic(const std::string& path, const std::string& text) {
     if (!out) throw InputError(path, "cannot write file");
   }
   f.commit();
-}
-
-double peak_memory_mib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
 Commands::Commands(CLI::App& app, int argc, char** argv) {

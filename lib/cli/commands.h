@@ -82,7 +82,5 @@ class Commands {
 
 /// Writes text to `path` atomically (temp file + rename).
 void write_text_atomic(const std::string& path, const std::string& text);
-/// Peak resident memory of this process in MiB.
-double peak_memory_mib();
 
 }  // namespace isoloft::cli
