@@ -13,9 +13,10 @@ if [[ "${1:-}" == "--full" ]]; then FULL=1; shift; fi
 CLI_PACKAGES=(build-essential cmake git pkg-config time
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev
   libnifti2-dev libteem-dev libdcmtk-dev)
-# Tests, oracles (CGAL, Ceres, OpenMesh), benchmarks, and the AAL atlas the tests read.
+# Tests, oracles (CGAL, Ceres, OpenMesh), benchmarks, the AAL atlas the tests read, and
+# the Python packages of the real-anatomy metrics test.
 DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev
-  mricron-data)
+  mricron-data python3-vtk9 python3-scipy python3-numpy)
 PACKAGES=("${CLI_PACKAGES[@]}")
 ((FULL)) && PACKAGES+=("${DEV_PACKAGES[@]}")
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.
