@@ -196,24 +196,24 @@ class Truth:
 
 
 def voxelize(poly, shape, dz, slices):
-    """Inside (bool) of a closed mesh at the voxel centres of the given slices."""
+    """Inside (bool) of a closed mesh at the voxel centres of the given slices
+    (one stencil over the slices' z range)."""
     nz, ny, nx = shape
-    res = {}
-    for k in slices:
-        st = vtk.vtkPolyDataToImageStencil()
-        st.SetInputData(poly)
-        st.SetOutputOrigin(0, 0, k * dz)
-        st.SetOutputSpacing(1, 1, dz)
-        st.SetOutputWholeExtent(0, nx - 1, 0, ny - 1, 0, 0)
-        st.SetTolerance(0)
-        s2i = vtk.vtkImageStencilToImage()
-        s2i.SetInputConnection(st.GetOutputPort())
-        s2i.SetInsideValue(1)
-        s2i.SetOutsideValue(0)
-        s2i.SetOutputScalarTypeToUnsignedChar()
-        s2i.Update()
-        res[k] = ns.vtk_to_numpy(s2i.GetOutput().GetPointData().GetScalars()).reshape(ny, nx).astype(bool)
-    return res
+    k0, k1 = min(slices), max(slices)
+    st = vtk.vtkPolyDataToImageStencil()
+    st.SetInputData(poly)
+    st.SetOutputOrigin(0, 0, 0)
+    st.SetOutputSpacing(1, 1, dz)
+    st.SetOutputWholeExtent(0, nx - 1, 0, ny - 1, k0, k1)
+    st.SetTolerance(0)
+    s2i = vtk.vtkImageStencilToImage()
+    s2i.SetInputConnection(st.GetOutputPort())
+    s2i.SetInsideValue(1)
+    s2i.SetOutsideValue(0)
+    s2i.SetOutputScalarTypeToUnsignedChar()
+    s2i.Update()
+    vol = ns.vtk_to_numpy(s2i.GetOutput().GetPointData().GetScalars()).reshape(k1 - k0 + 1, ny, nx).astype(bool)
+    return {k: vol[k - k0] for k in slices}
 
 
 def mesh_checks(poly):
