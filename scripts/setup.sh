@@ -17,9 +17,10 @@ CLI_PACKAGES=(build-essential cmake git pkg-config time
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev
   libnifti2-dev libteem-dev libdcmtk-dev
   python3-dev pybind11-dev python3-numpy)
-# Tests, oracles (CGAL, Ceres, OpenMesh), benchmarks, and the AAL atlas the tests read.
+# Tests, oracles (CGAL, Ceres, OpenMesh), benchmarks, the AAL atlas the tests
+# read, and the Python packages of the pytest suite and the real-anatomy metrics test.
 DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev
-  mricron-data python3-pytest python3-meshio)
+  mricron-data python3-pytest python3-meshio python3-vtk9 python3-scipy)
 PACKAGES=("${CLI_PACKAGES[@]}")
 ((FULL)) && PACKAGES+=("${DEV_PACKAGES[@]}")
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.
