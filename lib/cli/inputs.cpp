@@ -48,7 +48,7 @@ void reject(const CLI::Option* opt, bool given, const std::string& flag, const s
 
 Inputs read_images(const ReconstructArgs& a) {
   Inputs in;
-  SliceStack st = read_slice_images(list_slice_files(a.inputs));
+  SliceStack st = open_slice_images(list_slice_files(a.inputs));  // decoded slice by slice as the pipeline goes
   if (!a.input_kind.empty()) st.kind = enum_from_string<InputKind>(a.input_kind, "--input");
   if (a.slice_z_opt->count()) {
     if (a.z_spacing_opt->count()) throw ParamError("give either --z-spacing or --slice-z, not both");
