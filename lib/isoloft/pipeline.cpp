@@ -5,10 +5,15 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <deque>
+#include <exception>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/pipeline/slice_fields.h"
 
@@ -123,15 +128,31 @@ struct Run {
   void warn(std::string w) const { result.warnings.push_back(std::move(w)); }
 };
 
-// f(k) for every slice k in parallel, reporting progress as `stage`.
+// f(slice k) with k's image: the stack's own, or decoded now (lazy stacks).
 template <class F>
-void for_each_slice(const Run& run, const char* stage, F&& f) {
-  std::atomic<long> done{0};
+auto with_slice(const SliceStack& stack, std::size_t k, F&& f) {
+  if (!stack.load_image) return f(stack.slices[k]);
+  Slice s = stack.slices[k];
+  s.image = stack.load_image(k);
+  return f(std::as_const(s));
+}
+
+// f(k) for the slices [k0, k1) in parallel, reported as `stage` of `total`;
+// the first failing slice in order is rethrown, independent of thread timing.
+template <class F>
+void for_slices(const Run& run, std::size_t k0, std::size_t k1, const char* stage, std::atomic<long>& done, F&& f) {
+  std::vector<std::exception_ptr> errors(k1 - k0);
   const long n = long(run.slices());
-  tbb::parallel_for(std::size_t(0), run.slices(), [&](std::size_t k) {
-    f(k);
+  tbb::parallel_for(k0, k1, [&](std::size_t k) {
+    try {
+      f(k);
+    } catch (...) {
+      errors[k - k0] = std::current_exception();
+    }
     run.progress(stage, ++done, n);
   });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 void check_stack(const SliceStack& stack) {
@@ -154,10 +175,16 @@ std::vector<std::uint32_t> objects_to_reconstruct(const Run& run) {
     if (!asked.empty()) throw ParamError("labels: a label selection needs labels input (InputKind::Labels)");
     return {0};
   }
+  std::vector<std::set<std::uint32_t>> in_slice(run.slices());
+  std::atomic<long> done{0};
+  for_slices(run, 0, run.slices(), "labels", done, [&](std::size_t k) {
+    with_slice(run.stack, k, [&](const Slice& s) {
+      for (auto v : s.image.data)
+        if (v) in_slice[k].insert(v);
+    });
+  });
   std::set<std::uint32_t> seen;
-  for (const auto& s : run.stack.slices)
-    for (auto v : s.image.data)
-      if (v) seen.insert(v);
+  for (const auto& s : in_slice) seen.insert(s.begin(), s.end());
   std::vector<std::uint32_t> labels(seen.begin(), seen.end());
   if (!asked.empty()) {
     std::vector<std::uint32_t> keep;
@@ -171,37 +198,26 @@ std::vector<std::uint32_t> objects_to_reconstruct(const Run& run) {
   return labels;
 }
 
-// Stage (paper 2.1): contour pixels and inside of every slice.
-std::vector<SliceMasks> contour_stage(const Run& run, std::uint32_t label) {
-  std::vector<SliceMasks> masks(run.slices());
-  for_each_slice(run, "contour", [&](std::size_t k) {
-    masks[k] = detail::slice_masks(run.stack, run.stack.slices[k], run.params, label);
+// Stage (paper 2.1): contour and inside of every slice, kept packed until
+// its fields are computed; their union gives the crop box.
+std::vector<detail::PackedMasks> contour_stage(const Run& run, ObjectResult& obj) {
+  const std::size_t n = run.slices();
+  std::vector<detail::PackedMasks> masks(n);
+  std::vector<PixelBox> bounds(n);
+  std::vector<std::vector<std::string>> warnings(n);
+  std::atomic<long> done{0};
+  for_slices(run, 0, n, "contour", done, [&](std::size_t k) {
+    SliceMasks m =
+        with_slice(run.stack, k, [&](const Slice& s) { return detail::slice_masks(run.stack, s, run.params, obj.label); });
+    bounds[k] = detail::mask_bounds(m);
+    warnings[k] = std::move(m.warnings);
+    masks[k] = detail::pack_masks(m);
   });
-  for (auto& m : masks)
-    for (auto& w : m.warnings) run.warn(std::move(w));
+  for (auto& w : warnings)
+    for (auto& line : w) run.warn(std::move(line));
+  obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const auto& m) { return !m.empty; }));
+  obj.box = detail::object_box(bounds, run.stack.width, run.stack.height, run.params.crop_margin);
   return masks;
-}
-
-// Stage (Levin baseline): exact signed EDT per slice.
-std::vector<Grid2f> levin_stage(const Run& run, std::vector<SliceMasks>& masks, const PixelBox& box) {
-  std::vector<Grid2f> fields(run.slices());
-  for_each_slice(run, "distance", [&](std::size_t k) {
-    if (!masks[k].empty) fields[k] = detail::levin_field(masks[k], box, run.stack.kind);
-    masks[k] = SliceMasks{};  // release
-  });
-  return fields;
-}
-
-// Stages (paper 2.1-2.2): MPU curve and its distance field, per slice.
-std::vector<MarkerSlice> fit_stage(const Run& run, std::vector<SliceMasks>& masks, const PixelBox& box) {
-  std::vector<MarkerSlice> out(run.slices());
-  const bool keep = bool(run.options.on_slice_fields);
-  for_each_slice(run, "mpu+distance", [&](std::size_t k) {
-    if (!masks[k].empty)
-      out[k] = detail::marker_slice(masks[k], run.stack.slices[k], box, run.params, run.stack.kind, run.stack.width, keep);
-    masks[k] = SliceMasks{};  // release
-  });
-  return out;
 }
 
 void add_fit_stats(FitStats& s, const MarkerSlice& m) {
@@ -215,11 +231,10 @@ void add_fit_stats(FitStats& s, const MarkerSlice& m) {
   s.max_local_error = std::max(s.max_local_error, m.fit.max_local_error);
 }
 
-void warn_fit(const Run& run, const std::vector<MarkerSlice>& slices, const FitStats& fit, const std::string& what) {
-  for (std::size_t k = 0; k < slices.size(); ++k)
-    if (slices[k].fallback)
-      run.warn(run.stack.slices[k].source + ": " + what + " has fewer than " + std::to_string(detail::kMinMpuPoints) +
-               " contour points with a defined normal; this slice uses exact pixel distances instead of an MPU curve");
+void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const FitStats& fit, const std::string& what) {
+  for (const std::size_t k : fallbacks)
+    run.warn(run.stack.slices[k].source + ": " + what + " has fewer than " + std::to_string(detail::kMinMpuPoints) +
+             " contour points with a defined normal; this slice uses exact pixel distances instead of an MPU curve");
   if (fit.sign_guarded_pixels == 0) return;
   std::ostringstream guard;
   guard << run.params.sign_guard;
@@ -229,76 +244,264 @@ void warn_fit(const Run& run, const std::vector<MarkerSlice>& slices, const FitS
            " slice(s) (spurious zero crossings of the fit, e.g. on thin features); those pixels keep the fill's sign");
 }
 
-// Stage (paper 2.3): the distance-dependent Gaussian filter of every field.
-void filter_stage(const Run& run, std::vector<Grid2f>& fields) {
-  if (!run.params.filter.enabled) return;
-  for_each_slice(run, "filter", [&](std::size_t k) {
-    if (!fields[k].empty()) fields[k] = distance_filter(fields[k], run.params.filter);
-  });
-}
+// Stages (paper 2.1-2.3, or Levin) slice by slice from the packed masks: the
+// marker2006 MPU curve, distance and filter, or the Levin EDT. Computed
+// slice_window() slices at a time in parallel, handed out in slice order.
+class SliceFields {
+ public:
+  SliceFields(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks>& masks, ResidentCount& count)
+      : run_(run), obj_(obj), masks_(masks), count_(count), window_(detail::slice_window()) {}
 
-// marker2006 (paper 2.1-2.3): fit, distance, filter; the MPU and distance
-// wall times are split by each stage's share of the CPU time.
-std::vector<Grid2f> marker_stages(const Run& run, std::vector<SliceMasks>& masks, ObjectResult& obj) {
-  auto t0 = Clock::now();
-  std::vector<MarkerSlice> slices = fit_stage(run, masks, obj.box);
-  const double wall = seconds_since(t0);
-  double cpu_mpu = 0, cpu_dist = 0;
-  std::vector<Grid2f> fields(run.slices());
-  for (std::size_t k = 0; k < slices.size(); ++k) {
-    cpu_mpu += slices[k].t_mpu;
-    cpu_dist += slices[k].t_dist;
-    add_fit_stats(obj.fit, slices[k]);
-    fields[k] = std::move(slices[k].field);
-  }
-  warn_fit(run, slices, obj.fit, object_name(obj.label));
-  const double share = cpu_mpu + cpu_dist > 0 ? cpu_mpu / (cpu_mpu + cpu_dist) : 0.5;
-  run.result.times.mpu += wall * share;
-  run.result.times.dist += wall * (1 - share);
-
-  t0 = Clock::now();
-  filter_stage(run, fields);
-  run.result.times.filter += seconds_since(t0);
-  if (run.options.on_slice_fields)
-    for (std::size_t k = 0; k < fields.size(); ++k) {
-      if (fields[k].empty()) continue;
-      MarkerSlice& m = slices[k];
-      run.options.on_slice_fields(SliceStageFields{obj.label, int(k), obj.box, std::move(m.points), std::move(m.mpu),
-                                                   std::move(m.distance), fields[k]});
+  // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
+  // fit statistics and stage fields are recorded as it is handed out.
+  Grid2f take(std::size_t k) {
+    if (k != next_) throw Error("SliceFields::take: slices out of order");
+    if (ready_.empty()) compute(k);
+    Computed c = std::move(ready_.front());
+    ready_.pop_front();
+    ++next_;
+    if (!c.field.empty() && fits_curves(run_.params.method)) {
+      add_fit_stats(obj_.fit, c.fit);
+      if (c.fit.fallback) fallbacks_.push_back(k);
+      if (run_.options.on_slice_fields)
+        run_.options.on_slice_fields(SliceStageFields{obj_.label, int(k), obj_.box, std::move(c.fit.points),
+                                                      std::move(c.fit.mpu), std::move(c.fit.distance), c.field});
     }
-  return fields;
-}
+    return std::move(c.field);
+  }
 
-// Stages (paper 2.4-2.5): z splines with end caps, streamed into Marching Cubes.
-TriMesh mesh_stage(const Run& run, std::vector<Grid2f> fields, const ObjectResult& obj) {
-  const ReconstructParams& p = run.params;
-  auto t0 = Clock::now();
+  // Splits the wall time of the batches by each stage's share of the CPU time.
+  void add_times(StageTimes& t) const {
+    const double cpu = cpu_contour_ + cpu_mpu_ + cpu_dist_ + cpu_filter_;
+    if (!(cpu > 0)) return;
+    t.contour += wall_ * cpu_contour_ / cpu;
+    t.mpu += wall_ * cpu_mpu_ / cpu;
+    t.dist += wall_ * cpu_dist_ / cpu;
+    t.filter += wall_ * cpu_filter_ / cpu;
+  }
+  [[nodiscard]] const std::vector<std::size_t>& fallbacks() const { return fallbacks_; }
+
+ private:
+  struct Computed {
+    Grid2f field;     // filtered (marker2006) or the Levin field
+    MarkerSlice fit;  // marker2006: statistics, stage fields if asked; its field moved to `field`
+    double t_contour = 0, t_filter = 0;  // CPU seconds
+  };
+
+  Computed one(std::size_t k) const {
+    Computed c;
+    if (masks_[k].empty) return c;
+    const Run& run = run_;
+    auto t0 = Clock::now();
+    SliceMasks m = detail::unpack_masks(masks_[k]);
+    masks_[k] = {};
+    c.t_contour = seconds_since(t0);
+    t0 = Clock::now();
+    if (run.params.method == Method::Levin) {
+      c.field = detail::levin_field(m, obj_.box, run.stack.kind);
+      c.fit.t_dist = seconds_since(t0);
+      return c;
+    }
+    c.fit = detail::marker_slice(m, run.stack.slices[k], obj_.box, run.params, run.stack.kind, run.stack.width,
+                                 bool(run.options.on_slice_fields));
+    c.field = std::move(c.fit.field);
+    m = SliceMasks{};  // release before the filter
+    if (run.params.filter.enabled) {
+      t0 = Clock::now();
+      c.field = distance_filter(c.field, run.params.filter);
+      c.t_filter = seconds_since(t0);
+    }
+    return c;
+  }
+
+  void compute(std::size_t k0) {
+    const auto t0 = Clock::now();
+    const std::size_t k1 = std::min(run_.slices(), k0 + window_);
+    ready_.resize(k1 - k0);
+    count_.add(long(k1 - k0));  // in flight, then held until the knot feed drops them
+    const char* stage = run_.params.method == Method::Levin ? "distance" : "mpu+distance";
+    for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { ready_[k - k0] = one(k); });
+    for (const Computed& c : ready_) {
+      cpu_contour_ += c.t_contour, cpu_mpu_ += c.fit.t_mpu, cpu_dist_ += c.fit.t_dist, cpu_filter_ += c.t_filter;
+    }
+    wall_ += seconds_since(t0);
+  }
+
+  const Run& run_;
+  ObjectResult& obj_;
+  std::vector<detail::PackedMasks>& masks_;  // slice k's dropped once computed
+  ResidentCount& count_;
+  std::size_t window_;
+  std::deque<Computed> ready_;
+  std::size_t next_ = 0;
+  std::atomic<long> done_{0};
+  std::vector<std::size_t> fallbacks_;
+  double wall_ = 0, cpu_contour_ = 0, cpu_mpu_ = 0, cpu_dist_ = 0, cpu_filter_ = 0;
+};
+
+// The knots of the z splines in z order (paper 2.4): the end cap below, every
+// slice's field (empty slices closed as detail::fill_empty_slices does), the
+// end cap above. Holds a slice's field while a neighbour may still need it.
+class KnotFeed {
+ public:
+  KnotFeed(SliceFields& slices, const std::vector<char>& empty, const PixelBox& box, const InterpParams& interp,
+           ResidentCount& count)
+      : slices_(slices), empty_(empty), box_(box), interp_(interp), count_(count) {
+    const auto last = std::find(empty.rbegin(), empty.rend(), char(0));
+    last_nonempty_ = std::size_t(empty.rend() - last) - 1;
+  }
+  ~KnotFeed() { count_.remove(long(raw_.size()) + long(!pending_.empty())); }
+  KnotFeed(const KnotFeed&) = delete;
+  KnotFeed& operator=(const KnotFeed&) = delete;
+
+  Grid2f next() {
+    const std::size_t n = empty_.size(), i = knot_++;
+    if (i == 1 || i == n + 1) {  // slice 0's field after its cap below; the cap above after slice n - 1
+      count_.remove(1);
+      return std::move(pending_);
+    }
+    Grid2f f = slice_field(i == 0 ? 0 : i - 1);
+    if (i == 0) {
+      Grid2f cap = cap_slice(f, interp_);
+      pending_ = std::move(f);
+      count_.add(1);
+      return cap;
+    }
+    if (i == n) {
+      pending_ = cap_slice(f, interp_);
+      count_.add(1);
+    }
+    return f;
+  }
+
+ private:
+  // Slice k's raw field, pulling slices up to k.
+  Grid2f& raw(std::size_t k) {
+    while (raw_first_ + raw_.size() <= k) {
+      raw_.push_back(slices_.take(raw_first_ + raw_.size()));
+      lowest_ = detail::most_negative(lowest_, raw_.back());
+    }
+    return raw_[k - raw_first_];
+  }
+
+  // Slice k's knot field, once for each k in order.
+  Grid2f slice_field(std::size_t k) {
+    const std::size_t n = empty_.size();
+    Grid2f out;
+    if (!empty_[k]) {
+      Grid2f& f = raw(k);
+      const bool neighbour_needs = k + 1 < n && empty_[k + 1];
+      out = neighbour_needs ? f : std::move(f);
+    } else {
+      const Grid2f* above = k + 1 < n ? &raw(k + 1) : nullptr;  // deque references survive push_back
+      const Grid2f* below = k > 0 ? &raw(k - 1) : nullptr;
+      const bool isolated = (!above || above->empty()) && (!below || below->empty());
+      // The most negative value of all fields: pull (and hold) the slices up
+      // to the last non-empty one first.
+      if (isolated && last_nonempty_ > k) raw(last_nonempty_);
+      out = detail::empty_slice_field(below, above, lowest_, box_, interp_);
+    }
+    // Slices below k are no longer anyone's neighbour.
+    for (; raw_first_ < k; ++raw_first_) {
+      raw_.pop_front();
+      count_.remove(1);
+    }
+    return out;
+  }
+
+  SliceFields& slices_;
+  const std::vector<char>& empty_;
+  PixelBox box_;
+  const InterpParams& interp_;
+  ResidentCount& count_;
+  std::size_t last_nonempty_ = 0;
+  std::deque<Grid2f> raw_;  // slices [raw_first_, raw_first_ + size)
+  std::size_t raw_first_ = 0;
+  float lowest_ = -1.0f;  // detail::most_negative of the slices pulled
+  std::size_t knot_ = 0;
+  Grid2f pending_;
+};
+
+// ReconstructOptions::on_sample served as the planes pass its heights.
+class Sampling final : public PlaneSource {
+ public:
+  Sampling(PlaneSource& field, const Run& run, const ObjectResult& obj, const std::vector<double>& knot_z)
+      : field_(field), run_(run), obj_(obj) {
+    for (const double zs : run.options.sample_z)
+      if (zs >= knot_z.front() && zs <= knot_z.back()) z_.push_back(zs);
+    std::stable_sort(z_.begin(), z_.end());
+  }
+  [[nodiscard]] int width() const override { return field_.width(); }
+  [[nodiscard]] int height() const override { return field_.height(); }
+  [[nodiscard]] std::size_t interval(double z) const override { return field_.interval(z); }
+  void reach(std::size_t k) override {
+    for (; next_ < z_.size() && field_.interval(z_[next_]) <= k; ++next_) {
+      field_.reach(field_.interval(z_[next_]));
+      const auto t0 = Clock::now();
+      field_.evaluate(z_[next_], sampled_);
+      seconds_ += seconds_since(t0);
+      run_.options.on_sample(obj_.label, sampled_, obj_.box, z_[next_]);
+    }
+    field_.reach(k);
+  }
+  void evaluate(double z, Grid2f& out) const override { field_.evaluate(z, out); }
+  void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override {
+    field_.sides(k, iso, margin, out);
+  }
+  [[nodiscard]] double seconds() const { return seconds_; }
+
+ private:
+  PlaneSource& field_;
+  const Run& run_;
+  const ObjectResult& obj_;
+  std::vector<double> z_;
+  std::size_t next_ = 0;
+  Grid2f sampled_;
+  double seconds_ = 0;
+};
+
+// The knot heights: the slices' z and the end caps' (add_end_caps; a cap of
+// an empty field is empty).
+std::vector<double> knot_z(const Run& run) {
   std::vector<double> z(run.slices());
   for (std::size_t k = 0; k < z.size(); ++k) z[k] = run.stack.slices[k].z;
-  add_end_caps(fields, z, p.interp);
-  const ZInterpolator field(std::move(fields), z, p.interp.spline);
-  const std::vector<double> planes = sample_planes(z.front(), z.back(), p.interp.z_step);
-  if (run.options.on_sample) {
-    Grid2f sampled;
-    for (const double zs : run.options.sample_z) {
-      if (zs < z.front() || zs > z.back()) continue;
-      field.evaluate(zs, sampled);
-      run.options.on_sample(obj.label, sampled, obj.box, zs);
-    }
-  }
-  run.result.times.interp += seconds_since(t0);
+  std::vector<Grid2f> none(z.size());
+  add_end_caps(none, z, run.params.interp);
+  return z;
+}
+
+// Stages (paper 2.1-2.5 but decimation) streamed: the slice fields computed
+// a window at a time, the z splines through a window of knots, each plane
+// meshed and dropped; only the packed masks are kept for every slice.
+void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj) {
+  const ReconstructParams& p = run.params;
+  std::vector<char> empty(masks.size());
+  for (std::size_t k = 0; k < masks.size(); ++k) empty[k] = masks[k].empty;
+  ResidentCount count;
+  SliceFields slices(run, obj, masks, count);
+  KnotFeed feed(slices, empty, obj.box, p.interp, count);
+  const std::vector<double> z = knot_z(run);
+  ZStream stream(z, p.interp.spline, obj.box.width(), obj.box.height(), [&] { return feed.next(); }, &count);
+  std::optional<Sampling> sampling;
+  if (run.options.on_sample) sampling.emplace(stream, run, obj, z);
+  PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : stream;
 
   StreamMeshOptions o;
   o.outside = -float(p.interp.cap_depth);
   if (run.options.on_plane)
-    o.on_plane = [&](const Grid2f& plane, double x0, double y0, double zz, int index, int count) {
-      run.options.on_plane(obj.label, plane, x0, y0, zz, index, count);
+    o.on_plane = [&](const Grid2f& plane, double x0, double y0, double zz, int index, int planes) {
+      run.options.on_plane(obj.label, plane, x0, y0, zz, index, planes);
     };
   o.progress = [&](long done, long total) { run.progress("interpolate+mesh", done, total); };
-  StreamMeshResult r = mesh_interpolated_field(field, planes, obj.box.x0, obj.box.y0, p.mc, o);
-  run.result.times.interp += r.interp_seconds;
+  StreamMeshResult r = mesh_interpolated_field(field, sample_planes(z.front(), z.back(), p.interp.z_step), obj.box.x0,
+                                               obj.box.y0, p.mc, o);
+  if (sampling) sampling->reach(z.size() - 2);  // any sample the planes did not pass
+  obj.mesh = std::move(r.mesh);
+  obj.peak_resident_fields = count.peak;
+  slices.add_times(run.result.times);
+  run.result.times.interp += r.interp_seconds + stream.tangent_seconds() + (sampling ? sampling->seconds() : 0.0);
   run.result.times.mesh += r.mesh_seconds;
-  return std::move(r.mesh);
+  if (fits_curves(p.method)) warn_fit(run, slices.fallbacks(), obj.fit, object_name(obj.label));
 }
 
 // Stage (paper 2.5): bounded quadric error decimation.
@@ -331,27 +534,14 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   for (const std::uint32_t label : objects_to_reconstruct(run)) {
     ObjectResult obj;
     obj.label = label;
-    auto t0 = Clock::now();
-    std::vector<SliceMasks> masks = contour_stage(run, label);
-    obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const SliceMasks& m) { return !m.empty; }));
-    obj.box = detail::object_box(masks, stack.width, stack.height, params.crop_margin);
+    const auto t0 = Clock::now();
+    std::vector<detail::PackedMasks> masks = contour_stage(run, obj);
     result.times.contour += seconds_since(t0);
     if (obj.slices_with_contours == 0) {
       run.warn(object_name(label) + ": no slice has an inside; nothing to reconstruct");
       continue;
     }
-    std::vector<Grid2f> fields;
-    if (params.method == Method::Levin) {
-      t0 = Clock::now();
-      fields = levin_stage(run, masks, obj.box);
-      result.times.dist += seconds_since(t0);
-    } else {
-      fields = marker_stages(run, masks, obj);
-    }
-    t0 = Clock::now();
-    detail::fill_empty_slices(fields, obj.box, params.interp);
-    result.times.dist += seconds_since(t0);
-    obj.mesh = mesh_stage(run, std::move(fields), obj);
+    stream_stages(run, std::move(masks), obj);
     decimate_stage(run, obj);
     check_stage(run, obj);
     result.objects.push_back(std::move(obj));

@@ -1,12 +1,17 @@
 // @file pipeline.h
 // @brief reconstruct(): one closed surface per object of a slice stack.
-// Marker, Braude, Museth & Breen 2006, or the Levin 1986-style baseline. Each
-// stage runs over all slices in parallel before the next (times as the paper's
-// Table 3): contour and inside (2.1), [marker2006] normals and MPU (2.1),
-// signed distance (2.2), [marker2006] filter (2.3), z splines (2.4), Marching
-// Cubes and decimation (2.5); per-slice ones in pipeline/slice_fields.h. Each
-// object runs in its crop box; pixel (i, j) of slice k is at (i, j, z_k).
-// Sign convention: positive inside.
+// Marker, Braude, Museth & Breen 2006, or the Levin 1986-style baseline:
+// contour and inside (paper 2.1), [marker2006] normals and MPU (2.1), signed
+// distance (2.2), [marker2006] filter (2.3), z splines (2.4), Marching Cubes
+// and decimation (2.5); per-slice ones in pipeline/slice_fields.h. A first
+// pass makes every slice's masks (kept packed, O(contour length) bytes) and
+// the crop box; then the slices are streamed: a window of them computed in
+// parallel, the z splines through a window of knots (interp/z_stream.h), each
+// plane meshed and dropped, so the fields held do not grow with the slice
+// count (lazy images: SliceStack::load_image). Stage times split the streamed
+// wall time by CPU shares. Each object runs in its
+// crop box; pixel (i, j) of slice k is at (i, j, z_k). Sign convention:
+// positive inside.
 #pragma once
 
 #include <cstdint>
@@ -102,6 +107,10 @@ struct ObjectResult {
   int slices_with_contours = 0;
   FitStats fit;                ///< marker2006: summed over slices
   PixelBox box;                ///< cropped working region
+  /// Most per-slice fields held at once: slices in flight, fields kept for an
+  /// empty neighbour, spline knots and tangents (bounded by the window unless
+  /// the natural spline or an empty slice needs more; docs/decisions.md).
+  long peak_resident_fields = 0;
 };
 
 /// One slice's intermediate fields (marker2006), for --dump-stages.

@@ -31,7 +31,7 @@ void reject(const InputRequest& r, bool given, const std::string& flag, const st
 
 Inputs read_images(const InputRequest& r) {
   Inputs in;
-  SliceStack st = read_slice_images(list_slice_files(r.paths));
+  SliceStack st = open_slice_images(list_slice_files(r.paths));  // decoded slice by slice as the pipeline goes
   if (!r.kind.empty()) st.kind = enum_from_string<InputKind>(r.kind, r.name("--input"));
   if (r.slice_z) {
     if (r.z_spacing)

@@ -91,8 +91,10 @@ py::object stack_images(const SliceStack& st) {
     using T = decltype(tag);
     py::array_t<T> a({n, h, w});
     T* p = a.mutable_data();
-    for (const Slice& s : st.slices)
-      for (std::uint32_t v : s.image.data) *p++ = T(v);
+    for (std::size_t k = 0; k < st.slices.size(); ++k) {
+      const Grid2u32 lazy = st.load_image ? st.load_image(k) : Grid2u32{};  // PNG stacks decode slice by slice
+      for (std::uint32_t v : (st.load_image ? lazy : st.slices[k].image).data) *p++ = T(v);
+    }
     return py::object(a);
   };
   if (st.max_value <= 0xFFu) return fill(std::uint8_t{});

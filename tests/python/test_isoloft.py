@@ -289,7 +289,9 @@ def test_progress_is_called_per_stage_up_to_its_total():
     for stage, done, total in calls:
         assert isinstance(stage, str) and 0 <= done <= total
         stages[stage] = max(stages.get(stage, (0, 0)), (done, total))
-    assert len(stages) >= 4, stages  # contour, fit, distance, ..., mesh
+    # The streamed pipeline's stages: contour masks, the per-slice fit, distance
+    # and filter (one batch), then interpolation and meshing plane by plane.
+    assert set(stages) == {"contour", "mpu+distance", "interpolate+mesh"}, stages
     assert all(done == total for done, total in stages.values()), stages
 
 

@@ -22,6 +22,7 @@ struct PngCtx {
   png_structp png = nullptr;
   png_infop info = nullptr;
   bool writing = false;
+  bool header_only = false;  // stop after the header checks (read_png_info)
   char message[256] = {0};
   std::vector<png_byte> pixels;
   std::vector<png_bytep> rows;
@@ -82,6 +83,7 @@ bool decode(PngCtx& c) {
                   unsigned(c.height), static_cast<unsigned long long>(c.file_size));
     return false;
   }
+  if (c.header_only) return true;
   c.pixels.resize(rowbytes * c.height);
   c.rows.resize(c.height);
   for (png_uint_32 y = 0; y < c.height; ++y) c.rows[y] = c.pixels.data() + rowbytes * y;
@@ -122,10 +124,8 @@ void write_rows(const std::string& path, PngCtx& c, int color_type, std::size_t 
   out.commit();
 }
 
-}  // namespace
-
-RawImage read_png(const std::string& path) {
-  PngCtx c;
+// Opens and decodes `path` into c (its header only if c.header_only).
+void read_into(const std::string& path, PngCtx& c) {
   c.fp = std::fopen(path.c_str(), "rb");
   if (!c.fp) throw InputError(path, std::string("cannot open file (") + std::strerror(errno) + ")");
   if (std::fseek(c.fp, 0, SEEK_END) == 0) c.file_size = std::ftell(c.fp);
@@ -137,10 +137,27 @@ RawImage read_png(const std::string& path) {
   c.info = png_create_info_struct(c.png);
   if (!c.info) throw InputError(path, "libpng initialisation failed");
   if (!decode(c)) throw InputError(path, std::string("corrupt PNG (") + c.message + ")");
+}
 
+std::uint32_t max_value_of(const PngCtx& c) {
+  const bool color = (c.color_type & PNG_COLOR_MASK_COLOR) != 0;
+  return color ? 0xFFFFFFu : (c.out_depth == 16 ? 65535u : 255u);
+}
+
+}  // namespace
+
+PngInfo read_png_info(const std::string& path) {
+  PngCtx c;
+  c.header_only = true;
+  read_into(path, c);
+  return {int(c.width), int(c.height), max_value_of(c)};
+}
+
+RawImage read_png(const std::string& path) {
+  PngCtx c;
+  read_into(path, c);
   RawImage img;
   img.bit_depth = c.bit_depth;
-  const bool color = (c.color_type & PNG_COLOR_MASK_COLOR) != 0;
   switch (c.color_type) {
     case PNG_COLOR_TYPE_GRAY:
       img.channels = 1;
@@ -160,7 +177,7 @@ RawImage read_png(const std::string& path) {
     default:
       img.channels = c.out_channels;
   }
-  img.max_value = color ? 0xFFFFFFu : (c.out_depth == 16 ? 65535u : 255u);
+  img.max_value = max_value_of(c);
   const int w = int(c.width), h = int(c.height);
   img.values = Grid2u32(w, h);
   const int ch = c.out_channels;

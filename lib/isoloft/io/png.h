@@ -24,6 +24,16 @@ struct RawImage {
 /// \throw InputError(path, ...) if the file is missing, not a PNG or corrupt.
 RawImage read_png(const std::string& path);
 
+/// What read_png() would give, from the header alone (the pixels unread).
+struct PngInfo {
+  int width = 0, height = 0;
+  std::uint32_t max_value = 255;  ///< as RawImage::max_value
+  [[nodiscard]] bool color() const { return max_value == 0xFFFFFFu; }
+};
+
+/// \throw InputError(path, ...) if the file is missing, not a PNG or its header corrupt.
+PngInfo read_png_info(const std::string& path);
+
 /// Writers (8-bit gray, 16-bit gray, 8-bit RGB from 0xRRGGBB), atomic.
 /// \throw Error naming the path if the image is empty or writing fails.
 void write_png(const std::string& path, const Grid2<std::uint8_t>& image);

@@ -1,5 +1,7 @@
 #include "isoloft/pipeline/slice_fields.h"
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -40,6 +42,8 @@ Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {
 
 }  // namespace
 
+std::size_t slice_window() { return kSlicesPerThread * std::size_t(std::max(1, tbb::this_task_arena::max_concurrency())); }
+
 SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& p, std::uint32_t label) {
   SliceMasks m;
   if (stack.has_polygons()) {
@@ -75,13 +79,57 @@ SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const Reconstruc
   return m;
 }
 
-PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin) {
+namespace {
+std::vector<std::uint32_t> runs_of(const Grid2u8& g) {
+  std::vector<std::uint32_t> runs;
+  const std::size_t n = g.size();
+  for (std::size_t i = 0; i < n;) {
+    if (!g.data[i]) {
+      ++i;
+      continue;
+    }
+    const std::size_t begin = i;
+    while (i < n && g.data[i]) ++i;
+    runs.push_back(std::uint32_t(begin));
+    runs.push_back(std::uint32_t(i));
+  }
+  return runs;
+}
+Grid2u8 from_runs(const std::vector<std::uint32_t>& runs, int width, int height) {
+  Grid2u8 g(width, height, 0);
+  for (std::size_t r = 0; r + 1 < runs.size(); r += 2) std::fill(g.data.begin() + runs[r], g.data.begin() + runs[r + 1], 1);
+  return g;
+}
+}  // namespace
+
+PackedMasks pack_masks(const SliceMasks& m) {
+  return {m.inside.width, m.inside.height, m.empty, runs_of(m.inside), runs_of(m.contour)};
+}
+
+SliceMasks unpack_masks(const PackedMasks& p) {
+  SliceMasks m;
+  m.inside = from_runs(p.inside, p.width, p.height);
+  m.contour = from_runs(p.contour, p.width, p.height);
+  m.empty = p.empty;
+  return m;
+}
+
+PixelBox mask_bounds(const SliceMasks& m) {
+  if (m.empty) return {};
+  const int width = m.inside.width, height = m.inside.height;
   int x0 = width, y0 = height, x1 = -1, y1 = -1;
-  for (const auto& m : masks) {
-    if (m.empty) continue;
-    for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width; ++x)
-        if (m.inside(x, y) || m.contour(x, y)) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      if (m.inside(x, y) || m.contour(x, y)) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  if (x1 < 0) return {};
+  return {x0, y0, x1 + 1, y1 + 1};
+}
+
+PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, int margin) {
+  int x0 = width, y0 = height, x1 = -1, y1 = -1;  // inclusive
+  for (const auto& b : bounds) {
+    if (b.empty()) continue;
+    x0 = std::min(x0, b.x0), y0 = std::min(y0, b.y0), x1 = std::max(x1, b.x1 - 1), y1 = std::max(y1, b.y1 - 1);
   }
   if (x1 < 0) return {};
   return {std::max(0, x0 - margin), std::max(0, y0 - margin), std::min(width, x1 + margin + 1), std::min(height, y1 + margin + 1)};
@@ -187,39 +235,47 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   return r;
 }
 
-void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+float most_negative(float so_far, const Grid2f& f) {
+  return f.empty() ? so_far : std::min(so_far, *std::min_element(f.data.begin(), f.data.end()));
+}
+
+Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
+                         const InterpParams& interp) {
   // Empty slices (no inside) are all outside. One next to a non-empty slice
   // gets that neighbour's field moved 1 / cap_extent of the way to its cap
   // slice (interp/spline.h, cap_slice), so the object closes between them
   // like an end cap reaching cap_extent of the gap. With two non-empty
   // neighbours it takes the lower of the two. Empty slices with no non-empty
   // neighbour take the most negative value of the object's fields.
-  float most_negative = -1.0f;
-  for (const auto& f : fields)
-    if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
-  std::vector<Grid2f> out(fields.size());
-  for (std::size_t k = 0; k < fields.size(); ++k) {
-    if (!fields[k].empty()) continue;
-    Grid2f g;
-    for (std::size_t nb : {k - 1, k + 1}) {
-      if (nb >= fields.size() || fields[nb].empty()) continue;  // k - 1 wraps for k = 0
-      const Grid2f& f = fields[nb];
-      Grid2f closed = f;
-      if (interp.cap_shape == CapShape::Flat) {
-        for (float& v : closed.data) v = float(v + (std::min(v, 0.0f) - interp.cap_depth - v) / interp.cap_extent);
-      } else {
-        const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
-        const float drop = float((top + interp.cap_depth) / interp.cap_extent);
-        for (float& v : closed.data) v -= drop;
-      }
-      if (g.empty()) {
-        g = std::move(closed);
-      } else {
-        for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], closed.data[i]);
-      }
+  Grid2f g;
+  for (const Grid2f* nb : {below, above}) {
+    if (!nb || nb->empty()) continue;
+    const Grid2f& f = *nb;
+    Grid2f closed = f;
+    if (interp.cap_shape == CapShape::Flat) {
+      for (float& v : closed.data) v = float(v + (std::min(v, 0.0f) - interp.cap_depth - v) / interp.cap_extent);
+    } else {
+      const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
+      const float drop = float((top + interp.cap_depth) / interp.cap_extent);
+      for (float& v : closed.data) v -= drop;
     }
-    out[k] = g.empty() ? Grid2f(box.width(), box.height(), most_negative) : std::move(g);
+    if (g.empty()) {
+      g = std::move(closed);
+    } else {
+      for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], closed.data[i]);
+    }
   }
+  return g.empty() ? Grid2f(box.width(), box.height(), most_negative) : g;
+}
+
+void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+  float lowest = -1.0f;
+  for (const auto& f : fields) lowest = most_negative(lowest, f);
+  std::vector<Grid2f> out(fields.size());
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    if (fields[k].empty())
+      out[k] = empty_slice_field(k > 0 ? &fields[k - 1] : nullptr, k + 1 < fields.size() ? &fields[k + 1] : nullptr, lowest,
+                                 box, interp);
   for (std::size_t k = 0; k < fields.size(); ++k)
     if (fields[k].empty()) fields[k] = std::move(out[k]);
 }
