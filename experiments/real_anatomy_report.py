@@ -51,7 +51,7 @@ ABLATION_STEPS = [
      "marker2006-monotone"),
 ]
 DESCRIBE = {
-    "isoloft-default": "`isoloft reconstruct` without --method (today marker2006, monotone spline)",
+    "isoloft-default": "`isoloft reconstruct` without --method (the isoloft method: marker2006 with the extremum-preserving spline)",
     "marker2006-monotone": "marker2006 (MPU fit, distance filter), monotone spline",
     "marker2006-catmull-rom": "marker2006, Catmull-Rom spline",
     "marker2006-natural": "marker2006, natural cubic spline",
