@@ -101,16 +101,9 @@ PAPER_TOL_UNIT = 1e-4
 def load_volume(dataset):
     """(labels (nz, ny, nx), z spacing mm); both have 1 mm square pixels."""
     if dataset == "frog":
-        import zlib
-        hdr = dict(l.split(" = ", 1) for l in open(FROG).read().splitlines() if " = " in l)
-        nx, ny, nz = map(int, hdr["DimSize"].split())
-        raw = open(os.path.join(os.path.dirname(FROG), hdr["ElementDataFile"]), "rb").read()
-        # The header's CompressedDataSize is short of the .zraw (VTK's reader
-        # then loses the last ~1.7 slices): decompress the whole stream.
-        data = zlib.decompress(raw) if hdr.get("CompressedData") == "True" else raw
-        sp = [float(s) for s in hdr["ElementSpacing"].split()]
+        vol, sp = ic.read_frog(FROG)
         assert sp[0] == sp[1] == 1.0
-        return np.frombuffer(data, np.uint8).reshape(nz, ny, nx).copy(), sp[2]
+        return vol, sp[2]
     import nibabel as nib
     img = nib.load(AAL)
     assert tuple(float(s) for s in img.header.get_zooms()[:3]) == (1.0, 1.0, 1.0)

@@ -11,21 +11,12 @@ usage: real_stack.py FROG_MHD OUT.mha [--label 13] [--slices 48]
 """
 import argparse
 import os
-import zlib
+import sys
 
 import numpy as np
 
-
-def read_frog(path):
-    hdr = {}
-    with open(path) as f:
-        for line in f:
-            k, _, v = line.partition("=")
-            hdr[k.strip()] = v.strip()
-    nx, ny, nz = (int(v) for v in hdr["DimSize"].split())
-    raw = open(os.path.join(os.path.dirname(path), hdr["ElementDataFile"]), "rb").read()
-    data = zlib.decompress(raw) if hdr.get("CompressedData") == "True" else raw
-    return np.frombuffer(data, np.uint8).reshape(nz, ny, nx)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import isoloft_common as ic  # noqa: E402
 
 
 def main():
@@ -37,7 +28,7 @@ def main():
     ap.add_argument("--size", type=int, default=500)
     ap.add_argument("--ratio", type=int, default=8, help="slice spacing over pixel size")
     a = ap.parse_args()
-    vol = read_frog(a.frog)
+    vol, _ = ic.read_frog(a.frog)
     nz, ny, nx = vol.shape
     keep = np.round(np.linspace(0, nz - 1, a.slices)).astype(int)
     out = np.zeros(((a.slices - 1) * a.ratio + 1, a.size, a.size), np.uint8)

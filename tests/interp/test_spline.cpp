@@ -168,7 +168,10 @@ TEST(Spline, ExtremumPreservingDoesNotPauseAtASmoothExtremum) {
     worst_e = std::max(worst_e, std::abs(ep(q) - bump(q)));
     if (ep(q) > top) top = ep(q), top_z = q;
   }
-  EXPECT_LT(worst_e, 0.5 * worst_h) << "extremum-preserving " << worst_e << " vs Hyman " << worst_h;
+  // Measured: Hyman 0.033, extremum-preserving 0.0093 (0.28x); half keeps
+  // the claim "clearly smaller" with room for other tangent estimates.
+  constexpr double kMaxErrorShareOfHyman = 0.5;
+  EXPECT_LT(worst_e, kMaxErrorShareOfHyman * worst_h) << "extremum-preserving " << worst_e << " vs Hyman " << worst_h;
   EXPECT_GT(top_z, 3.0) << "the interpolant's peak moved off the knot toward " << peak;
 }
 

@@ -168,16 +168,20 @@ CurvePiece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>&
   return fn;
 }
 
+namespace {
+// |Q(p)| / |grad Q(p)|: infinite where Q != 0 has no gradient.
+double taubin_distance(const LocalFn& fn, const Vec2d& p) {
+  double v;
+  Vec2d g;
+  fn.eval(p, v, g);
+  const double gn = g.norm();
+  return gn > 1e-12 ? std::abs(v) / gn : (v == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+}
+}  // namespace
+
 double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const std::vector<int>& idx) {
   double err = 0.0;
-  for (int i : idx) {
-    double v;
-    Vec2d g;
-    fn.eval(points[i], v, g);
-    const double gn = g.norm();
-    const double e = gn > 1e-12 ? std::abs(v) / gn : (v == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
-    err = std::max(err, e);
-  }
+  for (int i : idx) err = std::max(err, taubin_distance(fn, points[i]));
   return err;
 }
 
@@ -265,11 +269,7 @@ double FitInput::weight(const Vec2d& p) const { return std::max(bspline2(1.5 * (
 double FitInput::error(const LocalFn& fn, const std::vector<int>& ids, double bound) const {
   double err = 0.0;
   for (int i : ids) {
-    double v;
-    Vec2d g;
-    fn.eval(points[i], v, g);
-    const double gn = g.norm();
-    double e = gn > 1e-12 ? std::abs(v) / gn : (v == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+    double e = taubin_distance(fn, points[i]);
     if (weight_ref > 0.0 && e > 0.0) {
       const double share = std::min(1.0, bspline2(1.5 * (points[i] - centre).norm() / radius) / weight_ref);
       e = share > 0.0 ? e * share : 0.0;  // no inf x 0 on the circle itself
