@@ -59,8 +59,10 @@ int main(int argc, char** argv) {
   std::unique_ptr<tbb::global_control> gc;
   if (threads > 0) gc = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
   const std::vector<Config> configs = {
+      {"isoloft", Method::Isoloft, SplineKind::ExtremumPreserving, true},
       {"marker2006", Method::Marker2006, SplineKind::Monotone, true},
       {"marker2006 no-filter", Method::Marker2006, SplineKind::Monotone, false},
+      {"marker2006 extremum-preserving", Method::Marker2006, SplineKind::ExtremumPreserving, true},
       {"marker2006 catmull-rom", Method::Marker2006, SplineKind::CatmullRom, true},
       {"marker2006 natural", Method::Marker2006, SplineKind::Natural, true},
       {"marker2006 linear", Method::Marker2006, SplineKind::Linear, true},
@@ -84,8 +86,7 @@ int main(int argc, char** argv) {
       key << shape_name << " " << ratio << ":1";
       row_keys.push_back(key.str());
       for (const auto& c : configs) {
-        ReconstructParams p;
-        p.method = c.method;
+        ReconstructParams p = method_defaults(c.method);
         p.interp.spline = c.spline;
         p.filter.enabled = c.filter;
         const auto t0 = std::chrono::steady_clock::now();

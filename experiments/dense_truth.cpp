@@ -276,6 +276,7 @@ int main(int argc, char** argv) {
         for (const Method m : {Method::Marker2006, Method::Levin}) {
           ReconstructParams p = base;
           p.method = m;
+          p.interp.spline = method_defaults(m).interp.spline;
           Row r{ds.name, L.name, to_string(m), L.value, k, {}, 0.0, {}};
           std::vector<char> seen(std::size_t(v.nz), 0);
           int misaligned = 0;

@@ -68,6 +68,19 @@ def median(values):
     return statistics.median(values)
 
 
+def read_frog(path):
+    """The Whole Frog label map (MetaImage .mhd + .zraw): (labels (nz, ny, nx) uint8, spacing [x, y, z] mm)."""
+    import zlib
+    hdr = dict(l.split(" = ", 1) for l in open(path).read().splitlines() if " = " in l)
+    nx, ny, nz = map(int, hdr["DimSize"].split())
+    raw = open(os.path.join(os.path.dirname(path), hdr["ElementDataFile"]), "rb").read()
+    # The header's CompressedDataSize is short of the .zraw (VTK's reader
+    # then loses the last ~1.7 slices): decompress the whole stream.
+    data = zlib.decompress(raw) if hdr.get("CompressedData") == "True" else raw
+    spacing = [float(v) for v in hdr["ElementSpacing"].split()]
+    return np.frombuffer(data, np.uint8).reshape(nz, ny, nx).copy(), spacing
+
+
 def read_nrrd(path):
     """Reads a float NRRD as written by isoloft (raw or gzip). Returns
     (array indexed [z, y, x] with singleton z squeezed, header dict)."""

@@ -352,12 +352,7 @@ def make_j(out):
 # ---------------------------------------------------------------- T0
 
 def read_frog():
-    hdr = dict(l.split(" = ", 1) for l in open(FROG).read().splitlines() if " = " in l)
-    nx, ny, nz = map(int, hdr["DimSize"].split())
-    raw = zlib.decompress(open(os.path.join(os.path.dirname(FROG), hdr["ElementDataFile"]), "rb").read())
-    vol = np.frombuffer(raw, dtype=np.uint8).reshape(nz, ny, nx)
-    spacing = [float(v) for v in hdr["ElementSpacing"].split()]
-    return vol, spacing
+    return ic.read_frog(FROG)
 
 
 def make_t0(out):

@@ -49,12 +49,11 @@ int main(int argc, char** argv) {
                            {"z_spacing_px", sp.z_spacing},
                            {"runs", runs},
                            {"threads", int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))}};
-  for (Method m : {Method::Marker2006, Method::Levin}) {
+  for (Method m : {Method::Isoloft, Method::Marker2006, Method::Levin}) {
     std::map<std::string, std::vector<double>> t;
     long triangles = 0;
     for (int r = 0; r < runs; ++r) {
-      ReconstructParams p;
-      p.method = m;
+      const ReconstructParams p = method_defaults(m);
       const auto t0 = std::chrono::steady_clock::now();
       const ReconstructResult res = reconstruct(syn.stack, p);
       t["wall"].push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

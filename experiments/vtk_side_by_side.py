@@ -37,6 +37,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import isoloft_common as ic  # noqa: E402
+from anatomy_peers import iso_lines, polygons_polydata, voxel_contours_surface  # noqa: E402
 
 SHAPE = "branching-cylinders"
 
@@ -78,25 +79,13 @@ def slice_polygons(path):
     """Closed polygons through contour pixel centres (integer x, y, as
     vtkVoxelContoursToSurfaceFilter requires), one per contour curve."""
     w = np.pad(read_white(path), 1)  # black border: every curve closes
-    h, wd = w.shape
-    img = vtk.vtkImageData()
-    img.SetDimensions(wd, h, 1)
-    img.SetOrigin(-1, -1, 0)  # so x, y are the unpadded pixel coordinates
     # Contour the background (black = 255): VTK's marching squares cuts off the
     # above-value corners of a saddle cell, so black stays 4-connected and the
     # 8-connected white curves stay closed, as in isoloft's even-odd fill.
-    img.GetPointData().SetScalars(ns.numpy_to_vtk((~w).ravel().astype(np.uint8) * 255, deep=1))
-    fe = vtk.vtkFlyingEdges2D()
-    fe.SetInputData(img)
-    fe.SetValue(0, 127.5)
-    st = vtk.vtkStripper()
-    st.SetInputConnection(fe.GetOutputPort())
-    st.JoinContiguousSegmentsOn()
-    st.Update()
-    pd = st.GetOutput()
-    if pd.GetNumberOfLines() == 0:
+    # Origin -1: x, y are the unpadded pixel coordinates.
+    P, lines = iso_lines((~w).astype(np.uint8) * 255, (-1.0, -1.0), 127.5)
+    if not lines:
         return []
-    P = ns.vtk_to_numpy(pd.GetPoints().GetData())[:, :2].astype(np.float64)
     # Every vertex is the midpoint of a pixel edge with one white end: snap it
     # to the white (contour) pixel centre.
     S = P.copy()
@@ -106,12 +95,8 @@ def slice_polygons(path):
         other = np.rint(P[half, 1 - ax]).astype(int)
         rows, cols = (other + 1, lo + 1) if ax == 0 else (lo + 1, other + 1)
         S[half, ax] = np.where(w[rows, cols], lo, lo + 1)
-    lines = pd.GetLines()
-    off = ns.vtk_to_numpy(lines.GetOffsetsArray())
-    conn = ns.vtk_to_numpy(lines.GetConnectivityArray())
     polys = []
-    for i in range(len(off) - 1):
-        ids = conn[off[i]:off[i + 1]]
+    for ids in lines:
         if len(ids) > 1 and ids[0] == ids[-1]:
             ids = ids[:-1]
         # Each white curve has a black region each side, so two curves; snapping
@@ -131,43 +116,12 @@ def shoelace(q):
 
 
 def contours_polydata(files):
-    """All slices' polygons in one vtkPolyData, as polys (the filter ignores
-    lines), ordered by slice, z = slice index (the filter steps z by exactly 1)."""
-    pts, offsets, n = [], [0], 0
-    for k, f in enumerate(files):
-        for q in slice_polygons(f):
-            pts.append(np.column_stack([q, np.full(len(q), float(k))]))
-            n += len(q)
-            offsets.append(n)
-    pd = vtk.vtkPolyData()
-    points = vtk.vtkPoints()
-    points.SetData(ns.numpy_to_vtk(np.concatenate(pts), deep=1))
-    cells = vtk.vtkCellArray()
-    cells.SetData(ns.numpy_to_vtkIdTypeArray(np.array(offsets, dtype=np.int64), deep=1),
-                  ns.numpy_to_vtkIdTypeArray(np.arange(n, dtype=np.int64), deep=1))
-    pd.SetPoints(points)
-    pd.SetPolys(cells)
-    return pd
+    """All slices' polygons in one vtkPolyData, ordered by slice, z = slice index."""
+    return polygons_polydata([slice_polygons(f) for f in files])
 
 
 def vtk_surface(contours, z_spacing):
-    f = vtk.vtkVoxelContoursToSurfaceFilter()
-    f.SetInputData(contours)
-    f.SetSpacing(1.0, 1.0, z_spacing)
-    f.Update()
-    out = f.GetOutput()
-    # The filter puts its grid's z origin at (zmin - 1) in input units but
-    # spaces the slices by z_spacing, so contour k lands at
-    # (zmin - 1) + (k - zmin + 1) * s instead of k * s: shift by (zmin - 1)(s - 1).
-    zmin = contours.GetBounds()[4]
-    z = ns.vtk_to_numpy(out.GetPoints().GetData())
-    z[:, 2] += (zmin - 1.0) * (z_spacing - 1.0)
-    out.GetPoints().Modified()
-    # Each memory chunk is contoured separately: merge the duplicated seam points.
-    c = vtk.vtkCleanPolyData()
-    c.SetInputData(out)
-    c.Update()
-    return c.GetOutput()
+    return voxel_contours_surface(contours, (1.0, 1.0, z_spacing))
 
 
 def vtk_decimate(mesh, reduction):

@@ -15,6 +15,7 @@ cd "$ROOT"
 start=$SECONDS
 "$PY" experiments/reproduce_data.py --out "$OUT/data"
 "$PY" experiments/reproduce_tables.py --data "$OUT/data" --out "$OUT"
+"$PY" experiments/table2_accuracy.py --data "$OUT/data" --out "$OUT"
 "$PY" experiments/fig_fields.py --dataset "$OUT/data/J" --out "$OUT" --slice 45
 "$PY" experiments/fig_spline.py --out "$OUT"
 "$PY" experiments/fig_lip.py --out "$OUT"

@@ -1,9 +1,6 @@
 #include "cli/commands.h"
 
-#include <sys/resource.h>
-
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 
@@ -20,41 +17,6 @@ void write_text_atomic(const std::string& path, const std::string& text) {
     if (!out) throw InputError(path, "cannot write file");
   }
   f.commit();
-}
-
-double parse_size(const std::string& text, const std::string& flag) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  double unit = 1;
-  std::string suffix(end ? end : "");
-  if (!suffix.empty() && (suffix.back() == 'B' || suffix.back() == 'b')) suffix.pop_back();
-  if (suffix == "K" || suffix == "k") unit = 1024.0;
-  else if (suffix == "M" || suffix == "m") unit = 1024.0 * 1024;
-  else if (suffix == "G" || suffix == "g") unit = 1024.0 * 1024 * 1024;
-  else if (suffix == "T" || suffix == "t") unit = 1024.0 * 1024 * 1024 * 1024;
-  else if (!suffix.empty()) unit = -1;
-  if (text.empty() || end == text.c_str() || unit < 0 || !std::isfinite(v) || v < 0)
-    throw ParamError(flag + ": '" + text + "' is not a size (e.g. 4G, 512M, 64K, bytes; 0 = no limit)");
-  return v * unit;
-}
-
-std::string size_text(double bytes) {
-  char buf[64];
-  if (bytes >= 1024.0 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.3g GiB", bytes / (1024.0 * 1024 * 1024));
-  else std::snprintf(buf, sizeof buf, "%.3g MiB", bytes / (1024.0 * 1024));
-  return buf;
-}
-
-void check_budget(const std::string& flag, const std::string& what, double need, double limit) {
-  if (limit > 0 && need > limit)
-    throw ParamError(flag + ": " + what + " needs about " + size_text(need) + ", over the budget of " + size_text(limit) +
-                     " (raise " + flag + ", or 0 for no limit)");
-}
-
-double peak_memory_mib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
 Commands::Commands(CLI::App& app, int argc, char** argv) {
@@ -172,6 +134,17 @@ std::string ParamFlags::given(const std::string& key) const {
   for (const auto& f : flags_)
     if (f->key == key && f->option->count() > 0) return f->option->get_name(false, true);
   return {};
+}
+
+std::optional<Method> ParamFlags::method() const {
+  for (const auto& f : flags_)
+    if (f->key == "method" && f->option->count() > 0) {
+      ReconstructParams p;
+      const auto& row = *params_table<ReconstructParams>().find("method");
+      row.set(p, parse_value(row.type, f->text, row.flag), row.flag);
+      return p.method;
+    }
+  return std::nullopt;
 }
 
 int Commands::run() {

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,8 @@ class ParamFlags {
   void apply(isoloft::ReconstructParams& params) const;
   /// The flag of parameter `key` if it was given on the command line, else "".
   [[nodiscard]] std::string given(const std::string& key) const;
+  /// The --method flag's value, if given. \throw ParamError for an unknown name.
+  std::optional<isoloft::Method> method() const;
 
  private:
   struct Flag {
@@ -85,17 +88,7 @@ class Commands {
   std::string activity_;
 };
 
-/// A byte count from "4G", "512M", "64K", "1.5G" (binary units) or plain
-/// bytes; 0 = no limit. \throw ParamError naming `flag`.
-double parse_size(const std::string& text, const std::string& flag);
-/// E.g. "3.2 GiB", "512 MiB".
-std::string size_text(double bytes);
-/// \throw ParamError "<flag>: <what> needs about X, over the budget of Y ..." if need > limit > 0.
-void check_budget(const std::string& flag, const std::string& what, double need, double limit);
-
 /// Writes text to `path` atomically (temp file + rename).
 void write_text_atomic(const std::string& path, const std::string& text);
-/// Peak resident memory of this process in MiB.
-double peak_memory_mib();
 
 }  // namespace isoloft::cli

@@ -33,28 +33,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Distinct colours per label: golden-ratio hue steps at full saturation.
-Rgb label_colour(std::size_t i) {
-  const double h = std::fmod(0.13 + 0.618033988749895 * double(i), 1.0) * 6.0;
-  const double x = 1.0 - std::abs(std::fmod(h, 2.0) - 1.0);
-  double r = 0, g = 0, b = 0;
-  switch (int(h)) {
-    case 0: r = 1, g = x; break;
-    case 1: r = x, g = 1; break;
-    case 2: g = 1, b = x; break;
-    case 3: g = x, b = 1; break;
-    case 4: r = x, b = 1; break;
-    default: r = 1, b = x; break;
-  }
-  auto c = [](double v) { return std::uint8_t(std::lround(40 + 215 * v)); };
-  return {c(r), c(g), c(b)};
-}
-
-std::string with_suffix(const std::string& path, const std::string& suffix) {
-  const fs::path p(path);
-  return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
-}
-
 std::vector<std::uint32_t> parse_labels(const std::string& text) {
   std::vector<std::uint32_t> out;
   std::stringstream ss(text);
@@ -100,27 +78,6 @@ class Progress {
   Clock::time_point last_{};
 };
 
-// The vertices in patient mm (LPS), triangles kept counter-clockwise seen from
-// outside where the frame mirrors.
-TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame) {
-  TriMesh out;
-  out.vertices.reserve(m.vertices.size());
-  for (const Vec3f& v : m.vertices) out.vertices.push_back(frame.to_patient(v.cast<double>()).cast<float>());
-  out.triangles = m.triangles;
-  if (frame.axes.determinant() < 0)
-    for (auto& t : out.triangles) std::swap(t[1], t[2]);
-  return out;
-}
-
-// One reconstructed object and where it goes.
-struct Output {
-  const Job* job;
-  ObjectResult object;
-  TriMesh mesh;  // in output units: patient mm, or pixels times pixel_size when written
-  std::string file;
-  Rgb colour;
-};
-
 // Intermediate fields per slice (paper Figs. 3-5), as float NRRD + CSV.
 std::function<void(const SliceStageFields&)> stage_dumper(const std::string& dir, const SliceStack& stack, OutputSet& out,
                                                           std::mutex& m) {
@@ -157,7 +114,9 @@ std::function<void(const SliceStageFields&)> stage_dumper(const std::string& dir
   };
 }
 
-nlohmann::json read_params_file(const std::string& path, ReconstructParams& params) {
+// The parameters of a --params file, on the defaults of `method` if given
+// (a flag), else of the file's own "method".
+ReconstructParams read_params_file(const std::string& path, std::optional<Method> method) {
   std::ifstream in(path);
   if (!in) throw InputError(path, "cannot open parameter file");
   nlohmann::json j;
@@ -167,17 +126,17 @@ nlohmann::json read_params_file(const std::string& path, ReconstructParams& para
     throw InputError(path, std::string("not valid JSON: ") + e.what());
   }
   try {
-    params = params_from_json(j, params);
+    return params_from_json(j, method);
   } catch (const ParamError& e) {
     throw InputError(path, e.what());
   }
-  return j;
 }
 
 // A parameter flag given for a method or input that never reads it: an error
 // naming the flag and where it applies.
-void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Method method, InputFormat format, InputKind kind) {
-  const bool marker = method == Method::Marker2006;
+void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Method method, InputFormat format,
+                         InputKind kind) {
+  const bool fits = fits_curves(method);
   const bool images = format == InputFormat::Images;
   struct Use {
     const char* key;
@@ -185,12 +144,13 @@ void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Meth
     const char* where;
   };
   const Use uses[] = {
-      {"polyline_raster_width", marker && kind == InputKind::Polylines, "only with --method marker2006 and a polyline input"},
-      {"sign_guard", marker, "only with --method marker2006"},
-      {"mpu.n_min", marker, "only with --method marker2006 (the MPU fit)"},
-      {"mpu.tol", marker, "only with --method marker2006 (the MPU fit)"},
-      {"extend.method", marker, "only with --method marker2006 (the distance extension)"},
-      {"filter.enabled", marker, "only with --method marker2006 (the filter)"},
+      {"polyline_raster_width", fits && kind == InputKind::Polylines,
+       "only with a curve-fitting method (isoloft, marker2006) and a polyline input"},
+      {"sign_guard", fits, "only with a curve-fitting method (isoloft, marker2006)"},
+      {"mpu.n_min", fits, "only with a curve-fitting method (isoloft, marker2006: the MPU fit)"},
+      {"mpu.tol", fits, "only with a curve-fitting method (isoloft, marker2006: the MPU fit)"},
+      {"extend.method", fits, "only with a curve-fitting method (isoloft, marker2006: the distance extension)"},
+      {"filter.enabled", fits, "only with a curve-fitting method (isoloft, marker2006: the filter)"},
       {"fill.max_gap", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
       {"fill.open_contours", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
       {"binarize", images && kind != InputKind::Labels, "only with contour or mask images"},
@@ -198,7 +158,8 @@ void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Meth
   for (const Use& u : uses)
     if (!u.used)
       if (const std::string flag = flags.given(u.key); !flag.empty()) throw ParamError(flag + ": has no effect here, " + u.where);
-  if (!o.dump_stages.empty() && !marker) throw ParamError("--dump-stages: has no effect here, only with --method marker2006");
+  if (!o.dump_stages.empty() && !fits)
+    throw ParamError("--dump-stages: has no effect here, only with a curve-fitting method (isoloft, marker2006)");
 }
 
 // Bytes per triangle of a mesh file: binary STL (50, the largest binary
@@ -214,9 +175,11 @@ int Commands::reconstruct() {
   r_.max_output_bytes = parse_size(r_.max_output, "--max-output");
   const ReconstructArgs& o = r_;
 
-  // Parameters: defaults < --params file < flags.
-  ReconstructParams params;
-  if (!o.params_file.empty()) read_params_file(o.params_file, params);
+  // Parameters: the method's defaults < --params file < flags; the method
+  // from --method, else the file's, else the default.
+  const std::optional<Method> method_flag = param_flags_.method();
+  ReconstructParams params = o.params_file.empty() ? method_defaults(method_flag.value_or(ReconstructParams{}.method))
+                                                   : read_params_file(o.params_file, method_flag);
   param_flags_.apply(params);
   params_table<ReconstructParams>().validate(params);
   if (o.print_params) {
@@ -244,21 +207,13 @@ int Commands::reconstruct() {
 
   auto t0 = Clock::now();
   activity_ = "reading " + o.inputs.front();
-  Inputs in = read_inputs(o);
+  InputRequest request = input_request(o);
+  request.max_memory = o.max_memory_bytes;
+  Inputs in = read_inputs(request);
   const double read_seconds = seconds_since(t0);
-  {
-    const SliceStack& first = in.jobs.front().stack;
-    const InputFormat f = in.format;
-    reject_unused_flags(param_flags_, o, params.method, f, first.kind);
-  }
-  // The input's own footprint, before the work: polyline and volume slices
-  // become full-size masks in the contour stage.
-  double input_bytes = 0;
-  for (const Job& job : in.jobs) {
-    const SliceStack& st = job.stack;
-    input_bytes = std::max(input_bytes, stack_bytes(double(st.slices.size()), st.width, st.height, !st.has_polygons()));
-  }
-  if (in.volume) input_bytes += double(in.volume->data.size()) * sizeof(float);
+  reject_unused_flags(param_flags_, o, params.method, in.format, in.jobs.front().stack.kind);
+  // The input's own footprint through the contour stage, before the work.
+  const double input_bytes = isoloft::input_bytes(in);
   {
     const SliceStack& st = in.jobs.front().stack;
     check_budget("--max-memory",
@@ -267,28 +222,22 @@ int Commands::reconstruct() {
                  input_bytes, o.max_memory_bytes);
   }
   const std::vector<std::uint32_t> labels = o.labels.empty() ? std::vector<std::uint32_t>{} : parse_labels(o.labels);
-  if (!labels.empty() && in.jobs.front().stack.kind != InputKind::Labels)
-    throw ParamError("--labels: only with label input (--input labels, or an integer label volume)");
-  const bool ras = o.space == "ras";
+  check_labels(in, labels, "--labels");
   const bool labels_mode = in.jobs.front().stack.kind == InputKind::Labels;
   Progress progress(!o.quiet && isatty(2));
   OutputSet outputs;
   std::unique_ptr<LabelmapBuilder> labelmap;
   if (!o.labelmap.empty()) labelmap = std::make_unique<LabelmapBuilder>(*in.volume, *in.slicing);
 
-  // Run the pipeline, one stack at a time.
-  ReconstructResult all;  // times and warnings summed over the jobs
-  all.warnings = in.warnings;
-  std::vector<Output> results;
+  // Run the pipeline, one stack at a time, with the per-job outputs.
   std::vector<std::string> volume_files;
   std::mutex dump_mutex;
-  for (const Job& job : in.jobs) {
+  std::unique_ptr<NrrdWriter> volume;
+  RunResult run = run_jobs(in, params, labels, [&](const Job& job, ReconstructOptions& ropt) {
     const SliceStack& stack = job.stack;
-    isoloft::ReconstructOptions ropt;
-    ropt.labels = labels;
+    progress.finish();
     progress.set_object(job.name);
     ropt.progress = [&](const std::string& stage, long done, long total) { progress(stage, done, total); };
-    std::unique_ptr<NrrdWriter> volume;
     if (!o.volume.empty()) {
       ropt.on_plane = [&](std::uint32_t label, const Grid2f& plane, double x0, double y0, double z, int index, int count) {
         if (index == 0) {
@@ -337,149 +286,33 @@ int Commands::reconstruct() {
         labelmap->add(label, field, box, z);
       };
     }
-    ReconstructResult r = isoloft::reconstruct(stack, params, ropt);
-    progress.finish();
-    for (auto& w : r.warnings) all.warnings.push_back(job.name.empty() ? w : "ROI '" + job.name + "': " + w);
-    const StageTimes& t = r.times;
-    all.times.contour += t.contour, all.times.mpu += t.mpu, all.times.dist += t.dist, all.times.filter += t.filter;
-    all.times.interp += t.interp, all.times.mesh += t.mesh, all.times.decimate += t.decimate;
-    for (auto& ob : r.objects) {
-      Output out{&job, std::move(ob), {}, {}, job.color.value_or(label_colour(results.size()))};
-      out.mesh = stack.patient ? in_patient_space(out.object.mesh, *stack.patient) : out.object.mesh;
-      results.push_back(std::move(out));
-    }
-  }
+  });
+  progress.finish();
+  run.threads = thread_count;
   if (!o.quiet)
-    for (const auto& w : all.warnings) std::cerr << "isoloft: warning: " << w << "\n";
-  if (results.empty()) throw InputError(o.inputs.front(), "nothing to reconstruct: no slice has an inside (a closed contour, or mask pixels)");
-  for (const auto& r : results)
-    if (r.mesh.triangles.empty() && !o.allow_empty)
-      throw InputError(o.inputs.front(), (r.job->name.empty() ? "" : "ROI '" + r.job->name + "': ") +
-                                             (r.object.label ? "label " + std::to_string(r.object.label) : "the surface") +
-                                             " is empty (0 triangles): " + r.object.empty_reason +
-                                             " (--allow-empty writes it anyway)");
+    for (const auto& w : run.warnings) std::cerr << "isoloft: warning: " << w << "\n";
+  check_surfaces(in, run, o.allow_empty, "--allow-empty");
   activity_ = "writing " + o.output;
 
   // Meshes: one object -> OUT; several -> OUT_<label or ROI> each and OUT with a colour per object.
   t0 = Clock::now();
-  const bool physical = bool(in.jobs.front().stack.patient);
-  MeshWriteOptions mo;
-  mo.ascii = o.ascii;
-  if (physical) {
-    mo.frame = PatientFrame{};  // the meshes are in patient mm already: the identity names the space
-    mo.ras = ras;
-  } else {
-    mo.scale = in.jobs.front().stack.pixel_size;
-  }
-  const bool several = labels_mode || results.size() > 1;
-  for (auto& r : results) {
-    r.file = !several ? o.output
-             : labels_mode ? with_suffix(o.output, "_label" + std::to_string(r.object.label))
-                           : with_suffix(o.output, "_" + file_safe(r.job->name));
-    write_mesh(outputs.stage(r.file), r.mesh, mo);
-  }
-  if (several) {
-    std::vector<TriMesh> parts;
-    std::vector<Rgb> colours;
-    for (const auto& r : results) parts.push_back(r.mesh), colours.push_back(r.colour);
-    std::vector<Rgb> vertex_colours;
-    const TriMesh combined = merge_meshes(parts, colours, &vertex_colours);
-    MeshWriteOptions co = mo;
-    co.colors = &vertex_colours;
-    write_mesh(outputs.stage(o.output), combined, co);
-  }
+  write_run_meshes(o.output, in, run, run_mesh_options(in, o.ascii), [&](const std::string& p) { return outputs.stage(p); });
   if (labelmap) write_volume(outputs.stage(o.labelmap), labelmap->finish());
   const double write_seconds = seconds_since(t0);
 
-  nlohmann::json objects = nlohmann::json::array();
-  for (const auto& r : results) {
-    const ObjectResult& ob = r.object;
-    const double s = r.job->stack.pixel_size;
-    nlohmann::json j = {{"label", ob.label}, {"file", r.file}};
-    if (!r.job->name.empty()) j["roi"] = r.job->name;
-    j["vertices"] = ob.mesh.vertices.size();
-    j["triangles"] = ob.mesh.triangles.size();
-    j["triangles_before_decimation"] = ob.triangles_before_decimation;
-    j["slices_with_contours"] = ob.slices_with_contours;
-    j["closed"] = ob.check.closed;
-    j["manifold"] = ob.check.manifold;
-    j["oriented"] = ob.check.oriented;
-    j["components"] = ob.check.components;
-    j["euler_characteristic"] = ob.check.euler;
-    j["volume"] = ob.check.volume * s * s * s;
-    j["area"] = ob.check.area * s * s;
-    j["box_px"] = {ob.box.x0, ob.box.y0, ob.box.x1, ob.box.y1};
-    if (params.method == Method::Marker2006)
-      j["mpu"] = {{"points", ob.fit.points},
-                  {"leaves", ob.fit.leaves},
-                  {"leaves_over_tol", ob.fit.leaves_over_tol},
-                  {"max_depth_reached", ob.fit.max_depth_reached},
-                  {"max_local_error_px", ob.fit.max_local_error},
-                  {"fallback_slices", ob.fit.fallback_slices},
-                  {"sign_guarded_pixels", ob.fit.sign_guarded_pixels},
-                  {"sign_guarded_slices", ob.fit.sign_guarded_slices}};
-    objects.push_back(std::move(j));
-  }
-
   if (!o.report.empty()) {
-    const auto& t = all.times;
-    const double total = seconds_since(t_start);
-    const SliceStack& first = in.jobs.front().stack;
-    nlohmann::json input = {{"files", o.inputs},
-                            {"format", in.format == InputFormat::Images      ? "png"
-                                       : in.format == InputFormat::Polylines ? "polylines"
-                                       : in.format == InputFormat::Volume    ? "volume"
-                                                                             : "rtstruct"},
-                            {"kind", to_string(first.kind)},
-                            {"slices", first.slices.size()},
-                            {"width", first.width},
-                            {"height", first.height},
-                            {"slice_z_px", [&] {
-                               std::vector<double> z;
-                               for (const auto& s : first.slices) z.push_back(s.z);
-                               return z;
-                             }()},
-                            {"pixel_size", first.pixel_size}};
-    if (physical) input["space"] = ras ? "RAS" : "LPS";
-    if (in.slicing) {
-      input["axis"] = std::string(1, "ijk"[in.slicing->axis]);
-      input["annotated_slices"] = in.slicing->annotated;
-    }
-    if (in.format == InputFormat::RtStruct) {
-      nlohmann::json rois = nlohmann::json::array();
-      for (const auto& job : in.jobs) rois.push_back({{"name", job.name}, {"planes", job.stack.slices.size()}});
-      input["rois"] = rois;
-    }
-    nlohmann::json report = {{"isoloft", {{"version", ISOLOFT_VERSION}, {"git", ISOLOFT_GIT}}},
-                             {"command", command_line_},
-                             {"input", input},
-                             {"params", params_to_json(params)},
-                             {"threads", thread_count},
-                             {"timings_s",
-                              {{"read", read_seconds},
-                               {"contour", t.contour},
-                               {"mpu", t.mpu},
-                               {"dist", t.dist},
-                               {"filter", t.filter},
-                               {"interp", t.interp},
-                               {"mesh", t.mesh},
-                               {"decimate", t.decimate},
-                               {"write", write_seconds},
-                               {"total", total}}},
-                             {"peak_memory_mib", peak_memory_mib()},
-                             {"objects", objects},
-                             {"volume_files", volume_files},
-                             {"warnings", all.warnings}};
+    nlohmann::json report = run_report(ISOLOFT_GIT, command_line_, in, params, run,
+                                       {read_seconds, write_seconds, seconds_since(t_start)}, volume_files);
     if (labelmap) report["labelmap"] = o.labelmap;
     write_text_atomic(outputs.stage(o.report), report.dump(2) + "\n");
   }
   outputs.commit();
   if (!o.quiet) {
-    for (const auto& ob : objects)
-      std::cerr << "isoloft: wrote " << ob["file"].get<std::string>() << " (" << ob["triangles"] << " triangles"
-                << (ob["closed"].get<bool>() && ob["manifold"].get<bool>() ? ", closed manifold" : ", NOT closed manifold")
+    for (const auto& ob : run.objects)
+      std::cerr << "isoloft: wrote " << ob.file << " (" << ob.object.mesh.triangles.size() << " triangles"
+                << (ob.object.check.closed && ob.object.check.manifold ? ", closed manifold" : ", NOT closed manifold")
                 << ")\n";
-    if (several) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
+    if (several_outputs(in, run)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
     if (labelmap) std::cerr << "isoloft: wrote " << o.labelmap << " (dense label map)\n";
   }
   return 0;

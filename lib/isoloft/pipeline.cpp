@@ -7,11 +7,16 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <deque>
+#include <exception>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/pipeline/slice_fields.h"
 
@@ -22,7 +27,9 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
   static const ParamTable<ReconstructParams> table = [] {
     using P = ReconstructParams;
     ParamTable<P>::Rows rows{
-        field("method", &P::method, "", "marker2006 (the paper) or levin (per-slice exact EDT baseline, no fit, no filter)")
+        field("method", &P::method, "",
+              "isoloft (marker2006 with measured departures, docs/decisions.md), marker2006 (the paper) or levin "
+              "(per-slice exact EDT baseline, no fit, no filter); picks the defaults of the other keys")
             .cli("--method"),
         field("binarize", &P::binarize, "",
               "threshold non-binary contour/mask images at half range instead of rejecting them")
@@ -43,12 +50,26 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
               "the MPU sign disagrees (not in the paper); 0 = the pure MPU sign",
               at_least(0))
             .cli("--sign-guard"),
+        field("mpu_band", &P::mpu_band, "px",
+              "marker2006: the MPU curve is fitted and evaluated only within this distance of a contour pixel, where "
+              "the narrow band needs it (paper 2.2); beyond it only the sign is needed and the contour fill gives it; 0 "
+              "= fit and evaluate the whole crop box",
+              Range{0.0, 1e4, false, false})
+            .cli("--mpu-band"),
+        field("mask_min_feature", &P::mask_min_feature, "px",
+              "marker2006, masks/labels: mask features (lines, spurs, islands; notches, holes, gaps) narrower than this "
+              "are removed before the contour points are taken, by an opening and a closing with a square of this side "
+              "(not in the paper); 1 = the mask as it is",
+              between(1, 16)),
         field("crop_margin", &P::crop_margin, "px",
               "each object is processed in the bounding box of its contours plus this margin (room for the filter's "
               "stencils)",
               at_least(1)),
     };
     std::vector<ParamTable<P>::Check> checks{[](const P& p, const std::string& at) {
+      if (p.mpu_band > 0 && p.mpu_band < kMinMpuBand)
+        throw ParamError(at + "mpu_band: must be 0 (the whole crop box) or at least " + std::to_string(kMinMpuBand) +
+                         " px, got " + std::to_string(p.mpu_band));
       if (!(-p.interp.cap_depth <= double(p.mc.iso)))
         throw ParamError(at + "mc.iso: must be above -interp.cap_depth (" + std::to_string(-p.interp.cap_depth) +
                          ", the value outside the end caps), got " + std::to_string(p.mc.iso));
@@ -73,6 +94,21 @@ ReconstructParams params_from_json(const nlohmann::json& j, const ReconstructPar
   return params_table<ReconstructParams>().from_json(j, base);
 }
 
+ReconstructParams method_defaults(Method m) {
+  ReconstructParams p;
+  p.method = m;
+  if (m != Method::Isoloft) p.interp.spline = InterpParams{}.spline;
+  return p;
+}
+
+ReconstructParams params_from_json(const nlohmann::json& j, std::optional<Method> method) {
+  if (!method && j.is_object() && j.contains("method"))
+    method = params_table<ReconstructParams>().from_json({{"method", j["method"]}}).method;
+  ReconstructParams p = params_from_json(j, method_defaults(method.value_or(ReconstructParams{}.method)));
+  if (method) p.method = *method;
+  return p;
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -95,15 +131,31 @@ struct Run {
   void warn(std::string w) const { result.warnings.push_back(std::move(w)); }
 };
 
-// f(k) for every slice k in parallel, reporting progress as `stage`.
+// f(slice k) with k's image: the stack's own, or decoded now (lazy stacks).
 template <class F>
-void for_each_slice(const Run& run, const char* stage, F&& f) {
-  std::atomic<long> done{0};
+auto with_slice(const SliceStack& stack, std::size_t k, F&& f) {
+  if (!stack.load_image) return f(stack.slices[k]);
+  Slice s = stack.slices[k];
+  s.image = stack.load_image(k);
+  return f(std::as_const(s));
+}
+
+// f(k) for the slices [k0, k1) in parallel, reported as `stage` of `total`;
+// the first failing slice in order is rethrown, independent of thread timing.
+template <class F>
+void for_slices(const Run& run, std::size_t k0, std::size_t k1, const char* stage, std::atomic<long>& done, F&& f) {
+  std::vector<std::exception_ptr> errors(k1 - k0);
   const long n = long(run.slices());
-  tbb::parallel_for(std::size_t(0), run.slices(), [&](std::size_t k) {
-    f(k);
+  tbb::parallel_for(k0, k1, [&](std::size_t k) {
+    try {
+      f(k);
+    } catch (...) {
+      errors[k - k0] = std::current_exception();
+    }
     run.progress(stage, ++done, n);
   });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 void check_stack(const SliceStack& stack) {
@@ -126,10 +178,16 @@ std::vector<std::uint32_t> objects_to_reconstruct(const Run& run) {
     if (!asked.empty()) throw ParamError("labels: a label selection needs labels input (InputKind::Labels)");
     return {0};
   }
+  std::vector<std::set<std::uint32_t>> in_slice(run.slices());
+  std::atomic<long> done{0};
+  for_slices(run, 0, run.slices(), "labels", done, [&](std::size_t k) {
+    with_slice(run.stack, k, [&](const Slice& s) {
+      for (auto v : s.image.data)
+        if (v) in_slice[k].insert(v);
+    });
+  });
   std::set<std::uint32_t> seen;
-  for (const auto& s : run.stack.slices)
-    for (auto v : s.image.data)
-      if (v) seen.insert(v);
+  for (const auto& s : in_slice) seen.insert(s.begin(), s.end());
   std::vector<std::uint32_t> labels(seen.begin(), seen.end());
   if (!asked.empty()) {
     std::vector<std::uint32_t> keep;
@@ -143,37 +201,26 @@ std::vector<std::uint32_t> objects_to_reconstruct(const Run& run) {
   return labels;
 }
 
-// Stage (paper 2.1): contour pixels and inside of every slice.
-std::vector<SliceMasks> contour_stage(const Run& run, std::uint32_t label) {
-  std::vector<SliceMasks> masks(run.slices());
-  for_each_slice(run, "contour", [&](std::size_t k) {
-    masks[k] = detail::slice_masks(run.stack, run.stack.slices[k], run.params, label);
+// Stage (paper 2.1): contour and inside of every slice, kept packed until
+// its fields are computed; their union gives the crop box.
+std::vector<detail::PackedMasks> contour_stage(const Run& run, ObjectResult& obj) {
+  const std::size_t n = run.slices();
+  std::vector<detail::PackedMasks> masks(n);
+  std::vector<PixelBox> bounds(n);
+  std::vector<std::vector<std::string>> warnings(n);
+  std::atomic<long> done{0};
+  for_slices(run, 0, n, "contour", done, [&](std::size_t k) {
+    SliceMasks m =
+        with_slice(run.stack, k, [&](const Slice& s) { return detail::slice_masks(run.stack, s, run.params, obj.label); });
+    bounds[k] = detail::mask_bounds(m);
+    warnings[k] = std::move(m.warnings);
+    masks[k] = detail::pack_masks(m);
   });
-  for (auto& m : masks)
-    for (auto& w : m.warnings) run.warn(std::move(w));
+  for (auto& w : warnings)
+    for (auto& line : w) run.warn(std::move(line));
+  obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const auto& m) { return !m.empty; }));
+  obj.box = detail::object_box(bounds, run.stack.width, run.stack.height, run.params.crop_margin);
   return masks;
-}
-
-// Stage (Levin baseline): exact signed EDT per slice.
-std::vector<Grid2f> levin_stage(const Run& run, std::vector<SliceMasks>& masks, const PixelBox& box) {
-  std::vector<Grid2f> fields(run.slices());
-  for_each_slice(run, "distance", [&](std::size_t k) {
-    if (!masks[k].empty) fields[k] = detail::levin_field(masks[k], box, run.stack.kind);
-    masks[k] = SliceMasks{};  // release
-  });
-  return fields;
-}
-
-// Stages (paper 2.1-2.2): MPU curve and its distance field, per slice.
-std::vector<MarkerSlice> fit_stage(const Run& run, std::vector<SliceMasks>& masks, const PixelBox& box) {
-  std::vector<MarkerSlice> out(run.slices());
-  const bool keep = bool(run.options.on_slice_fields);
-  for_each_slice(run, "mpu+distance", [&](std::size_t k) {
-    if (!masks[k].empty)
-      out[k] = detail::marker_slice(masks[k], run.stack.slices[k], box, run.params, run.stack.kind, run.stack.width, keep);
-    masks[k] = SliceMasks{};  // release
-  });
-  return out;
 }
 
 void add_fit_stats(FitStats& s, const MarkerSlice& m) {
@@ -187,11 +234,10 @@ void add_fit_stats(FitStats& s, const MarkerSlice& m) {
   s.max_local_error = std::max(s.max_local_error, m.fit.max_local_error);
 }
 
-void warn_fit(const Run& run, const std::vector<MarkerSlice>& slices, const FitStats& fit, const std::string& what) {
-  for (std::size_t k = 0; k < slices.size(); ++k)
-    if (slices[k].fallback)
-      run.warn(run.stack.slices[k].source + ": " + what + " has fewer than " + std::to_string(detail::kMinMpuPoints) +
-               " contour points with a defined normal; this slice uses exact pixel distances instead of an MPU curve");
+void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const FitStats& fit, const std::string& what) {
+  for (const std::size_t k : fallbacks)
+    run.warn(run.stack.slices[k].source + ": " + what + " has fewer than " + std::to_string(detail::kMinMpuPoints) +
+             " contour points with a defined normal; this slice uses exact pixel distances instead of an MPU curve");
   if (fit.sign_guarded_pixels == 0) return;
   std::ostringstream guard;
   guard << run.params.sign_guard;
@@ -201,49 +247,239 @@ void warn_fit(const Run& run, const std::vector<MarkerSlice>& slices, const FitS
            " slice(s) (spurious zero crossings of the fit, e.g. on thin features); those pixels keep the fill's sign");
 }
 
-// Stage (paper 2.3): the distance-dependent Gaussian filter of every field.
-void filter_stage(const Run& run, std::vector<Grid2f>& fields) {
-  if (!run.params.filter.enabled) return;
-  for_each_slice(run, "filter", [&](std::size_t k) {
-    if (!fields[k].empty()) fields[k] = distance_filter(fields[k], run.params.filter);
-  });
-}
+// Stages (paper 2.1-2.3, or Levin) slice by slice from the packed masks: the
+// marker2006 MPU curve, distance and filter, or the Levin EDT. Computed
+// slice_window() slices at a time in parallel, handed out in slice order.
+class SliceFields {
+ public:
+  SliceFields(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks>& masks, ResidentCount& count)
+      : run_(run), obj_(obj), masks_(masks), count_(count), window_(detail::slice_window()) {}
 
-// marker2006 (paper 2.1-2.3): fit, distance, filter; the MPU and distance
-// wall times are split by each stage's share of the CPU time.
-std::vector<Grid2f> marker_stages(const Run& run, std::vector<SliceMasks>& masks, ObjectResult& obj) {
-  auto t0 = Clock::now();
-  std::vector<MarkerSlice> slices = fit_stage(run, masks, obj.box);
-  const double wall = seconds_since(t0);
-  double cpu_mpu = 0, cpu_dist = 0;
-  std::vector<Grid2f> fields(run.slices());
-  for (std::size_t k = 0; k < slices.size(); ++k) {
-    cpu_mpu += slices[k].t_mpu;
-    cpu_dist += slices[k].t_dist;
-    add_fit_stats(obj.fit, slices[k]);
-    fields[k] = std::move(slices[k].field);
-  }
-  warn_fit(run, slices, obj.fit, object_name(obj.label));
-  const double share = cpu_mpu + cpu_dist > 0 ? cpu_mpu / (cpu_mpu + cpu_dist) : 0.5;
-  run.result.times.mpu += wall * share;
-  run.result.times.dist += wall * (1 - share);
-
-  t0 = Clock::now();
-  filter_stage(run, fields);
-  run.result.times.filter += seconds_since(t0);
-  if (run.options.on_slice_fields)
-    for (std::size_t k = 0; k < fields.size(); ++k) {
-      if (fields[k].empty()) continue;
-      MarkerSlice& m = slices[k];
-      run.options.on_slice_fields(SliceStageFields{obj.label, int(k), obj.box, std::move(m.points), std::move(m.mpu),
-                                                   std::move(m.distance), fields[k]});
+  // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
+  // fit statistics and stage fields are recorded as it is handed out.
+  Grid2f take(std::size_t k) {
+    if (k != next_) throw Error("SliceFields::take: slices out of order");
+    if (ready_.empty()) compute(k);
+    Computed c = std::move(ready_.front());
+    ready_.pop_front();
+    ++next_;
+    for (const float v : c.field.data) top_ = std::max(top_, v);
+    if (!c.field.empty() && fits_curves(run_.params.method)) {
+      add_fit_stats(obj_.fit, c.fit);
+      if (c.fit.fallback) fallbacks_.push_back(k);
+      if (run_.options.on_slice_fields)
+        run_.options.on_slice_fields(SliceStageFields{obj_.label, int(k), obj_.box, std::move(c.fit.points),
+                                                      std::move(c.fit.mpu), std::move(c.fit.distance), c.field});
     }
-  return fields;
+    return std::move(c.field);
+  }
+
+  // Splits the wall time of the batches by each stage's share of the CPU time.
+  void add_times(StageTimes& t) const {
+    const double cpu = cpu_contour_ + cpu_mpu_ + cpu_dist_ + cpu_filter_;
+    if (!(cpu > 0)) return;
+    t.contour += wall_ * cpu_contour_ / cpu;
+    t.mpu += wall_ * cpu_mpu_ / cpu;
+    t.dist += wall_ * cpu_dist_ / cpu;
+    t.filter += wall_ * cpu_filter_ / cpu;
+  }
+  [[nodiscard]] const std::vector<std::size_t>& fallbacks() const { return fallbacks_; }
+  /// The largest value of the slice fields handed out (the end caps lie below it).
+  [[nodiscard]] float top() const { return top_; }
+
+ private:
+  struct Computed {
+    Grid2f field;     // filtered (marker2006) or the Levin field
+    MarkerSlice fit;  // marker2006: statistics, stage fields if asked; its field moved to `field`
+    double t_contour = 0, t_filter = 0;  // CPU seconds
+  };
+
+  Computed one(std::size_t k) const {
+    Computed c;
+    if (masks_[k].empty) return c;
+    const Run& run = run_;
+    auto t0 = Clock::now();
+    SliceMasks m = detail::unpack_masks(masks_[k]);
+    masks_[k] = {};
+    c.t_contour = seconds_since(t0);
+    t0 = Clock::now();
+    if (run.params.method == Method::Levin) {
+      c.field = detail::levin_field(m, obj_.box, run.stack.kind);
+      c.fit.t_dist = seconds_since(t0);
+      return c;
+    }
+    c.fit = detail::marker_slice(m, run.stack.slices[k], obj_.box, run.params, run.stack.kind, run.stack.width,
+                                 bool(run.options.on_slice_fields));
+    c.field = std::move(c.fit.field);
+    m = SliceMasks{};  // release before the filter
+    if (run.params.filter.enabled) {
+      t0 = Clock::now();
+      c.field = distance_filter(c.field, run.params.filter);
+      c.t_filter = seconds_since(t0);
+    }
+    return c;
+  }
+
+  void compute(std::size_t k0) {
+    const auto t0 = Clock::now();
+    const std::size_t k1 = std::min(run_.slices(), k0 + window_);
+    ready_.resize(k1 - k0);
+    count_.add(long(k1 - k0));  // in flight, then held until the knot feed drops them
+    const char* stage = run_.params.method == Method::Levin ? "distance" : "mpu+distance";
+    for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { ready_[k - k0] = one(k); });
+    for (const Computed& c : ready_) {
+      cpu_contour_ += c.t_contour, cpu_mpu_ += c.fit.t_mpu, cpu_dist_ += c.fit.t_dist, cpu_filter_ += c.t_filter;
+    }
+    wall_ += seconds_since(t0);
+  }
+
+  const Run& run_;
+  ObjectResult& obj_;
+  std::vector<detail::PackedMasks>& masks_;  // slice k's dropped once computed
+  ResidentCount& count_;
+  std::size_t window_;
+  std::deque<Computed> ready_;
+  std::size_t next_ = 0;
+  std::atomic<long> done_{0};
+  std::vector<std::size_t> fallbacks_;
+  double wall_ = 0, cpu_contour_ = 0, cpu_mpu_ = 0, cpu_dist_ = 0, cpu_filter_ = 0;
+  float top_ = -std::numeric_limits<float>::infinity();
+};
+
+// The knots of the z splines in z order (paper 2.4): the end cap below, every
+// slice's field (empty slices closed as detail::fill_empty_slices does), the
+// end cap above. Holds a slice's field while a neighbour may still need it.
+class KnotFeed {
+ public:
+  KnotFeed(SliceFields& slices, const std::vector<char>& empty, const PixelBox& box, const InterpParams& interp,
+           ResidentCount& count)
+      : slices_(slices), empty_(empty), box_(box), interp_(interp), count_(count) {
+    const auto last = std::find(empty.rbegin(), empty.rend(), char(0));
+    last_nonempty_ = std::size_t(empty.rend() - last) - 1;
+  }
+  ~KnotFeed() { count_.remove(long(raw_.size()) + long(!pending_.empty())); }
+  KnotFeed(const KnotFeed&) = delete;
+  KnotFeed& operator=(const KnotFeed&) = delete;
+
+  Grid2f next() {
+    const std::size_t n = empty_.size(), i = knot_++;
+    if (i == 1 || i == n + 1) {  // slice 0's field after its cap below; the cap above after slice n - 1
+      count_.remove(1);
+      return std::move(pending_);
+    }
+    Grid2f f = slice_field(i == 0 ? 0 : i - 1);
+    if (i == 0) {
+      Grid2f cap = cap_slice(f, interp_);
+      pending_ = std::move(f);
+      count_.add(1);
+      return cap;
+    }
+    if (i == n) {
+      pending_ = cap_slice(f, interp_);
+      count_.add(1);
+    }
+    return f;
+  }
+
+ private:
+  // Slice k's raw field, pulling slices up to k.
+  Grid2f& raw(std::size_t k) {
+    while (raw_first_ + raw_.size() <= k) {
+      raw_.push_back(slices_.take(raw_first_ + raw_.size()));
+      lowest_ = detail::most_negative(lowest_, raw_.back());
+    }
+    return raw_[k - raw_first_];
+  }
+
+  // Slice k's knot field, once for each k in order.
+  Grid2f slice_field(std::size_t k) {
+    const std::size_t n = empty_.size();
+    Grid2f out;
+    if (!empty_[k]) {
+      Grid2f& f = raw(k);
+      const bool neighbour_needs = k + 1 < n && empty_[k + 1];
+      out = neighbour_needs ? f : std::move(f);
+    } else {
+      const Grid2f* above = k + 1 < n ? &raw(k + 1) : nullptr;  // deque references survive push_back
+      const Grid2f* below = k > 0 ? &raw(k - 1) : nullptr;
+      const bool isolated = (!above || above->empty()) && (!below || below->empty());
+      // The most negative value of all fields: pull (and hold) the slices up
+      // to the last non-empty one first.
+      if (isolated && last_nonempty_ > k) raw(last_nonempty_);
+      out = detail::empty_slice_field(below, above, lowest_, box_, interp_);
+    }
+    // Slices below k are no longer anyone's neighbour.
+    for (; raw_first_ < k; ++raw_first_) {
+      raw_.pop_front();
+      count_.remove(1);
+    }
+    return out;
+  }
+
+  SliceFields& slices_;
+  const std::vector<char>& empty_;
+  PixelBox box_;
+  const InterpParams& interp_;
+  ResidentCount& count_;
+  std::size_t last_nonempty_ = 0;
+  std::deque<Grid2f> raw_;  // slices [raw_first_, raw_first_ + size)
+  std::size_t raw_first_ = 0;
+  float lowest_ = -1.0f;  // detail::most_negative of the slices pulled
+  std::size_t knot_ = 0;
+  Grid2f pending_;
+};
+
+// ReconstructOptions::on_sample served as the planes pass its heights.
+class Sampling final : public PlaneSource {
+ public:
+  Sampling(PlaneSource& field, const Run& run, const ObjectResult& obj, const std::vector<double>& knot_z)
+      : field_(field), run_(run), obj_(obj) {
+    for (const double zs : run.options.sample_z)
+      if (zs >= knot_z.front() && zs <= knot_z.back()) z_.push_back(zs);
+    std::stable_sort(z_.begin(), z_.end());
+  }
+  [[nodiscard]] int width() const override { return field_.width(); }
+  [[nodiscard]] int height() const override { return field_.height(); }
+  [[nodiscard]] std::size_t interval(double z) const override { return field_.interval(z); }
+  void reach(std::size_t k) override {
+    for (; next_ < z_.size() && field_.interval(z_[next_]) <= k; ++next_) {
+      field_.reach(field_.interval(z_[next_]));
+      const auto t0 = Clock::now();
+      field_.evaluate(z_[next_], sampled_);
+      seconds_ += seconds_since(t0);
+      run_.options.on_sample(obj_.label, sampled_, obj_.box, z_[next_]);
+    }
+    field_.reach(k);
+  }
+  void evaluate(double z, Grid2f& out) const override { field_.evaluate(z, out); }
+  void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override {
+    field_.sides(k, iso, margin, out);
+  }
+  [[nodiscard]] double seconds() const { return seconds_; }
+
+ private:
+  PlaneSource& field_;
+  const Run& run_;
+  const ObjectResult& obj_;
+  std::vector<double> z_;
+  std::size_t next_ = 0;
+  Grid2f sampled_;
+  double seconds_ = 0;
+};
+
+// The knot heights: the slices' z and the end caps' (add_end_caps; a cap of
+// an empty field is empty).
+std::vector<double> knot_z(const Run& run) {
+  std::vector<double> z(run.slices());
+  for (std::size_t k = 0; k < z.size(); ++k) z[k] = run.stack.slices[k].z;
+  std::vector<Grid2f> none(z.size());
+  add_end_caps(none, z, run.params.interp);
+  return z;
 }
 
 // Estimate constants (docs/decisions.md, work budget: measured on the
 // synthetic sphere and the frog).
-// Live float copies of each slice field: the fields, the spline's
+// Live float copies of each resident slice field: the field, the spline's
 // coefficients and one stage's output beside its input.
 constexpr double kFieldCopies = 3;
 // Bytes of a mesh triangle before decimation, at the peak: vertices and
@@ -259,37 +495,32 @@ double plane_count(const std::vector<double>& z, double step) {
   return std::max(0.0, std::ceil((z.back() - z.front()) / step - 1e-9)) + 1;
 }
 
-// The z of the fields once end caps are added (add_end_caps).
-std::vector<double> capped_z(const SliceStack& stack, const InterpParams& interp) {
-  std::vector<double> z;
-  const auto& s = stack.slices;
-  z.push_back(s[0].z - interp.cap_extent * (s[1].z - s[0].z));
-  for (const auto& sl : s) z.push_back(sl.z);
-  z.push_back(s.back().z + interp.cap_extent * (s.back().z - s[s.size() - 2].z));
-  return z;
+// Pixels in the runs of a packed mask (begin, end, begin, end, ...).
+double run_pixels(const std::vector<std::uint32_t>& runs) {
+  double n = 0;
+  for (std::size_t i = 0; i + 1 < runs.size(); i += 2) n += double(runs[i + 1] - runs[i]);
+  return n;
 }
 
 // Marching Cubes crosses the surface ~2 triangles per pixel of contour per
 // plane: between two slices the contour length runs from one's to the
 // other's; the caps add their end contour's band and ~2 triangles per
-// inside pixel of the end slices.
-WorkEstimate estimate_work(const Run& run, const std::vector<SliceMasks>& masks, const ObjectResult& obj) {
+// inside pixel of the end slices. Fields resident at once: the slices
+// computed together, the spline's knots around a block, the caps.
+WorkEstimate estimate_work(const Run& run, const std::vector<detail::PackedMasks>& masks, const ObjectResult& obj) {
   const ReconstructParams& p = run.params;
   WorkEstimate e;
   e.label = obj.label;
   e.box = obj.box;
   e.slices = long(run.slices());
-  const std::vector<double> z = capped_z(run.stack, p.interp);
+  const std::vector<double> z = knot_z(run);
   e.planes = plane_count(z, p.interp.z_step);
   const std::size_t n = masks.size();
   std::vector<double> perimeter(n + 2, 0.0), area(n + 2, 0.0);
   for (std::size_t k = 0; k < n; ++k) {
     if (masks[k].empty) continue;
-    for (int y = obj.box.y0; y < obj.box.y1; ++y)
-      for (int x = obj.box.x0; x < obj.box.x1; ++x) {
-        perimeter[k + 1] += masks[k].contour(x, y) != 0;
-        area[k + 1] += masks[k].inside(x, y) != 0;
-      }
+    perimeter[k + 1] = run_pixels(masks[k].contour);
+    area[k + 1] = run_pixels(masks[k].inside);
   }
   perimeter[0] = perimeter[1], perimeter[n + 1] = perimeter[n];
   for (std::size_t k = 0; k + 1 < z.size(); ++k)
@@ -297,22 +528,16 @@ WorkEstimate estimate_work(const Run& run, const std::vector<SliceMasks>& masks,
   e.triangles += 2 * (area[1] + area[n]);
   const double pixels = double(obj.box.width()) * double(obj.box.height());
   e.plane_bytes = double(obj.box.width() + 2) * double(obj.box.height() + 2) * sizeof(float);
-  e.field_bytes = double(n + 2) * pixels * sizeof(float) * kFieldCopies;
-  if (run.stack.kind == InputKind::Polylines && p.method == Method::Marker2006 && p.polyline_raster_width > 0) {
+  const std::optional<std::size_t> reach = tangent_reach(p.interp.spline);
+  const double window = double(detail::slice_window()) + (reach ? 2.0 * double(*reach + 1) : double(n)) + 2;
+  e.field_bytes = std::min(double(n + 2), window) * pixels * sizeof(float) * kFieldCopies;
+  if (run.stack.kind == InputKind::Polylines && fits_curves(p.method) && p.polyline_raster_width > 0) {
     const double k = double(p.polyline_raster_width) / run.stack.width;
     const double in_flight = std::min(double(n), double(tbb::this_task_arena::max_concurrency()));
     e.field_bytes += in_flight * k * k * pixels * kRasterBytesPerPixel;
   }
   e.mesh_bytes = e.triangles * kBytesPerTriangle;
   return e;
-}
-
-// The largest value of the slice fields (the end caps lie below it).
-float field_max(const std::vector<Grid2f>& fields) {
-  float top = -std::numeric_limits<float>::infinity();
-  for (const auto& f : fields)
-    for (float v : f.data) top = std::max(top, v);
-  return top;
 }
 
 // Why an object's mesh came out empty, given its fields' maximum.
@@ -332,42 +557,45 @@ std::string empty_reason(const Run& run, float top, const ObjectResult& obj) {
   return o.str();
 }
 
-// Stages (paper 2.4-2.5): z splines with end caps, streamed into Marching Cubes.
-TriMesh mesh_stage(const Run& run, std::vector<Grid2f> fields, const ObjectResult& obj) {
+// Stages (paper 2.1-2.5 but decimation) streamed: the slice fields computed
+// a window at a time, the z splines through a window of knots, each plane
+// meshed and dropped; only the packed masks are kept for every slice.
+void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj) {
   const ReconstructParams& p = run.params;
-  auto t0 = Clock::now();
-  std::vector<double> z(run.slices());
-  for (std::size_t k = 0; k < z.size(); ++k) z[k] = run.stack.slices[k].z;
-  add_end_caps(fields, z, p.interp);
+  std::vector<char> empty(masks.size());
+  for (std::size_t k = 0; k < masks.size(); ++k) empty[k] = masks[k].empty;
+  ResidentCount count;
+  SliceFields slices(run, obj, masks, count);
+  KnotFeed feed(slices, empty, obj.box, p.interp, count);
+  const std::vector<double> z = knot_z(run);
   if (plane_count(z, p.interp.z_step) < 2) {
     std::ostringstream o;
     o << "the slices span " << z.back() - z.front() << " px in z (end caps included), less than one plane step "
       << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check --z-spacing / the slice z)";
     throw InputError(run.stack.slices.front().source, o.str());
   }
-  const ZInterpolator field(std::move(fields), z, p.interp.spline);
-  const std::vector<double> planes = sample_planes(z.front(), z.back(), p.interp.z_step);
-  if (run.options.on_sample) {
-    Grid2f sampled;
-    for (const double zs : run.options.sample_z) {
-      if (zs < z.front() || zs > z.back()) continue;
-      field.evaluate(zs, sampled);
-      run.options.on_sample(obj.label, sampled, obj.box, zs);
-    }
-  }
-  run.result.times.interp += seconds_since(t0);
+  ZStream stream(z, p.interp.spline, obj.box.width(), obj.box.height(), [&] { return feed.next(); }, &count);
+  std::optional<Sampling> sampling;
+  if (run.options.on_sample) sampling.emplace(stream, run, obj, z);
+  PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : stream;
 
   StreamMeshOptions o;
   o.outside = -float(p.interp.cap_depth);
   if (run.options.on_plane)
-    o.on_plane = [&](const Grid2f& plane, double x0, double y0, double zz, int index, int count) {
-      run.options.on_plane(obj.label, plane, x0, y0, zz, index, count);
+    o.on_plane = [&](const Grid2f& plane, double x0, double y0, double zz, int index, int planes) {
+      run.options.on_plane(obj.label, plane, x0, y0, zz, index, planes);
     };
   o.progress = [&](long done, long total) { run.progress("interpolate+mesh", done, total); };
-  StreamMeshResult r = mesh_interpolated_field(field, planes, obj.box.x0, obj.box.y0, p.mc, o);
-  run.result.times.interp += r.interp_seconds;
+  StreamMeshResult r = mesh_interpolated_field(field, sample_planes(z.front(), z.back(), p.interp.z_step), obj.box.x0,
+                                               obj.box.y0, p.mc, o);
+  if (sampling) sampling->reach(z.size() - 2);  // any sample the planes did not pass
+  obj.mesh = std::move(r.mesh);
+  if (obj.mesh.triangles.empty()) obj.empty_reason = empty_reason(run, slices.top(), obj);
+  obj.peak_resident_fields = count.peak;
+  slices.add_times(run.result.times);
+  run.result.times.interp += r.interp_seconds + stream.tangent_seconds() + (sampling ? sampling->seconds() : 0.0);
   run.result.times.mesh += r.mesh_seconds;
-  return std::move(r.mesh);
+  if (fits_curves(p.method)) warn_fit(run, slices.fallbacks(), obj.fit, object_name(obj.label));
 }
 
 // Stage (paper 2.5): bounded quadric error decimation.
@@ -400,30 +628,15 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   for (const std::uint32_t label : objects_to_reconstruct(run)) {
     ObjectResult obj;
     obj.label = label;
-    auto t0 = Clock::now();
-    std::vector<SliceMasks> masks = contour_stage(run, label);
-    obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const SliceMasks& m) { return !m.empty; }));
-    obj.box = detail::object_box(masks, stack.width, stack.height, params.crop_margin);
+    const auto t0 = Clock::now();
+    std::vector<detail::PackedMasks> masks = contour_stage(run, obj);
     result.times.contour += seconds_since(t0);
     if (obj.slices_with_contours == 0) {
       run.warn(object_name(label) + ": no slice has an inside; nothing to reconstruct");
       continue;
     }
     if (options.on_estimate) options.on_estimate(estimate_work(run, masks, obj));
-    std::vector<Grid2f> fields;
-    if (params.method == Method::Levin) {
-      t0 = Clock::now();
-      fields = levin_stage(run, masks, obj.box);
-      result.times.dist += seconds_since(t0);
-    } else {
-      fields = marker_stages(run, masks, obj);
-    }
-    t0 = Clock::now();
-    detail::fill_empty_slices(fields, obj.box, params.interp);
-    result.times.dist += seconds_since(t0);
-    const float top = field_max(fields);
-    obj.mesh = mesh_stage(run, std::move(fields), obj);
-    if (obj.mesh.triangles.empty()) obj.empty_reason = empty_reason(run, top, obj);
+    stream_stages(run, std::move(masks), obj);
     decimate_stage(run, obj);
     check_stage(run, obj);
     result.objects.push_back(std::move(obj));

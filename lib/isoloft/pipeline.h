@@ -1,12 +1,17 @@
 // @file pipeline.h
 // @brief reconstruct(): one closed surface per object of a slice stack.
-// Marker, Braude, Museth & Breen 2006, or the Levin 1986-style baseline. Each
-// stage runs over all slices in parallel before the next (times as the paper's
-// Table 3): contour and inside (2.1), [marker2006] normals and MPU (2.1),
-// signed distance (2.2), [marker2006] filter (2.3), z splines (2.4), Marching
-// Cubes and decimation (2.5); per-slice ones in pipeline/slice_fields.h. Each
-// object runs in its crop box; pixel (i, j) of slice k is at (i, j, z_k).
-// Sign convention: positive inside.
+// Marker, Braude, Museth & Breen 2006, or the Levin 1986-style baseline:
+// contour and inside (paper 2.1), [marker2006] normals and MPU (2.1), signed
+// distance (2.2), [marker2006] filter (2.3), z splines (2.4), Marching Cubes
+// and decimation (2.5); per-slice ones in pipeline/slice_fields.h. A first
+// pass makes every slice's masks (kept packed, O(contour length) bytes) and
+// the crop box; then the slices are streamed: a window of them computed in
+// parallel, the z splines through a window of knots (interp/z_stream.h), each
+// plane meshed and dropped, so the fields held do not grow with the slice
+// count (lazy images: SliceStack::load_image). Stage times split the streamed
+// wall time by CPU shares. Each object runs in its
+// crop box; pixel (i, j) of slice k is at (i, j, z_k). Sign convention:
+// positive inside.
 #pragma once
 
 #include <cstdint>
@@ -17,6 +22,8 @@
 #include <vector>
 
 #include "isoloft/contour/fill.h"
+#include <optional>
+
 #include "isoloft/contour/normals.h"
 #include "isoloft/core/params.h"
 #include "isoloft/field/filter.h"
@@ -33,22 +40,26 @@
 namespace isoloft {
 
 enum class Method {
-  Marker2006,  ///< the paper: MPU curve, distance extension, filter
+  Isoloft,     ///< the default: marker2006 with the departures method_defaults() names (each measured)
+  Marker2006,  ///< the paper: MPU curve, distance extension, filter, Hyman's monotone z spline
   Levin,       ///< baseline: exact EDT of the pixel contours (Levin 1986 style), no filter
 };
 
-inline constexpr std::array<EnumName<Method>, 2> kMethodNames{{{Method::Marker2006, "marker2006"}, {Method::Levin, "levin"}}};
+inline constexpr std::array<EnumName<Method>, 3> kMethodNames{
+    {{Method::Isoloft, "isoloft"}, {Method::Marker2006, "marker2006"}, {Method::Levin, "levin"}}};
 constexpr std::span<const EnumName<Method>> enum_names(Method) { return kMethodNames; }
 
 /// The pipeline's own parameters, then one struct per stage; docs in the rows
 /// of params_table<ReconstructParams>() (pipeline.cpp).
 struct ReconstructParams {
-  Method method = Method::Marker2006;
+  Method method = Method::Isoloft;
   bool binarize = false;
   double mask_edge_offset = 0.5;
   double polyline_spacing = 0.5;
   int polyline_raster_width = 0;
   double sign_guard = 2.0;
+  double mpu_band = 4.0;
+  int mask_min_feature = 2;
   int crop_margin = 32;
   FillParams fill;              ///< contour/: even-odd fill, open contours
   NormalsParams normals;        ///< contour/: paper 2.1
@@ -56,12 +67,18 @@ struct ReconstructParams {
   NarrowBandParams band;        ///< field/: paper 2.2
   ExtendParams extend;          ///< field/: paper 2.2
   FilterParams filter;          ///< field/: paper 2.3
-  InterpParams interp;          ///< interp/: paper 2.4
+  InterpParams interp{.spline = SplineKind::ExtremumPreserving};  ///< interp/: paper 2.4 (spline: isoloft's)
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
 
-/// Largest polyline_raster_width accepted, px.
+/// Least non-zero ReconstructParams::mpu_band, px: the fitted curve lies within
+/// about tol + pixel_slack (1.25 px at the defaults) of the contour points, which
+/// lie within 0.5 px of the contour pixels; the band must hold it and the pixel
+/// beyond, where marching squares sees the sign change.
+inline constexpr double kMinMpuBand = 2.0;
+
+/// Largest fine raster for polylines, pixels across (the paper's pelvis used 2000).
 inline constexpr int kMaxPolylineRaster = 20000;
 
 template <>
@@ -91,6 +108,10 @@ struct ObjectResult {
   int slices_with_contours = 0;
   FitStats fit;                ///< marker2006: summed over slices
   PixelBox box;                ///< cropped working region
+  /// Most per-slice fields held at once: slices in flight, fields kept for an
+  /// empty neighbour, spline knots and tangents (bounded by the window unless
+  /// the natural spline or an empty slice needs more; docs/decisions.md).
+  long peak_resident_fields = 0;
 };
 
 /// One slice's intermediate fields (marker2006), for --dump-stages.
@@ -143,6 +164,14 @@ struct ReconstructResult {
   std::vector<std::string> warnings;
 };
 
+/// True for the methods that fit MPU curves (isoloft, marker2006).
+constexpr bool fits_curves(Method m) { return m != Method::Levin; }
+
+/// A method's parameters: the stages' defaults (the paper's) with what the
+/// method changes. isoloft (== ReconstructParams{}): the extremum-preserving
+/// z spline; marker2006 and levin: Hyman's (docs/decisions.md: the isoloft method).
+ReconstructParams method_defaults(Method m);
+
 /// Reconstructs one object, or one per label with InputKind::Labels.
 /// \throw InputError for < 2 slices, z not increasing, slices (end caps
 ///        included) thinner than one interp.z_step, an empty image size,
@@ -157,6 +186,9 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
 /// Parameters as JSON and back; from_json applies the keys present to `base`.
 /// \throw ParamError naming a bad key, type or value.
 nlohmann::json params_to_json(const ReconstructParams&);
-ReconstructParams params_from_json(const nlohmann::json&, const ReconstructParams& base = {});
+ReconstructParams params_from_json(const nlohmann::json&, const ReconstructParams& base);
+/// The keys present applied to method_defaults() of j's "method" (or of
+/// `method` if given, e.g. from a flag; else the default method's).
+ReconstructParams params_from_json(const nlohmann::json& j, std::optional<Method> method = std::nullopt);
 
 }  // namespace isoloft

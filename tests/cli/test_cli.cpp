@@ -11,6 +11,7 @@
 #include "cli/cli_test_util.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
+#include "isoloft/pipeline.h"
 
 using namespace isoloft;
 using isoloft::test::Cli;
@@ -57,6 +58,27 @@ TEST_F(Cli, PrintParamsRoundTripsThroughParamsFile) {
   EXPECT_NE(bad.code, 0);
   EXPECT_NE(bad.err.find("bad.json"), std::string::npos) << bad.err;
   EXPECT_NE(bad.err.find("interp.splin"), std::string::npos) << bad.err;
+}
+
+// The method picks the defaults (isoloft: extremum-preserving z spline;
+// marker2006: the paper's Hyman spline); a params file and flags override them,
+// and --method overrides the file's method.
+TEST_F(Cli, MethodPicksTheDefaultsThatFileAndFlagsOverride) {
+  auto spline_of = [&](const std::string& args) {
+    const CliRun r = run("reconstruct --print-params " + args);
+    EXPECT_EQ(r.code, 0) << args << ": " << r.err;
+    const auto j = nlohmann::json::parse(r.out, nullptr, true, true);
+    return j["method"].get<std::string>() + " " + j["interp"]["spline"].get<std::string>();
+  };
+  EXPECT_EQ(spline_of(""), "isoloft extremum-preserving");
+  EXPECT_EQ(spline_of("--method marker2006"), "marker2006 monotone");
+  EXPECT_EQ(spline_of("--method marker2006 --spline linear"), "marker2006 linear");
+  std::ofstream(p("m.json")) << R"({"method": "marker2006"})";
+  EXPECT_EQ(spline_of("--params " + p("m.json")), "marker2006 monotone");
+  EXPECT_EQ(spline_of("--params " + p("m.json") + " --method isoloft"), "isoloft extremum-preserving");
+  std::ofstream(p("ms.json")) << R"({"method": "marker2006", "interp": {"spline": "natural"}})";
+  EXPECT_EQ(spline_of("--params " + p("ms.json")), "marker2006 natural");
+  EXPECT_EQ(params_to_json(ReconstructParams{}), params_to_json(method_defaults(Method::Isoloft)));
 }
 
 TEST_F(Cli, MissingFileIsNamed) {

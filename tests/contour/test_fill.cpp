@@ -359,5 +359,42 @@ TEST(ContourFill, Binarize) {
   EXPECT_EQ(b.data, (std::vector<std::uint8_t>{0, 0, 1}));
 }
 
+// remove_thin_features(mask, 2): what holds no 2x2 square goes (inside: a
+// one-pixel spur, line and island; outside: a one-pixel notch, hole and gap),
+// everything 2 px wide stays exactly, on either side.
+TEST(RemoveThinFeatures, TwoByTwoOpeningThenClosing) {
+  const auto box = [](int x, int y, int x0, int y0, int x1, int y1) { return x >= x0 && x <= x1 && y >= y0 && y <= y1; };
+  // Two 10x10 blocks 1 px apart (a gap), the left one with a one-pixel spur, a
+  // one-pixel notch and a one-pixel hole; a one-pixel line and island; a
+  // 2 px wide bar and a 2x2 island; a 2 px wide notch in the right block.
+  const auto blocks = [&](int x, int y) { return box(x, y, 5, 5, 14, 14) || box(x, y, 16, 5, 25, 14); };
+  const auto thin_in = [&](int x, int y) {
+    return box(x, y, 10, 2, 10, 4)            // spur above the left block
+           || box(x, y, 30, 5, 30, 14)        // line
+           || (x == 34 && y == 20);           // island
+  };
+  const auto thin_out = [&](int x, int y) {
+    return (x == 5 && y == 9)                 // notch in the left block's left side
+           || (x == 9 && y == 9)              // hole
+           || box(x, y, 15, 5, 15, 14);       // the gap between the blocks (outside by construction)
+  };
+  const auto wide = [&](int x, int y) { return box(x, y, 40, 5, 41, 20) || box(x, y, 50, 30, 51, 31); };
+  const auto wide_notch = [&](int x, int y) { return box(x, y, 20, 12, 21, 14); };
+  const Grid2u8 mask = make(kW, kH, [&](int x, int y) {
+    return ((blocks(x, y) || thin_in(x, y)) && !thin_out(x, y) && !wide_notch(x, y)) || wide(x, y);
+  });
+  const Grid2u8 want = make(kW, kH, [&](int x, int y) {
+    return ((blocks(x, y) || box(x, y, 15, 5, 15, 14)) && !wide_notch(x, y)) || wide(x, y);
+  });
+  expect_grid_eq(remove_thin_features(mask, 2), want, "2x2 opening and closing");
+  expect_grid_eq(remove_thin_features(mask, 1), mask, "width 1 keeps the mask");
+  // A mask touching the border is not grown by the closing there, and a
+  // full mask stays full.
+  const Grid2u8 edge = make(kW, kH, [&](int x, int y) { return x <= 3; });
+  expect_grid_eq(remove_thin_features(edge, 2), edge, "mask along the border");
+  const Grid2u8 full(kW, kH, 1);
+  expect_grid_eq(remove_thin_features(full, 3), full, "full mask");
+}
+
 }  // namespace
 }  // namespace isoloft

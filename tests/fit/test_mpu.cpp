@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string>
@@ -528,6 +529,50 @@ TEST(Mpu, GridEvaluationEqualsValue) {
     for (int i = 0; i < g.width; ++i) {
       const double v = r.curve.value(Vec2d(x0 + i * step, y0 + j * step));
       ASSERT_NEAR(g(i, j), v, kFloatRel * (1.0 + std::abs(v))) << "grid pixel (" << i << ", " << j << ")";
+    }
+}
+
+TEST(Mpu, GridEvaluationOnlyWhereAsked) {
+  const Shape s = flower_shape();
+  const MpuResult r = fit_mpu(image_points(s), params_for(s));
+  const Grid2f all = evaluate_on_grid(r.curve, s.width, s.height);
+  Grid2u8 where(s.width, s.height, 0);
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x) where(x, y) = (x * 7 + y * 3) % 5 == 0 || (y > 100 && y < 140);
+  const Grid2f some = evaluate_on_grid(r.curve, s.width, s.height, 0.0, 0.0, 1.0, &where);
+  for (std::size_t i = 0; i < some.size(); ++i)
+    ASSERT_EQ(some.data[i], where.data[i] ? all.data[i] : float(-MpuCurve::kEmpty)) << "pixel " << i;
+  const Grid2u8 wrong(s.width + 1, s.height, 1);
+  EXPECT_THROW(evaluate_on_grid(r.curve, s.width, s.height, 0.0, 0.0, 1.0, &wrong), ParamError);
+}
+
+// MpuParams::domain_distance: cells farther from every point get no local
+// function; within the distance the curve still holds tol and the signs.
+TEST(Mpu, DomainDistanceFitsOnlyNearTheData) {
+  const Shape s = flower_shape();
+  MpuParams p = params_for(s);
+  const MpuResult whole = fit_mpu(image_points(s), p);
+  p.domain_distance = 7.0;
+  const MpuResult near = fit_mpu(image_points(s), p);
+  EXPECT_EQ(whole.cells_outside_domain, 0);
+  EXPECT_GT(near.cells_outside_domain, 0);
+  EXPECT_LT(near.leaves, whole.leaves);
+  check_tol(near, p, s.name);
+  // Every leaf's cell comes within the distance of a point.
+  const OrientedPoints pts = image_points(s);
+  for (const auto& leaf : near.curve.leaves()) {
+    double d = std::numeric_limits<double>::infinity();
+    for (const Vec2d& q : pts.points) d = std::min(d, (q - leaf.centre).norm());
+    EXPECT_LE(d, p.domain_distance + std::sqrt(2.0) * leaf.half_size) << at(leaf.centre);
+  }
+  // Within the distance of the data: the true sign beyond kSignMargin.
+  int failures = 0;
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x) {
+      const double truth = s.sdf(Vec2d(x, y));
+      if (std::abs(truth) <= kSignMargin || std::abs(truth) > p.domain_distance - 1.0) continue;
+      if ((near.curve.value(Vec2d(x, y)) > 0.0) != (truth > 0.0) && failures++ < 5)
+        ADD_FAILURE() << "wrong sign at pixel (" << x << ", " << y << "), true signed distance " << truth;
     }
 }
 

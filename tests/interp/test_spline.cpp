@@ -18,6 +18,9 @@ constexpr double kEvalTol = 1e-9;
 // Samples per interval when scanning an interpolant.
 constexpr int kScan = 64;
 
+constexpr SplineKind kAllKinds[] = {SplineKind::Monotone, SplineKind::ExtremumPreserving, SplineKind::CatmullRom,
+                                    SplineKind::Natural, SplineKind::Linear};
+
 std::vector<double> knots(const std::vector<double>& gaps) {
   std::vector<double> z{0.0};
   for (double g : gaps) z.push_back(z.back() + g);
@@ -27,7 +30,7 @@ std::vector<double> knots(const std::vector<double>& gaps) {
 
 TEST(Spline, EveryKindInterpolatesItsData) {
   const std::vector<double> z{0, 1, 3, 3.5, 7}, f{2, -1, 4, 4, 0};
-  for (auto kind : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear}) {
+  for (auto kind : kAllKinds) {
     const Spline1D s(z, f, kind);
     for (std::size_t i = 0; i < z.size(); ++i) EXPECT_NEAR(s(z[i]), f[i], kEvalTol) << to_string(kind) << " knot " << i;
   }
@@ -37,7 +40,7 @@ TEST(Spline, CubicKindsReproduceLinesAndLinearIsPiecewiseLinear) {
   const std::vector<double> z{0, 2, 3, 7, 8};
   std::vector<double> f;
   for (double v : z) f.push_back(3 - 0.5 * v);
-  for (auto kind : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear}) {
+  for (auto kind : kAllKinds) {
     const Spline1D s(z, f, kind);
     for (double q = 0; q <= 8; q += 0.125) EXPECT_NEAR(s(q), 3 - 0.5 * q, kEvalTol) << to_string(kind) << " at z=" << q;
   }
@@ -105,6 +108,81 @@ RC_GTEST_PROP(SplineProperty, MonotoneNeverLeavesItsIntervalRange, ()) {
   }
 }
 
+// Random knots and values in 0.1 steps (values in [-100, 100]).
+std::pair<std::vector<double>, std::vector<double>> random_data(int n) {
+  const auto gaps = *rc::gen::container<std::vector<double>>(std::size_t(n - 1), rc::gen::map(rc::gen::inRange(1, 200), [](int v) { return v / 10.0; }));
+  const auto f = *rc::gen::container<std::vector<double>>(std::size_t(n), rc::gen::map(rc::gen::inRange(-1000, 1000), [](int v) { return v / 10.0; }));
+  return {knots(gaps), f};
+}
+
+// Extremum-preserving: where the data are monotone (sorted), every interval
+// stays within its two data values, as Hyman's (no overshoot).
+RC_GTEST_PROP(SplineProperty, ExtremumPreservingIsMonotoneOnMonotoneData, ()) {
+  const int n = *rc::gen::inRange(2, 9);
+  auto [z, f] = random_data(n);
+  std::sort(f.begin(), f.end());
+  if (*rc::gen::arbitrary<bool>()) std::reverse(f.begin(), f.end());
+  const Spline1D s(z, f, SplineKind::ExtremumPreserving);
+  for (int k = 0; k + 1 < n; ++k) {
+    const double lo = std::min(f[k], f[k + 1]), hi = std::max(f[k], f[k + 1]);
+    for (int i = 0; i <= kScan; ++i) {
+      const double v = s(z[k] + (z[k + 1] - z[k]) * i / kScan);
+      RC_ASSERT(v >= lo - kEvalTol);
+      RC_ASSERT(v <= hi + kEvalTol);
+    }
+  }
+}
+
+// Extremum-preserving, any data: an interval whose two values share a sign
+// keeps it throughout (no zero crossing the slices do not have: the field's
+// inside/outside between slices is decided by the slices).
+RC_GTEST_PROP(SplineProperty, ExtremumPreservingKeepsTheSignOfEachInterval, ()) {
+  const int n = *rc::gen::inRange(2, 9);
+  const auto [z, f] = random_data(n);
+  const Spline1D s(z, f, SplineKind::ExtremumPreserving);
+  for (int k = 0; k + 1 < n; ++k) {
+    if (f[k] * f[k + 1] <= 0.0) continue;
+    for (int i = 0; i <= kScan; ++i) RC_ASSERT(s(z[k] + (z[k + 1] - z[k]) * i / kScan) * f[k] > 0.0);
+  }
+}
+
+// No pause at an extremum: samples of a smooth bump whose peak lies between
+// knots. Hyman's tangent there is 0 (the curve flattens at the knot); the
+// extremum-preserving one follows the parabola, so its peak moves toward the
+// true one and its error is smaller everywhere it matters.
+TEST(Spline, ExtremumPreservingDoesNotPauseAtASmoothExtremum) {
+  const double peak = 3.3;  // between knots 3 and 4
+  auto bump = [&](double x) { return 10.0 * std::cos((x - peak) / 4.0); };
+  std::vector<double> z, f;
+  for (int i = 0; i <= 8; ++i) {
+    z.push_back(i);
+    f.push_back(bump(i));
+  }
+  const Spline1D hyman(z, f, SplineKind::Monotone), ep(z, f, SplineKind::ExtremumPreserving);
+  EXPECT_EQ(hyman.tangents()[3], 0.0);
+  EXPECT_GT(ep.tangents()[3], 0.0) << "the peak lies to the right of knot 3";
+  double worst_h = 0, worst_e = 0, top_z = 0, top = -1e9;
+  for (int i = 0; i <= 8 * kScan; ++i) {
+    const double q = 8.0 * i / (8 * kScan);
+    worst_h = std::max(worst_h, std::abs(hyman(q) - bump(q)));
+    worst_e = std::max(worst_e, std::abs(ep(q) - bump(q)));
+    if (ep(q) > top) top = ep(q), top_z = q;
+  }
+  // Measured: Hyman 0.033, extremum-preserving 0.0093 (0.28x); half keeps
+  // the claim "clearly smaller" with room for other tangent estimates.
+  constexpr double kMaxErrorShareOfHyman = 0.5;
+  EXPECT_LT(worst_e, kMaxErrorShareOfHyman * worst_h) << "extremum-preserving " << worst_e << " vs Hyman " << worst_h;
+  EXPECT_GT(top_z, 3.0) << "the interpolant's peak moved off the knot toward " << peak;
+}
+
+// A kink, not a smooth extremum (second differences change sign): the
+// extremum-preserving tangent is Hyman's 0.
+TEST(Spline, ExtremumPreservingIsFlatAtAKink) {
+  const std::vector<double> z{0, 1, 2, 3, 4}, f{0, 4, 5, 1, 3};
+  const Spline1D s(z, f, SplineKind::ExtremumPreserving);
+  EXPECT_EQ(s.tangents()[2], 0.0);
+}
+
 // The counterpart: on monotone data Catmull-Rom and natural splines overshoot
 // (the paper's Fig. 9 "lip"). Data: a step, as a distance field sees at a
 // contour that appears between slices.
@@ -137,7 +215,7 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
       for (int x = 0; x < 3; ++x) g(x, y) = float((x + 1) * std::sin(double(k) + y) * 5);
     slices.push_back(g);
   }
-  for (auto kind : {SplineKind::Monotone, SplineKind::CatmullRom, SplineKind::Natural, SplineKind::Linear}) {
+  for (auto kind : kAllKinds) {
     const ZInterpolator zi(slices, z, kind);
     Grid2f out;
     for (double q : {0.0, 1.5, 4.0, 5.2, 9.9, 12.0}) {
@@ -154,14 +232,16 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
 }
 
 // ZInterpolator::sides(): a pixel said to keep one side of iso over a knot
-// interval does so at every height in it (monotone and linear), and the side
-// is given exactly when both knots are beyond iso by more than the margin.
+// interval does so at every height in it (every kind); for monotone and
+// linear the side is given exactly when both knots are beyond iso by more than
+// the margin, for the others only then (their overshoot bound may withhold it).
 // Values in 0.1 px steps around iso, so many knots sit within the margin.
 RC_GTEST_PROP(ZInterpolatorProperty, SidesHoldOverTheirInterval, ()) {
   constexpr float kMargin = 1e-2f;  // pixels; far above the float rounding of values below 10 px
   const int n = *rc::gen::inRange(2, 7), w = *rc::gen::inRange(1, 9);
   const float iso = *rc::gen::element(0.0f, 0.3f, -1.0f);
-  const auto kind = *rc::gen::element(SplineKind::Monotone, SplineKind::Linear);
+  const auto kind = *rc::gen::elementOf(std::vector<SplineKind>(std::begin(kAllKinds), std::end(kAllKinds)));
+  const bool exact = kind == SplineKind::Monotone || kind == SplineKind::Linear;
   const auto gaps = *rc::gen::container<std::vector<double>>(std::size_t(n - 1), rc::gen::map(rc::gen::inRange(1, 100), [](int v) { return v / 10.0; }));
   const auto z = knots(gaps);
   std::vector<Grid2f> slices;
@@ -177,7 +257,8 @@ RC_GTEST_PROP(ZInterpolatorProperty, SidesHoldOverTheirInterval, ()) {
     zi.sides(std::size_t(k), iso, kMargin, side);
     for (int x = 0; x < w; ++x) {
       const float lo = std::min(slices[k](x, 0), slices[k + 1](x, 0)), hi = std::max(slices[k](x, 0), slices[k + 1](x, 0));
-      RC_ASSERT(side(x, 0) == (lo > iso + kMargin ? 1 : hi < iso - kMargin ? -1 : 0));
+      if (exact) RC_ASSERT(side(x, 0) == (lo > iso + kMargin ? 1 : hi < iso - kMargin ? -1 : 0));
+      else RC_ASSERT(side(x, 0) == 0 || side(x, 0) == (lo > iso + kMargin ? 1 : -1));
     }
     for (int i = 0; i <= kScan; ++i) {
       const double q = z[k] + (z[k + 1] - z[k]) * i / kScan;
@@ -188,14 +269,17 @@ RC_GTEST_PROP(ZInterpolatorProperty, SidesHoldOverTheirInterval, ()) {
   }
 }
 
-TEST(ZInterpolator, CatmullRomAndNaturalKnowNoSides) {  // they overshoot their knots
+// The overshoot bound withholds a side the knots alone would give: a step
+// 0, 0, 10, 10 overshoots below 0 in Catmull-Rom's first interval.
+TEST(ZInterpolator, OvershootingKindsWithholdASideNearTheirKnots) {
   const std::vector<double> z{0, 1, 2, 3};
-  const std::vector<Grid2f> slices(4, Grid2f(2, 2, 5.0f));
-  for (auto kind : {SplineKind::CatmullRom, SplineKind::Natural}) {
-    Grid2<std::int8_t> side;
-    ZInterpolator(slices, z, kind).sides(1, 0.0f, 1e-2f, side);
-    EXPECT_EQ(std::count(side.data.begin(), side.data.end(), std::int8_t(0)), 4) << to_string(kind);
-  }
+  std::vector<Grid2f> slices;
+  for (float v : {0.5f, 0.5f, 10.0f, 10.0f}) slices.emplace_back(1, 1, v);
+  Grid2<std::int8_t> side;
+  ZInterpolator(slices, z, SplineKind::CatmullRom).sides(1, 0.0f, 1e-2f, side);
+  EXPECT_EQ(side(0, 0), 0) << "its bound 4/27 (4.75 + 4.75) = 1.41 exceeds the knot value 0.5";
+  ZInterpolator(slices, z, SplineKind::Monotone).sides(1, 0.0f, 1e-2f, side);
+  EXPECT_EQ(side(0, 0), 1);
 }
 
 TEST(EndCaps, VirtualSlicesAreOutsideAndHalfASpacingAway) {

@@ -86,8 +86,7 @@ double vertex_hausdorff(const TriMesh& a, const TriMesh& b) {
 TriMesh reconstruct_file(const std::string& path, Method method = Method::Marker2006) {
   const Volume v = read_volume(path);
   VolumeStack vs = volume_stack(v, {}, path);
-  ReconstructParams p;
-  p.method = method;
+  const ReconstructParams p = method_defaults(method);
   ReconstructOptions o;
   o.labels = {3};
   const ReconstructResult r = reconstruct(vs.stack, p, o);

@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "isoloft/core/error.h"
 
@@ -283,6 +285,58 @@ Grid2u8 mask_boundary(const Grid2u8& mask) {
       out(x, y) = edge ? 1 : 0;
     }
   return out;
+}
+
+namespace {
+/// Opening of the set {mask == fg} by a k x k square, pixels beyond the image
+/// counting as `beyond`; the result uses the same encoding as the input.
+/// Separable, by run lengths: O(1) per pixel for any k.
+Grid2u8 open_square(const Grid2u8& mask, int k, bool fg, bool beyond) {
+  const int w = mask.width, h = mask.height, pad = k - 1;
+  const int W = w + 2 * pad, H = h + 2 * pad;  // padded frame: squares reaching beyond the image count too
+  const auto in = [&](int X, int Y) {
+    const int x = X - pad, y = Y - pad;
+    return (x < 0 || y < 0 || x >= w || y >= h) ? beyond : (mask(x, y) != 0) == fg;
+  };
+  const auto at = [W](int X, int Y) { return std::size_t(Y) * std::size_t(W) + std::size_t(X); };
+  std::vector<std::uint8_t> row(std::size_t(W) * H), sq(row.size());
+  std::vector<int> col(W);
+  // Erosion: sq(X, Y) = the square with top-left corner (X, Y) lies in the set
+  // (k set pixels from X to the right, then k such rows from Y down).
+  for (int Y = 0; Y < H; ++Y)
+    for (int X = W - 1, run = 0; X >= 0; --X) {
+      run = in(X, Y) ? run + 1 : 0;
+      row[at(X, Y)] = run >= k;
+    }
+  std::fill(col.begin(), col.end(), 0);
+  for (int Y = H - 1; Y >= 0; --Y)
+    for (int X = 0; X < W; ++X) {
+      col[X] = row[at(X, Y)] ? col[X] + 1 : 0;
+      sq[at(X, Y)] = col[X] >= k;
+    }
+  // Dilation: a pixel is kept if such a square covers it (one starts at most
+  // k - 1 to its left, then at most k - 1 rows above).
+  for (int Y = 0; Y < H; ++Y)
+    for (int X = 0, last = -k; X < W; ++X) {
+      if (sq[at(X, Y)]) last = X;
+      row[at(X, Y)] = X - last < k;
+    }
+  std::fill(col.begin(), col.end(), -k);
+  Grid2u8 out(w, h);
+  for (int Y = 0; Y < H; ++Y)
+    for (int X = 0; X < W; ++X) {
+      if (row[at(X, Y)]) col[X] = Y;
+      const int x = X - pad, y = Y - pad;
+      if (x >= 0 && y >= 0 && x < w && y < h) out(x, y) = (Y - col[X] < k) == fg ? 1 : 0;
+    }
+  return out;
+}
+}  // namespace
+
+Grid2u8 remove_thin_features(const Grid2u8& mask, int width) {
+  if (width <= 1) return mask;
+  // Opening of the mask (beyond = outside), then of its outside (beyond = outside too).
+  return open_square(open_square(mask, width, true, false), width, false, true);
 }
 
 Grid2u8 binarize(const Grid2u32& values, std::uint32_t threshold) {

@@ -77,6 +77,15 @@ FillResult fill_even_odd(const Grid2u8& contour, const FillParams& params = {});
 /// @warning A piece thinner than ~3 px is all boundary: keep the mask as inside.
 Grid2u8 mask_boundary(const Grid2u8& mask);
 
+/// The mask without its features narrower than `width` pixels: an opening
+/// (erosion, then dilation) by a width x width square removes the inside
+/// features that hold no such square (one-pixel lines, spurs, islands), then a
+/// closing by the same square fills the outside ones (notches, holes, gaps
+/// between pieces). Every part of the mask or of its outside that holds a
+/// width x width square is kept exactly. Beyond the image is outside.
+/// width <= 1 returns the mask unchanged.
+Grid2u8 remove_thin_features(const Grid2u8& mask, int width);
+
 /// 1 where value > threshold, else 0.
 Grid2u8 binarize(const Grid2u32& values, std::uint32_t threshold);
 

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -61,6 +62,10 @@ struct SliceStack {
   InputKind kind = InputKind::Contours;  ///< images of contours, masks or labels, or polygons
   std::optional<PatientFrame> patient;   ///< physical geometry, when the input has one
   std::vector<Slice> slices;      ///< strictly increasing z
+  /// Lazy images: if set, slice k's image is load_image(k), read when the
+  /// pipeline needs it (from worker threads, any order, maybe more than once)
+  /// and Slice::image stays empty; memory then does not grow with the slices.
+  std::function<Grid2u32(std::size_t k)> load_image;
 
   [[nodiscard]] bool has_polygons() const { return kind == InputKind::Polylines; }
 };

@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <string>
+#include <unordered_map>
 
 #include "isoloft/core/error.h"
 
@@ -134,28 +136,41 @@ std::vector<std::pair<int, double>> MpuCurve::weights(const Vec2d& p) const {
   return out;
 }
 
-Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0, double y0, double step) {
+Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0, double y0, double step,
+                        const Grid2u8* where) {
   if (width < 0 || height < 0)
     throw ParamError("evaluate MPU on grid: size " + std::to_string(width) + "x" + std::to_string(height) +
                      " is negative");
   if (!(step > 0.0) || !std::isfinite(step))
     throw ParamError("evaluate MPU on grid: step must be a finite number > 0 (got " + std::to_string(step) + ")");
+  if (where && (where->width != width || where->height != height))
+    throw ParamError("evaluate MPU on grid: the mask of pixels to evaluate is " + std::to_string(where->width) + "x" +
+                     std::to_string(where->height) + ", the grid " + std::to_string(width) + "x" +
+                     std::to_string(height));
   Grid2f out(width, height, static_cast<float>(-MpuCurve::kEmpty));
   if (width == 0 || height == 0 || curve.nodes_.empty()) return out;
-  const double xmax = x0 + (width - 1) * step;
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     std::vector<double> num(width), den(width);
     std::vector<int> stack;
     for (int j = rows.begin(); j < rows.end(); ++j) {
+      // Pixels lo..hi of this row are evaluated (those of `where` among them).
+      int lo = 0, hi = width - 1;
+      const std::uint8_t* mask = where ? &(*where)(0, j) : nullptr;
+      if (mask) {
+        while (lo <= hi && !mask[lo]) ++lo;
+        while (hi >= lo && !mask[hi]) --hi;
+        if (lo > hi) continue;
+      }
       const double y = y0 + j * step;
-      std::fill(num.begin(), num.end(), 0.0);
-      std::fill(den.begin(), den.end(), 0.0);
+      const double xmin = x0 + lo * step, xmax = x0 + hi * step;
+      std::fill(num.begin() + lo, num.begin() + hi + 1, 0.0);
+      std::fill(den.begin() + lo, den.begin() + hi + 1, 0.0);
       // Leaves whose support circle meets this row, each added over its span.
       stack.assign(1, 0);
       while (!stack.empty()) {
         const MpuCurve::Node& node = curve.nodes_[stack.back()];
         stack.pop_back();
-        if (y < node.box.min().y() || y > node.box.max().y() || node.box.max().x() < x0 || node.box.min().x() > xmax)
+        if (y < node.box.min().y() || y > node.box.max().y() || node.box.max().x() < xmin || node.box.min().x() > xmax)
           continue;
         if (node.first_child >= 0) {
           for (int k = 0; k < 4; ++k) stack.push_back(node.first_child + k);
@@ -166,9 +181,10 @@ Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0,
         const double R = leaf.radius;
         if (std::abs(dy) >= R) continue;
         const double hw = std::sqrt(R * R - dy * dy);
-        const int i0 = std::max(0, static_cast<int>(std::ceil((leaf.centre.x() - hw - x0) / step)));
-        const int i1 = std::min(width - 1, static_cast<int>(std::floor((leaf.centre.x() + hw - x0) / step)));
+        const int i0 = std::max(lo, static_cast<int>(std::ceil((leaf.centre.x() - hw - x0) / step)));
+        const int i1 = std::min(hi, static_cast<int>(std::floor((leaf.centre.x() + hw - x0) / step)));
         for (int i = i0; i <= i1; ++i) {
+          if (mask && !mask[i]) continue;
           const Vec2d p(x0 + i * step, y);
           const double t = 1.5 * (p - leaf.centre).norm() / R;
           if (t >= 1.5) continue;
@@ -177,7 +193,8 @@ Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0,
           den[i] += w;
         }
       }
-      for (int i = 0; i < width; ++i) {
+      for (int i = lo; i <= hi; ++i) {
+        if (mask && !mask[i]) continue;
         double v;
         if (den[i] >= curve.w_floor_) {
           v = num[i] / den[i];
@@ -205,6 +222,7 @@ struct Scratch {
   std::vector<std::vector<int>> parts;
   int touched_pieces = 0;
   std::vector<detail::AuxPoint> aux;
+  std::vector<int> ring;  ///< ring checks in the leaf's core
 };
 
 struct Cell {
@@ -212,6 +230,7 @@ struct Cell {
   double half = 0.0;
   int depth = 0;
   double parent_radius = std::numeric_limits<double>::infinity();
+  int n_start = std::numeric_limits<int>::max();  ///< first N_min of the support reduction: the parent's last
 };
 
 /// Union-find over points linked closer than `link`.
@@ -265,6 +284,12 @@ class MpuBuilder {
     }
     link_ = p_.component_link * med;
     comp_ = point_components(grid_, link_, ncomp_);
+    ring_checks();
+    // Weighted error: full weight a little beyond the cell's corners (t =
+    // 0.75 / alpha there); ring checks: the radius over R within which a
+    // leaf weighs at least what it weighs on its own cell's corners.
+    weight_ref_ = p_.weighted_error ? bspline2(detail::kFullErrorReach * 0.75 / p_.alpha) : 0.0;
+    core_fraction_ = 0.5 / p_.alpha;
     comp_size_.assign(ncomp_, 0);
     for (int c : comp_) ++comp_size_[c];
   }
@@ -286,15 +311,23 @@ class MpuBuilder {
     tbb::enumerable_thread_specific<Scratch> scratch;
     while (!level.empty()) {
       std::vector<MpuCurve::Leaf> fits(level.size());
+      std::vector<char> outside(level.size(), 0);
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()),
                         [&](const tbb::blocked_range<std::size_t>& r) {
                           Scratch& s = scratch.local();
-                          for (std::size_t k = r.begin(); k < r.end(); ++k) fits[k] = fit_cell(cells[level[k]], s);
+                          for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                            if ((outside[k] = !in_domain(cells[level[k]], s))) continue;
+                            fits[k] = fit_cell(cells[level[k]], s);
+                          }
                         });
       std::vector<int> next;
       for (std::size_t k = 0; k < level.size(); ++k) {
         const int id = level[k];
         const Cell cell = cells[id];
+        if (outside[k]) {  // no local function: the node keeps an empty box
+          ++res.cells_outside_domain;
+          continue;
+        }
         ++res.cells;
         res.max_depth_reached = std::max(res.max_depth_reached, cell.depth);
         // A cell whose support had to grow to more than kSupportShrink of its
@@ -309,7 +342,7 @@ class MpuBuilder {
           const double h = 0.5 * cell.half;
           for (int c = 0; c < 4; ++c) {
             const Vec2d off((c & 1) ? h : -h, (c & 2) ? h : -h);
-            cells.push_back(Cell{cell.centre + off, h, cell.depth + 1, fits[k].radius});
+            cells.push_back(Cell{cell.centre + off, h, cell.depth + 1, fits[k].radius, fits[k].n_last});
             nodes.emplace_back();
             next.push_back(static_cast<int>(nodes.size()) - 1);
           }
@@ -349,6 +382,14 @@ class MpuBuilder {
   }
 
  private:
+  /// The cell comes within MpuParams::domain_distance of a point (always
+  /// true without a domain distance).
+  bool in_domain(const Cell& cell, Scratch& s) const {
+    if (p_.domain_distance <= 0.0) return true;
+    grid_.nearest(cell.centre, 1, s.nn);
+    return !s.nn.empty() && s.nn[0].first <= p_.domain_distance + std::sqrt(2.0) * cell.half;
+  }
+
   /// Support radius (MPU growth + component rule) of a cell with radius r0.
   /// exact: grow to the distance of the next point instead of in (1 + lambda) steps.
   double support_radius(const Vec2d& c, double r0, int n_target, bool exact, Scratch& s, bool& grown) const {
@@ -383,8 +424,11 @@ class MpuBuilder {
   MpuCurve::Leaf fit_cell(const Cell& cell, Scratch& s) const {
     const double r0 = p_.alpha * 2.0 * std::sqrt(2.0) * cell.half;
     bool grown = false;
-    int n = n_eff_;
-    double radius = support_radius(cell.centre, r0, n, false, s, grown);
+    // A child starts where its parent's support reduction ended: the parent's
+    // larger circle failed with every larger N_min (file comment).
+    int n = std::min(n_eff_, cell.n_start);
+    sign_checks(cell, s);  // the cell's, for every support below
+    double radius = support_radius(cell.centre, r0, n, n < n_eff_, s, grown);
     MpuCurve::Leaf best = fit_support(cell, radius, grown, n, s);
     best.support_bound = grown;
     const int floor = std::min(n_eff_, p_.n_floor);
@@ -392,8 +436,12 @@ class MpuBuilder {
       n = std::max(floor, n / 2);
       radius = support_radius(cell.centre, r0, n, true, s, grown);
       if (!grown) {
-        // The cell's own circle holds n points: smaller cells, not smaller
-        // supports, are the way on; let it be subdivided.
+        // The cell's own circle holds n points: MPU's support for this N_min.
+        // If it misses tol too, smaller cells, not smaller supports, are the
+        // way on; let it be subdivided.
+        MpuCurve::Leaf leaf = fit_support(cell, radius, grown, n, s);
+        if ((leaf.sign_ok && !best.sign_ok) || (leaf.sign_ok == best.sign_ok && leaf.error < best.error))
+          best = std::move(leaf);
         best.support_bound = false;
         break;
       }
@@ -404,6 +452,7 @@ class MpuBuilder {
         best = std::move(leaf);
       }
     }
+    best.n_last = n;
     return best;
   }
 
@@ -418,7 +467,7 @@ class MpuBuilder {
     leaf.n_target = n_target;
     grid_.in_ball(cell.centre, R, s.idx);
     leaf.support = static_cast<int>(s.idx.size());
-    const detail::FitInput in{pts, normals_, cell.centre, R, p_.corner_angle * M_PI / 180.0, link_};
+    const detail::FitInput in{pts, normals_, cell.centre, R, p_.corner_angle * M_PI / 180.0, link_, weight_ref_};
 
     // MPU's choice: mean normal of the weighted support; a height function if
     // every normal is within 90 degrees of it and N <= 2 N_min, else a conic.
@@ -436,19 +485,37 @@ class MpuBuilder {
 
     // Candidates are ranked by (passes the sign checks, error): a model that
     // contradicts the sign the nearest points give at a check point is kept
-    // only if every candidate does.
-    sign_checks(cell, s);
+    // only if every candidate does. s.aux: the cell's (fit_cell).
+    ring_.in_ball(cell.centre, core_fraction_ * R, s.ring);
     leaf.error = std::numeric_limits<double>::infinity();
     bool leaf_checked = false;
+    const auto checks_pass = [&](const LocalFn& fn) {
+      for (const detail::AuxPoint& q : s.aux)
+        if ((fn.value(q.q) > 0.0) != (q.d > 0.0)) return false;
+      // The ring checks where this leaf has full weight.
+      for (int k : s.ring)
+        if ((fn.value(ring_.points()[k]) > 0.0) != bool(ring_inside_[k])) return false;
+      return true;
+    };
+    // Kept: the first candidate that passes the checks, then any that passes
+    // them with a smaller error; until one passes, the least error. Errors
+    // stop at the best so far, and a candidate that cannot win on error is
+    // not checked.
     auto consider = [&](const LocalFn& fn) {
-      const double e = detail::taubin_error(fn, pts, s.idx);
-      bool ok = true;
-      for (const detail::AuxPoint& q : s.aux) ok = ok && (fn.value(q.q) > 0.0) == (q.d > 0.0);
-      if ((ok && !leaf_checked) || (ok == leaf_checked && e < leaf.error)) {
-        leaf.fn = fn;
-        leaf.error = e;
-        leaf_checked = ok;
+      double e;
+      bool ok;
+      if (leaf_checked) {
+        e = in.error(fn, s.idx, leaf.error);
+        if (!(e < leaf.error) || !(ok = checks_pass(fn))) return;
+      } else if ((ok = checks_pass(fn))) {
+        e = in.error(fn, s.idx);
+      } else {
+        e = in.error(fn, s.idx, leaf.error);
+        if (!(e < leaf.error)) return;
       }
+      leaf.fn = fn;
+      leaf.error = e;
+      leaf_checked = ok;
     };
     auto good = [&] { return leaf_checked && leaf.error <= p_.tol; };
     auto height = [&] {
@@ -479,10 +546,11 @@ class MpuBuilder {
       if (s.parts.size() >= 2) {
         consider(detail::fit_components(in, s.parts, p_.tol));
       } else {
+        const detail::NormalAngles angles = detail::normal_angles(normals_, s.idx);
         for (int k = 2; k <= 3 && !good(); ++k) {
           LocalFn corner;
           corner.kind = LocalFn::Kind::Corner;
-          if (detail::fit_corner(in, s.idx, k, corner.group[0])) consider(corner);
+          if (detail::fit_corner(in, s.idx, k, corner.group[0], &angles)) consider(corner);
         }
       }
     }
@@ -511,28 +579,77 @@ class MpuBuilder {
     for (int c : s.touched) s.comp_count[c] = 0;
   }
 
+  /// Sign checks on the ring around the data: the integer lattice points q
+  /// (pixel centres of the grid the points came from) whose nearest point lies
+  /// kRingNear .. kRingFar away, their side from that point's tangent (as
+  /// nearest_side). A curve within tol of every point has these sides unless
+  /// it strays from the data, which is what they catch (e.g. a spike's two
+  /// sides running on past its tip).
+  void ring_checks() {
+    const std::vector<Vec2d>& pts = grid_.points();
+    // Lattice point (x, y) -> (distance, index) of its nearest point within kRingFar.
+    std::unordered_map<std::int64_t, std::pair<double, int>> near;
+    const auto key = [](std::int64_t x, std::int64_t y) { return x * (std::int64_t(1) << 32) + (y & 0xffffffff); };
+    const int reach = static_cast<int>(std::ceil(detail::kRingFar));
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const auto cx = static_cast<std::int64_t>(std::floor(pts[i].x()));
+      const auto cy = static_cast<std::int64_t>(std::floor(pts[i].y()));
+      for (std::int64_t y = cy - reach; y <= cy + reach + 1; ++y)
+        for (std::int64_t x = cx - reach; x <= cx + reach + 1; ++x) {
+          const double d = (Vec2d(double(x), double(y)) - pts[i]).norm();
+          if (d > detail::kRingFar) continue;
+          const auto [it, fresh] = near.try_emplace(key(x, y), d, static_cast<int>(i));
+          if (!fresh && d < it->second.first) it->second = {d, static_cast<int>(i)};
+        }
+    }
+    struct Check {
+      Vec2d q;
+      bool inside;
+    };
+    std::vector<Check> checks;
+    for (const auto& [k, e] : near) {
+      if (e.first < detail::kRingNear) continue;
+      const Vec2d q(double(k >> 32), double(static_cast<std::int32_t>(k & 0xffffffff)));
+      const double d = (pts[e.second] - q).dot(normals_[e.second]);  // > 0: q is behind = inside
+      if (std::abs(d) >= std::cos(detail::kSideAngle) * e.first) checks.push_back({q, d > 0.0});
+    }
+    // In lattice order, so that the fit does not depend on the hash order.
+    std::sort(checks.begin(), checks.end(), [](const Check& a, const Check& b) {
+      return a.q.y() < b.q.y() || (a.q.y() == b.q.y() && a.q.x() < b.q.x());
+    });
+    std::vector<Vec2d> where;
+    where.reserve(checks.size());
+    ring_inside_.reserve(checks.size());
+    for (const Check& c : checks) {
+      where.push_back(c.q);
+      ring_inside_.push_back(c.inside);
+    }
+    ring_ = detail::PointGrid(std::move(where));
+  }
+
   /// MPU's auxiliary points (cell corners and centre, here also the edge
-  /// midpoints) as sign checks: d = mean of (p_k - q) . n_k over the 6 nearest
-  /// points, kept if all 6 agree in sign and |d| >= kSignCheckMargin.
+  /// midpoints) as sign checks, their side from nearest_side, kept at least
+  /// kSignCheckMargin from the data. The nearest point, not MPU's 6 nearest:
+  /// in front of a wedge's tip the two sides' tangents both see q inside.
   void sign_checks(const Cell& cell, Scratch& s) const {
     s.aux.clear();
-    const std::vector<Vec2d>& pts = grid_.points();
     for (int a = -1; a <= 1; ++a)
       for (int b = -1; b <= 1; ++b) {
         const Vec2d q = cell.centre + cell.half * Vec2d(a, b);
-        grid_.nearest(q, 6, s.nn);
-        double sum = 0.0;
-        int pos = 0, neg = 0;
-        for (const auto& e : s.nn) {
-          const double d = (pts[e.second] - q).dot(normals_[e.second]);  // > 0: q is behind = inside
-          sum += d;
-          pos += d > 0.0 ? 1 : 0;
-          neg += d < 0.0 ? 1 : 0;
-        }
-        const int n = static_cast<int>(s.nn.size());
-        if (n > 0 && (pos == n || neg == n) && std::abs(sum / n) >= detail::kSignCheckMargin)
-          s.aux.push_back({q, sum / n});
+        double d;
+        if (nearest_side(q, detail::kSignCheckMargin, s, d)) s.aux.push_back({q, d});
       }
+  }
+
+  /// Which side of the data q lies on, from its nearest point p: d = (p - q) .
+  /// n_p (> 0: behind the normal, inside). False (no check) if p is nearer than
+  /// min_dist or q lies off p's normal by more than kSideAngle (beside the
+  /// data, e.g. off the end of an open piece, the tangent does not tell).
+  bool nearest_side(const Vec2d& q, double min_dist, Scratch& s, double& d) const {
+    grid_.nearest(q, 1, s.nn);
+    if (s.nn.empty() || s.nn[0].first < min_dist) return false;
+    d = (grid_.points()[s.nn[0].second] - q).dot(normals_[s.nn[0].second]);
+    return std::abs(d) >= std::cos(detail::kSideAngle) * s.nn[0].first;
   }
 
   MpuParams p_;
@@ -541,6 +658,10 @@ class MpuBuilder {
   int n_eff_ = 0;
   double link_ = 0.0;
   std::vector<int> comp_, comp_size_;
+  detail::PointGrid ring_;         ///< ring_checks: where
+  std::vector<char> ring_inside_;  ///< ring_checks: the side there (1 = inside)
+  double weight_ref_ = 0.0;        ///< FitInput::weight_ref (0 without weighted_error)
+  double core_fraction_ = 0.0;     ///< a leaf weighs >= b(0.75 / alpha) within this x R: 1 / (2 alpha)
   int ncomp_ = 0;
 };
 

@@ -11,16 +11,25 @@
 // - Fallback: if MPU's model misses tol or a sign check, the other, then a
 //   corner or a min/max join over the connected pieces of data.
 // - Sign checks at cell corners, centre and edge midpoints instead of
-//   auxiliary values; a cell failing one is subdivided.
+//   auxiliary values, and ring checks: every pixel centre 1.5-3 px from the
+//   data must keep its side within the leaf's cell; a cell failing one is
+//   subdivided.
 // - Component rule: growth stops once every piece the circle touches is inside.
 // - Support reduction: a grown support missing tol is refitted with N_min
-//   halved down to n_floor (subdivided once its own circle holds n).
+//   halved down to n_floor; once the cell's own circle holds n points, that
+//   circle is fitted before the cell is subdivided; children resume from the
+//   parent's last n.
+// - Weighted error (weighted_error): a support point's distance counts by the
+//   leaf's relative weight there, fully within a tenth beyond the cell's corners.
 // - Stall rule: a support-bound cell with radius > kSupportShrink x its
 //   parent's is not subdivided (unless it touches > kMaxComponents pieces).
-// - Below weight_floor() (beyond the root) f blends into the nearest point's distance.
+// - Domain: with domain_distance > 0 (the narrow band, paper 2.2) cells
+//   farther from every point get no local function.
+// - Below weight_floor() (beyond the root or the domain) f blends into the
+//   nearest point's distance.
 // @warning Leaves stopped by max_depth or by the stall rule exceed tol.
 // @warning Far from the data a conic can cross zero spuriously; features
-// thinner than ~4 px can be lost (docs/decisions.md: sign guard).
+// thinner than 2 px are removed from masks before the fit (contour/fill.h).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -39,15 +48,19 @@ namespace isoloft {
 
 struct MpuParams {
   int n_min = 150;
-  int n_floor = 20;
+  int n_floor = 6;
   double tol = 0.75;
   double alpha = 0.75;
   double lambda = 0.1;
   int max_depth = 10;
   double corner_angle = 25.8;
   double component_link = 2.0;
+  bool weighted_error = true;
   /// Not a parameter: where f will be evaluated (px); empty = the points' box.
   Eigen::AlignedBox2d domain;
+  /// Not a parameter: > 0: f is needed only within this distance of a point
+  /// (px; the narrow band); 0: the whole root square.
+  double domain_distance = 0.0;
 };
 
 /// Deepest quadtree level accepted.
@@ -73,6 +86,9 @@ inline const ParamTable<MpuParams>& params_table<MpuParams>() {
             open_between(0, 180)),
       field("component_link", &MpuParams::component_link, "spacings",
             "points closer than this many median point spacings form one connected piece", at_least(0)),
+      field("weighted_error", &MpuParams::weighted_error, "",
+            "a support point's error counts fully within (a tenth beyond) the leaf's cell, beyond it by the leaf's "
+            "relative weight there (not in MPU; false = every support point fully)"),
   });
   return t;
 }
@@ -93,6 +109,7 @@ class MpuCurve {
     int depth = 0;
     int support = 0;     ///< points in the support circle
     int n_target = 0;    ///< N_min used (n_min, or less after support reduction)
+    int n_last = 0;      ///< smallest N_min the support reduction tried (a child starts from it)
     bool grown = false;  ///< the support radius grew beyond alpha x diagonal
     /// Grown, and no smaller n fits in the cell's own circle (stall rule).
     bool support_bound = false;
@@ -118,7 +135,7 @@ class MpuCurve {
 
  private:
   friend class MpuBuilder;
-  friend Grid2f evaluate_on_grid(const MpuCurve&, int, int, double, double, double);
+  friend Grid2f evaluate_on_grid(const MpuCurve&, int, int, double, double, double, const Grid2u8*);
 
   struct Node {
     Eigen::AlignedBox2d box;  ///< bounds of the support circles of the leaves below
@@ -142,6 +159,7 @@ class MpuCurve {
 struct MpuResult {
   MpuCurve curve;
   int cells = 0;  ///< quadtree cells fitted (internal + leaves)
+  int cells_outside_domain = 0;  ///< cells beyond MpuParams::domain_distance: no local function
   int leaves = 0;
   int max_depth_reached = 0;
   double max_local_error = 0.0;          ///< max leaf error (Taubin distance, px)
@@ -160,9 +178,11 @@ struct MpuResult {
 MpuResult fit_mpu(const OrientedPoints& points, const MpuParams& params = {});
 
 /// f at (x0 + i step, y0 + j step) as pixel (i, j), parallel over rows.
-/// \throw ParamError if width or height < 0 or step <= 0.
+/// \param where if given (width x height): only its non-zero pixels are
+///        evaluated, the others are -MpuCurve::kEmpty.
+/// \throw ParamError if width or height < 0, step <= 0, or `where` has another size.
 /// @warning An empty curve gives -MpuCurve::kEmpty everywhere.
 Grid2f evaluate_on_grid(const MpuCurve& curve, int width, int height, double x0 = 0.0, double y0 = 0.0,
-                        double step = 1.0);
+                        double step = 1.0, const Grid2u8* where = nullptr);
 
 }  // namespace isoloft

@@ -168,25 +168,29 @@ CurvePiece fit_conic(const std::vector<Vec2d>& points, const std::vector<Vec2d>&
   return fn;
 }
 
+namespace {
+// |Q(p)| / |grad Q(p)|: infinite where Q != 0 has no gradient.
+double taubin_distance(const LocalFn& fn, const Vec2d& p) {
+  double v;
+  Vec2d g;
+  fn.eval(p, v, g);
+  const double gn = g.norm();
+  return gn > 1e-12 ? std::abs(v) / gn : (v == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
+}
+}  // namespace
+
 double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const std::vector<int>& idx) {
   double err = 0.0;
-  for (int i : idx) {
-    double v;
-    Vec2d g;
-    fn.eval(points[i], v, g);
-    const double gn = g.norm();
-    const double e = gn > 1e-12 ? std::abs(v) / gn : (v == 0.0 ? 0.0 : std::numeric_limits<double>::infinity());
-    err = std::max(err, e);
-  }
+  for (int i : idx) err = std::max(err, taubin_distance(fn, points[i]));
   return err;
 }
 
-bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
-                   int min_size, std::vector<std::vector<int>>& parts) {
-  parts.clear();
+NormalAngles normal_angles(const std::vector<Vec2d>& normals, const std::vector<int>& idx) {
+  NormalAngles a;
   const int n = static_cast<int>(idx.size());
-  if (k < 2 || k > 3 || min_size < 1 || n < k * min_size) return false;
-  std::vector<std::pair<double, int>> ang(n);
+  if (n == 0) return a;
+  std::vector<std::pair<double, int>>& ang = a.order;
+  ang.resize(n);
   for (int i = 0; i < n; ++i) ang[i] = {std::atan2(normals[idx[i]].y(), normals[idx[i]].x()), idx[i]};
   std::sort(ang.begin(), ang.end());
   // Cut the circle open at its largest gap: start after it, unrolled increasing.
@@ -200,11 +204,27 @@ bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& id
   std::rotate(ang.begin(), ang.begin() + cut, ang.end());
   for (int i = 1; i < n; ++i)
     if (ang[i].first < ang[i - 1].first) ang[i].first += 2.0 * M_PI;
-  std::vector<double> pre(n + 1, 0.0), pre2(n + 1, 0.0);
+  a.pre.assign(n + 1, 0.0);
+  a.pre2.assign(n + 1, 0.0);
   for (int i = 0; i < n; ++i) {
-    pre[i + 1] = pre[i] + ang[i].first;
-    pre2[i + 1] = pre2[i] + ang[i].first * ang[i].first;
+    a.pre[i + 1] = a.pre[i] + ang[i].first;
+    a.pre2[i + 1] = a.pre2[i] + ang[i].first * ang[i].first;
   }
+  return a;
+}
+
+bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts) {
+  return split_normals(normals, normal_angles(normals, idx), k, min_angle, min_size, parts);
+}
+
+bool split_normals(const std::vector<Vec2d>& normals, const NormalAngles& angles, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts) {
+  parts.clear();
+  const std::vector<std::pair<double, int>>& ang = angles.order;
+  const int n = static_cast<int>(ang.size());
+  if (k < 2 || k > 3 || min_size < 1 || n < k * min_size) return false;
+  const std::vector<double>&pre = angles.pre, &pre2 = angles.pre2;
   auto sse = [&](int lo, int hi) {  // [lo, hi)
     const double s = pre[hi] - pre[lo], s2 = pre2[hi] - pre2[lo];
     return s2 - s * s / (hi - lo);
@@ -246,11 +266,26 @@ bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& id
 
 double FitInput::weight(const Vec2d& p) const { return std::max(bspline2(1.5 * (p - centre).norm() / radius), 1e-12); }
 
+double FitInput::error(const LocalFn& fn, const std::vector<int>& ids, double bound) const {
+  double err = 0.0;
+  for (int i : ids) {
+    double e = taubin_distance(fn, points[i]);
+    if (weight_ref > 0.0 && e > 0.0) {
+      const double share = std::min(1.0, bspline2(1.5 * (points[i] - centre).norm() / radius) / weight_ref);
+      e = share > 0.0 ? e * share : 0.0;  // no inf x 0 on the circle itself
+    }
+    err = std::max(err, e);
+    if (err > bound) break;
+  }
+  return err;
+}
+
 namespace {
-double group_error(const FitInput& in, const Group& g, const std::vector<int>& ids) {
+double group_error(const FitInput& in, const Group& g, const std::vector<int>& ids,
+                   double bound = std::numeric_limits<double>::infinity()) {
   LocalFn fn;
   fn.group[0] = g;
-  return taubin_error(fn, in.points, ids);
+  return in.error(fn, ids, bound);
 }
 
 /// Weighted mean normal of ids; `agree` if it is well defined and every normal
@@ -277,7 +312,7 @@ CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& er
   if (agree) {
     Group h;
     h.piece[0].h = fit_height(in.points, ids, w, in.centre, n, in.radius);
-    const double e = group_error(in, h, ids);
+    const double e = group_error(in, h, ids, error);
     if (e <= error) {
       error = e;
       return h.piece[0];
@@ -315,9 +350,11 @@ std::vector<std::vector<int>> connected_parts(const std::vector<Vec2d>& points, 
 }
 }  // namespace
 
-bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group) {
+bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group, const NormalAngles* angles) {
   std::vector<std::vector<int>> clusters, part;
-  if (!split_normals(in.normals, ids, k, in.corner_angle, kMinClusterSize, clusters)) return false;
+  const bool split = angles ? split_normals(in.normals, *angles, k, in.corner_angle, kMinClusterSize, clusters)
+                            : split_normals(in.normals, ids, k, in.corner_angle, kMinClusterSize, clusters);
+  if (!split) return false;
   for (const auto& c : clusters)
     for (auto& p : connected_parts(in.points, c, in.link)) {
       if (static_cast<int>(p.size()) < 3) return false;  // a stray point: no piece
@@ -351,7 +388,7 @@ bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& g
       Group g = group;
       g.op = op;
       g.lone = lone;
-      if (const double e = group_error(in, g, ids); e < best_err) {
+      if (const double e = group_error(in, g, ids, best_err); e < best_err) {
         best_err = e;
         best = g;
       }
@@ -363,10 +400,12 @@ bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& g
 Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, double& error) {
   Group best;
   best.piece[0] = fit_piece(in, ids, error);
+  NormalAngles angles;
   for (int k = 2; k <= 3 && error > tol; ++k) {
+    if (k == 2) angles = normal_angles(in.normals, ids);
     Group c;
-    if (!fit_corner(in, ids, k, c)) continue;
-    if (const double e = group_error(in, c, ids); e < error) {
+    if (!fit_corner(in, ids, k, c, &angles)) continue;
+    if (const double e = group_error(in, c, ids, error); e < error) {
       error = e;
       best = c;
     }
@@ -397,7 +436,7 @@ LocalFn fit_components(const FitInput& in, const std::vector<std::vector<int>>& 
           trial.join[trial.joins] = {use_min, static_cast<std::int8_t>(open[i]), static_cast<std::int8_t>(open[j])};
           ++trial.joins;
           // Evaluate the new node alone: it is the last one.
-          if (const double e = taubin_error(trial, in.points, both); e < best) {
+          if (const double e = in.error(trial, both, best); e < best) {
             best = e;
             best_fn = trial;
             bi = i;

@@ -6,6 +6,8 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
+#include <utility>
 #include <vector>
 
 #include "isoloft/core/mesh.h"
@@ -88,10 +90,26 @@ struct AuxPoint {
   double d;
 };
 
-/// Least |d| of a sign check, px.
+/// Aux points nearer than this many pixels to a data point are not used as
+/// sign checks: that near digitised data their side is noise.
 inline constexpr double kSignCheckMargin = 2.0;
 
-/// Stall rule: a grown cell of radius above this x its parent's is not subdivided.
+/// Weighted error: a support point counts fully up to this multiple of the
+/// cell's centre-to-corner distance (weight argument t), beyond by the leaf's
+/// relative weight (docs/decisions.md: weighted error).
+inline constexpr double kFullErrorReach = 1.1;
+
+/// Ring checks: pixel centres whose nearest point lies kRingNear-kRingFar px
+/// away (near: 2 tol, where a curve within its bound has the data's side; far:
+/// the band a stray curve piece would cross on its way to the sign guard's pixels).
+inline constexpr double kRingNear = 1.5, kRingFar = 3.0;
+/// A sign check takes its side from its nearest point only within this angle
+/// of that point's normal, rad (allows for 2 px point spacing and noisy normals).
+inline constexpr double kSideAngle = M_PI / 3.0;
+
+/// A grown cell is not subdivided if its support radius exceeds this fraction
+/// of its parent's (an ungrown child has half its parent's radius): the
+/// children would hold about the same points, so no error could drop.
 inline constexpr double kSupportShrink = 0.8;
 
 /// Offset of a conic's off-surface pairs p -/+ delta n, px.
@@ -111,6 +129,19 @@ double taubin_error(const LocalFn& fn, const std::vector<Vec2d>& points, const s
 bool split_normals(const std::vector<Vec2d>& normals, const std::vector<int>& idx, int k, double min_angle,
                    int min_size, std::vector<std::vector<int>>& parts);
 
+/// The normals of points idx by angle, cut open at their largest gap (the
+/// first step of split_normals, shared by its k = 2 and k = 3 splits).
+struct NormalAngles {
+  std::vector<std::pair<double, int>> order;  ///< (unrolled angle, point index), increasing
+  std::vector<double> pre, pre2;              ///< prefix sums of the angles and of their squares
+};
+NormalAngles normal_angles(const std::vector<Vec2d>& normals, const std::vector<int>& idx);
+/// split_normals on angles prepared by normal_angles.
+bool split_normals(const std::vector<Vec2d>& normals, const NormalAngles& angles, int k, double min_angle,
+                   int min_size, std::vector<std::vector<int>>& parts);
+
+/// What a local fit sees: the data and the support circle (centre, radius),
+/// and how its error is measured (fit/mpu.h, "What tol bounds").
 struct FitInput {
   const std::vector<Vec2d>& points;
   const std::vector<Vec2d>& normals;
@@ -118,20 +149,38 @@ struct FitInput {
   double radius;
   double corner_angle;  ///< radians, MpuParams::corner_angle
   double link = 0.0;    ///< points closer than this are connected (MpuParams::component_link x spacing)
-  /// MPU weight, floored at 1e-12 (points on the circle count).
+  /// > 0: a point's error counts by min(1, w(p) / weight_ref), its weight in
+  /// this leaf relative to the weight the leaf has a little beyond its own
+  /// cell (kFullErrorReach; MpuParams::weighted_error); 0: every support point
+  /// counts fully (MPU).
+  double weight_ref = 0.0;
+  /// MPU weight of a point: b(3 |p - centre| / (2 radius)), floored at 1e-12
+  /// so that points on the circle itself still count a little.
   [[nodiscard]] double weight(const Vec2d& p) const;
+  /// The error of fn over the points ids: max over them of
+  /// Taubin distance x (weighted share, above). Stops once it
+  /// exceeds `bound` (returning a value > bound): callers that only keep a
+  /// candidate beating the best so far pass that best.
+  [[nodiscard]] double error(const LocalFn& fn, const std::vector<int>& ids,
+                             double bound = std::numeric_limits<double>::infinity()) const;
 };
 
-/// Least points per corner cluster.
-inline constexpr int kMinClusterSize = 6;
+/// Least points per corner cluster: a quadratic needs 3, one more tolerates a
+/// stray normal (docs/decisions.md: departures from MPU).
+inline constexpr int kMinClusterSize = 4;
 
 /// Height function (if all normals lie within 90 degrees of their mean) or conic, the better.
 CurvePiece fit_piece(const FitInput& in, const std::vector<int>& ids, double& error);
 
-/// Corner: k normal clusters split into connected parts, a piece per part;
-/// min if convex, else max (three: the least-error Group::Op).
-/// \return false unless there are 2 or 3 parts.
-bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group);
+/// Corner: ids split by split_normals into k (2 or 3) clusters, each cluster
+/// split further into its connected parts (links shorter than in.link: two
+/// parallel sides with one normal direction are two parts); 2 or 3 parts in
+/// all, else false. A piece (fit_piece) per part. Two pieces: min if convex
+/// (each part lies behind the other's mean normal), else max. Three: the
+/// min / max combination (Group::Op) with the least Taubin error over ids.
+/// `angles`: normal_angles(in.normals, ids) if the caller has them.
+bool fit_corner(const FitInput& in, const std::vector<int>& ids, int k, Group& group,
+                const NormalAngles* angles = nullptr);
 
 /// fit_piece, else fit_corner with 2, then 3 pieces; the first within tol.
 Group fit_curve(const FitInput& in, const std::vector<int>& ids, double tol, double& error);

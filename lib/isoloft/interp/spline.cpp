@@ -39,6 +39,55 @@ double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
   return s * std::clamp(s * m, 0.0, bound);
 }
 
+// Derivative at z[i] of the parabola through knots a < b < c (one of them i).
+double parabola_slope(std::span<const double> z, std::span<const double> f, std::size_t a, std::size_t i) {
+  const double za = z[a], zb = z[a + 1], zc = z[a + 2], x = z[i];
+  const double d1 = (f[a + 1] - f[a]) / (zb - za), d2 = (f[a + 2] - f[a + 1]) / (zc - zb);
+  const double c2 = (d2 - d1) / (zc - za);  // second divided difference
+  return d1 + c2 * ((x - za) + (x - zb));
+}
+
+// Extremum-preserving tangent (Dougherty, Edelman, Hyman 1989, section 4):
+// Hyman's where the data are monotone at i; at a data extremum, instead of 0,
+// the centred parabola's slope when the neighbouring parabolas agree with it
+// in sign and the second differences keep one sign (a smooth extremum, not
+// noise), limited to 1.5x the smallest of them, and to 3 |f_i| / h on the side
+// it moves toward 0, so no interval whose knots share a sign crosses 0 (DEH's
+// nonnegativity condition).
+double extremum_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+  const std::size_t n = z.size();
+  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
+  const double p0 = parabolic_tangent(z, f, i);
+  if (i == 0 || i + 1 == n) return hyman_clamp(p0, i > 0 ? slope(i - 1) : 0.0, i + 1 < n ? slope(i) : 0.0, i > 0, i + 1 < n);
+  const double dl = slope(i - 1), dr = slope(i);
+  if (dl * dr > 0.0) return hyman_clamp(p0, dl, dr, true, true);
+  // A flat interval beside i: the extremum is the plateau's if the secant
+  // beyond it turns back (a peak spanning two knots), else the data run on
+  // monotone past a plateau and Hyman's 0 keeps it.
+  const double el = dl == 0.0 && i >= 2 ? slope(i - 2) : dl, er = dr == 0.0 && i + 2 < n ? slope(i + 1) : dr;
+  if (el * er >= 0.0 || p0 == 0.0) return 0.0;
+  const double curvature = dr - dl;  // sign of the second difference at i
+  double bound = std::abs(p0);
+  bool smooth = false;
+  if (i >= 2) {  // left parabola (i-2, i-1, i)
+    const double pl = parabola_slope(z, f, i - 2, i);
+    if (pl * p0 <= 0.0 || (dl - slope(i - 2)) * curvature <= 0.0) return 0.0;
+    bound = std::min(bound, 1.5 * std::abs(pl));
+    smooth = true;
+  }
+  if (i + 2 < n) {  // right parabola (i, i+1, i+2)
+    const double pr = parabola_slope(z, f, i, i);
+    if (pr * p0 <= 0.0 || (slope(i + 1) - dr) * curvature <= 0.0) return 0.0;
+    bound = std::min(bound, 1.5 * std::abs(pr));
+    smooth = true;
+  }
+  if (!smooth) return 0.0;  // three knots: nothing tells a smooth extremum from a kink
+  // Moving toward 0: into the right interval if p0 and f_i differ in sign.
+  const double h = p0 * f[i] < 0.0 ? z[i + 1] - z[i] : z[i] - z[i - 1];
+  bound = std::min(bound, 3.0 * std::abs(f[i]) / h);
+  return p0 > 0.0 ? bound : -bound;
+}
+
 }  // namespace
 
 void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m) {
@@ -60,6 +109,9 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
         const bool has_l = i > 0, has_r = i + 1 < n;
         m[i] = hyman_clamp(parabolic_tangent(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
       }
+      return;
+    case SplineKind::ExtremumPreserving:
+      for (std::size_t i = 0; i < n; ++i) m[i] = extremum_tangent(z, f, i);
       return;
     case SplineKind::Natural: {
       // Second derivatives M with M_0 = M_{n-1} = 0 (Thomas algorithm), then
@@ -142,13 +194,15 @@ std::size_t ZInterpolator::interval(double q) const { return interval_of(z_, std
 void ZInterpolator::sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const {
   const int w = width(), h = height();
   if (out.width != w || out.height != h) out = Grid2<std::int8_t>(w, h);
-  if (kind_ != SplineKind::Monotone && kind_ != SplineKind::Linear) {
-    std::fill(out.data.begin(), out.data.end(), std::int8_t(0));
-    return;
-  }
   const Grid2f &f0 = slices_.at(k), &f1 = slices_.at(k + 1);
+  // Monotone and linear intervals stay between their knots; any other cubic
+  // Hermite piece within h (|m0| + |m1|) 4/27 of them (the largest |h10|, |h11|).
+  const bool between = kind_ == SplineKind::Monotone || kind_ == SplineKind::Linear;
+  const Grid2f &m0 = tangents_.at(k), &m1 = tangents_.at(k + 1);
+  const float reach = float((z_[k + 1] - z_[k]) * 4.0 / 27.0);
   for (std::size_t p = 0; p < out.data.size(); ++p) {
-    const float lo = std::min(f0.data[p], f1.data[p]), hi = std::max(f0.data[p], f1.data[p]);
+    const float slack = between ? 0.0f : reach * (std::abs(m0.data[p]) + std::abs(m1.data[p]));
+    const float lo = std::min(f0.data[p], f1.data[p]) - slack, hi = std::max(f0.data[p], f1.data[p]) + slack;
     out.data[p] = lo > iso + margin ? 1 : hi < iso - margin ? -1 : 0;
   }
 }

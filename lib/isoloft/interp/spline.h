@@ -1,9 +1,13 @@
 // @file interp/spline.h
 // @brief z interpolation: a cubic Hermite spline per pixel column (paper 2.4).
-// Monotone (default; Hyman 1983): three-point tangents, 0 at a data extremum,
-// else clipped to 3 min(|D_{i-1}|, |D_i|), so each interval stays between its
-// knots. CatmullRom and Natural overshoot; Linear. Any kind takes non-uniform
-// z. Also the end caps (docs/decisions.md: monotone cubic, end caps).
+// Monotone (the paper's; Hyman 1983): three-point tangents, 0 at a data
+// extremum, else clipped to 3 min(|D_{i-1}|, |D_i|), so each interval stays
+// between its knots. ExtremumPreserving (Dougherty, Edelman, Hyman 1989): the
+// same where the data are monotone; at a smooth data extremum the parabola's
+// slope (bounded), so the field does not pause at every slice; an interval
+// whose knots share a sign keeps it. CatmullRom and Natural overshoot; Linear.
+// Any kind takes non-uniform z. Also the end caps (docs/decisions.md: monotone
+// cubic, extremum-preserving cubic, end caps).
 #pragma once
 
 #include <array>
@@ -16,12 +20,14 @@
 
 namespace isoloft {
 
-enum class SplineKind { Monotone, CatmullRom, Natural, Linear };
+enum class SplineKind { Monotone, ExtremumPreserving, CatmullRom, Natural, Linear };
 
-inline constexpr std::array<EnumName<SplineKind>, 4> kSplineKindNames{{{SplineKind::Monotone, "monotone"},
-                                                                       {SplineKind::CatmullRom, "catmull-rom"},
-                                                                       {SplineKind::Natural, "natural"},
-                                                                       {SplineKind::Linear, "linear"}}};
+inline constexpr std::array<EnumName<SplineKind>, 5> kSplineKindNames{
+    {{SplineKind::Monotone, "monotone"},
+     {SplineKind::ExtremumPreserving, "extremum-preserving"},
+     {SplineKind::CatmullRom, "catmull-rom"},
+     {SplineKind::Natural, "natural"},
+     {SplineKind::Linear, "linear"}}};
 constexpr std::span<const EnumName<SplineKind>> enum_names(SplineKind) { return kSplineKindNames; }
 
 /// How an object closes beyond its end slices (and next to an empty slice).
@@ -47,7 +53,8 @@ template <>
 inline const ParamTable<InterpParams>& params_table<InterpParams>() {
   static const ParamTable<InterpParams> t({
       field("spline", &InterpParams::spline, "",
-            "z interpolation of every pixel column (paper 2.4): monotone (Hyman 1983), catmull-rom, natural, linear")
+            "z interpolation of every pixel column (paper 2.4): monotone (Hyman 1983), extremum-preserving (Dougherty, "
+            "Edelman, Hyman 1989), catmull-rom, natural, linear")
           .cli("--spline"),
       field("cap_extent", &InterpParams::cap_extent, "spacings",
             "end caps (not in the paper): a virtual outside slice this far beyond each end slice",
@@ -92,10 +99,10 @@ class ZInterpolator {
   [[nodiscard]] int width() const { return slices_.front().width; }
   [[nodiscard]] int height() const { return slices_.front().height; }
   [[nodiscard]] std::size_t interval(double z) const;
-  /// Per pixel the side of iso kept over knot interval k: +1 if both knots are
-  /// above iso + margin, -1 if below iso - margin, else 0; exact for Monotone and
-  /// Linear (margin above evaluate()'s rounding).
-  /// @warning CatmullRom and Natural overshoot: all 0.
+  /// Per pixel the side of iso kept over knot interval k: +1 if the interval
+  /// stays above iso + margin, -1 if below iso - margin, else 0 (margin above
+  /// evaluate()'s rounding). Monotone and Linear: exact (the knots decide);
+  /// other kinds: the knots widened by the cubic's largest overshoot bound.
   void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const;
 
  private:

@@ -95,6 +95,20 @@ std::uint8_t color_component(double v, bool unit_range) {
 
 }  // namespace detail
 
+TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame, bool ras) {
+  TriMesh out;
+  out.vertices.reserve(m.vertices.size());
+  for (const Vec3f& v : m.vertices) {
+    Vec3d p = frame.to_patient(v.cast<double>());
+    if (ras) p.x() = -p.x(), p.y() = -p.y();
+    out.vertices.push_back(p.cast<float>());
+  }
+  out.triangles = m.triangles;
+  if (frame.axes.determinant() < 0)
+    for (auto& t : out.triangles) std::swap(t[1], t[2]);
+  return out;
+}
+
 namespace {
 void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space);
 }
@@ -125,16 +139,7 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const MeshWriteOpt
     const Eigen::Matrix3d axes = options.frame->axes;
     const double det = axes.determinant();
     if (!(std::isfinite(det) && det != 0)) throw ParamError(path + ": the patient frame is singular");
-    TriMesh placed;
-    placed.vertices.reserve(mesh.vertices.size());
-    for (const Vec3f& v : mesh.vertices) {
-      Vec3d p = options.frame->to_patient(v.cast<double>());
-      if (options.ras) p.x() = -p.x(), p.y() = -p.y();
-      placed.vertices.push_back(p.cast<float>());
-    }
-    placed.triangles = mesh.triangles;
-    if (det < 0)
-      for (auto& t : placed.triangles) std::swap(t[1], t[2]);
+    const TriMesh placed = in_patient_space(mesh, *options.frame, options.ras);
     MeshWriteOptions plain = options;
     plain.frame.reset();
     plain.scale = 1.0;

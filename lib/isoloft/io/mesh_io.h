@@ -55,6 +55,10 @@ struct MeshWriteOptions {
 /// from outside. \throw as write_mesh(); ParamError for a singular frame.
 void write_mesh(const std::string& path, const TriMesh& m, const MeshWriteOptions& options);
 
+/// The vertices in patient mm (LPS, or RAS: x and y negated), triangles kept
+/// counter-clockwise seen from outside where the frame mirrors.
+TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame, bool ras = false);
+
 /// Reads PLY (ASCII or binary, any scalar types), OBJ, STL (welded by exact
 /// position), OFF/COFF; polygons fan-triangulated; colours if present.
 /// \throw InputError(path, ...) for a missing, unknown, truncated or corrupt

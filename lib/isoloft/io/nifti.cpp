@@ -141,9 +141,18 @@ Volume read_nifti(const std::string& path) {
     throw InputError(path, std::string("unsupported NIfTI datatype ") + nifti_datatype_string(dt) +
                                " (need a scalar 8/16/32-bit integer or float32/64)");
   const std::size_t nbytes = count * std::size_t(nim->nbyper);
-  std::vector<unsigned char> bytes(nbytes);
-  if (znzseek(fp, long(nim->iname_offset), SEEK_SET) < 0 || znzread(bytes.data(), 1, nbytes, fp) != nbytes)
+  // Read in chunks, so memory follows the data the file really holds: a
+  // header that claims 4 GB of a 350-byte file fails before allocating it.
+  constexpr std::size_t kChunkBytes = std::size_t(16) << 20;
+  std::vector<unsigned char> bytes;
+  if (znzseek(fp, long(nim->iname_offset), SEEK_SET) < 0)
     throw InputError(path, "voxel data truncated (expected " + std::to_string(nbytes) + " bytes)");
+  while (bytes.size() < nbytes) {
+    const std::size_t at = bytes.size(), want = std::min(kChunkBytes, nbytes - at);
+    bytes.resize(at + want);
+    if (znzread(bytes.data() + at, 1, want, fp) != want)
+      throw InputError(path, "voxel data truncated (expected " + std::to_string(nbytes) + " bytes)");
+  }
   if (nim->byteorder != nifti_short_order() && nim->swapsize > 1)
     nifti_swap_Nbytes(int64_t(count), nim->swapsize, bytes.data());
   const bool scaled = nim->scl_slope != 0 && std::isfinite(nim->scl_slope) && std::isfinite(nim->scl_inter) &&

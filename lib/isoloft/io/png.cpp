@@ -22,6 +22,7 @@ struct PngCtx {
   png_structp png = nullptr;
   png_infop info = nullptr;
   bool writing = false;
+  bool header_only = false;  // stop after the header checks (read_png_info)
   char message[256] = {0};
   std::vector<png_byte> pixels;
   std::vector<png_bytep> rows;
@@ -82,6 +83,7 @@ bool decode(PngCtx& c) {
                   unsigned(c.height), static_cast<unsigned long long>(c.file_size));
     return false;
   }
+  if (c.header_only) return true;
   c.pixels.resize(rowbytes * c.height);
   c.rows.resize(c.height);
   for (png_uint_32 y = 0; y < c.height; ++y) c.rows[y] = c.pixels.data() + rowbytes * y;
@@ -122,10 +124,8 @@ void write_rows(const std::string& path, PngCtx& c, int color_type, std::size_t 
   out.commit();
 }
 
-}  // namespace
-
-RawImage read_png(const std::string& path) {
-  PngCtx c;
+// Opens and decodes `path` into c (its header only if c.header_only).
+void read_into(const std::string& path, PngCtx& c) {
   c.fp = std::fopen(path.c_str(), "rb");
   if (!c.fp) throw InputError(path, std::string("cannot open file (") + std::strerror(errno) + ")");
   if (std::fseek(c.fp, 0, SEEK_END) == 0) c.file_size = std::ftell(c.fp);
@@ -137,10 +137,27 @@ RawImage read_png(const std::string& path) {
   c.info = png_create_info_struct(c.png);
   if (!c.info) throw InputError(path, "libpng initialisation failed");
   if (!decode(c)) throw InputError(path, std::string("corrupt PNG (") + c.message + ")");
+}
 
+std::uint32_t max_value_of(const PngCtx& c) {
+  const bool color = (c.color_type & PNG_COLOR_MASK_COLOR) != 0;
+  return color ? 0xFFFFFFu : (c.out_depth == 16 ? 65535u : 255u);
+}
+
+}  // namespace
+
+PngInfo read_png_info(const std::string& path) {
+  PngCtx c;
+  c.header_only = true;
+  read_into(path, c);
+  return {int(c.width), int(c.height), max_value_of(c)};
+}
+
+RawImage read_png(const std::string& path) {
+  PngCtx c;
+  read_into(path, c);
   RawImage img;
   img.bit_depth = c.bit_depth;
-  const bool color = (c.color_type & PNG_COLOR_MASK_COLOR) != 0;
   switch (c.color_type) {
     case PNG_COLOR_TYPE_GRAY:
       img.channels = 1;
@@ -160,7 +177,7 @@ RawImage read_png(const std::string& path) {
     default:
       img.channels = c.out_channels;
   }
-  img.max_value = color ? 0xFFFFFFu : (c.out_depth == 16 ? 65535u : 255u);
+  img.max_value = max_value_of(c);
   const int w = int(c.width), h = int(c.height);
   img.values = Grid2u32(w, h);
   const int ch = c.out_channels;
@@ -186,22 +203,6 @@ RawImage read_png(const std::string& path) {
     }
   }
   return img;
-}
-
-bool read_png_size(const std::string& path, std::uint32_t& width, std::uint32_t& height) {
-  unsigned char b[24];
-  std::FILE* fp = std::fopen(path.c_str(), "rb");
-  if (!fp) return false;
-  const bool got = std::fread(b, 1, sizeof b, fp) == sizeof b;
-  std::fclose(fp);
-  // Signature (8), IHDR length (4), "IHDR" (4), width (4), height (4), big-endian.
-  if (!got || png_sig_cmp(b, 0, 8) != 0 || std::memcmp(b + 12, "IHDR", 4) != 0) return false;
-  auto be32 = [](const unsigned char* q) {
-    return (std::uint32_t(q[0]) << 24) | (std::uint32_t(q[1]) << 16) | (std::uint32_t(q[2]) << 8) | q[3];
-  };
-  width = be32(b + 16);
-  height = be32(b + 20);
-  return true;
 }
 
 void write_png(const std::string& path, const Grid2<std::uint8_t>& image) {

@@ -24,10 +24,15 @@ struct RawImage {
 /// \throw InputError(path, ...) if the file is missing, not a PNG or corrupt.
 RawImage read_png(const std::string& path);
 
-/// Width and height from the IHDR chunk (the first, by the PNG spec), without
-/// decoding: for a memory estimate before read_png(). False if the file
-/// cannot be read or does not start like a PNG (read_png() then names the problem).
-bool read_png_size(const std::string& path, std::uint32_t& width, std::uint32_t& height);
+/// What read_png() would give, from the header alone (the pixels unread).
+struct PngInfo {
+  int width = 0, height = 0;
+  std::uint32_t max_value = 255;  ///< as RawImage::max_value
+  [[nodiscard]] bool color() const { return max_value == 0xFFFFFFu; }
+};
+
+/// \throw InputError(path, ...) if the file is missing, not a PNG or its header corrupt.
+PngInfo read_png_info(const std::string& path);
 
 /// Writers (8-bit gray, 16-bit gray, 8-bit RGB from 0xRRGGBB), atomic.
 /// \throw Error naming the path if the image is empty or writing fails.

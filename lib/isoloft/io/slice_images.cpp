@@ -85,14 +85,18 @@ std::vector<std::string> list_slice_files(const std::vector<std::string>& inputs
   return inputs;
 }
 
-SliceStack read_slice_images(const std::vector<std::string>& files) {
+namespace {
+
+// read(file) of every file in parallel; the first failing slice in order is reported.
+template <class Read>
+auto read_all(const std::vector<std::string>& files, Read read) {
   if (files.empty()) throw InputError("", "no input slices given");
   const std::size_t n = files.size();
-  std::vector<RawImage> images(n);
+  std::vector<decltype(read(files[0]))> out(n);
   std::vector<std::exception_ptr> errors(n);
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
     try {
-      images[k] = read_png(files[k]);
+      out[k] = read(files[k]);
     } catch (...) {
       errors[k] = std::current_exception();
     }
@@ -100,35 +104,61 @@ SliceStack read_slice_images(const std::vector<std::string>& files) {
   // Report the first failing slice in order, independent of thread timing.
   for (const auto& e : errors)
     if (e) std::rethrow_exception(e);
+  return out;
+}
 
+// The stack of these headers (sizes and bit depths checked), images empty.
+SliceStack stack_of(const std::vector<std::string>& files, const std::vector<PngInfo>& info) {
   SliceStack stack;
-  stack.width = images[0].values.width;
-  stack.height = images[0].values.height;
+  stack.width = info[0].width;
+  stack.height = info[0].height;
   stack.max_value = 0;
   stack.pixel_size = 1.0;
-  stack.slices.resize(n);
-  const bool color0 = images[0].color();
-  for (std::size_t k = 0; k < n; ++k) {
-    const RawImage& im = images[k];
-    if (im.values.width != stack.width || im.values.height != stack.height)
-      throw InputError(files[k], std::to_string(im.values.width) + "x" + std::to_string(im.values.height) +
-                                     ", expected " + std::to_string(stack.width) + "x" + std::to_string(stack.height) +
-                                     " like " + files[0]);
+  stack.slices.resize(files.size());
+  const bool color0 = info[0].color();
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    const PngInfo& im = info[k];
+    if (im.width != stack.width || im.height != stack.height)
+      throw InputError(files[k], std::to_string(im.width) + "x" + std::to_string(im.height) + ", expected " +
+                                     std::to_string(stack.width) + "x" + std::to_string(stack.height) + " like " + files[0]);
     if (im.color() != color0)
       throw InputError(files[k], std::string(im.color() ? "colour" : "grayscale") + " image, expected " +
                                      (color0 ? "colour" : "grayscale") + " like " + files[0]);
     // Mixed 8/16-bit gray would put "white" (> half range) at different
     // levels in different slices, so it is rejected like mixed colour.
-    if (!im.color() && im.max_value != images[0].max_value)
+    if (!im.color() && im.max_value != info[0].max_value)
       throw InputError(files[k], std::string(im.max_value == 65535u ? "16" : "8") + "-bit grayscale, expected " +
-                                     (images[0].max_value == 65535u ? "16" : "8") + "-bit like " + files[0]);
+                                     (info[0].max_value == 65535u ? "16" : "8") + "-bit like " + files[0]);
     stack.max_value = std::max(stack.max_value, im.max_value);
-  }
-  for (std::size_t k = 0; k < n; ++k) {
-    stack.slices[k].image = std::move(images[k].values);
     stack.slices[k].source = files[k];
     stack.slices[k].z = double(k);
   }
+  return stack;
+}
+
+PngInfo info_of(const RawImage& im) { return {im.values.width, im.values.height, im.max_value}; }
+
+}  // namespace
+
+SliceStack read_slice_images(const std::vector<std::string>& files) {
+  std::vector<RawImage> images = read_all(files, read_png);
+  std::vector<PngInfo> info;
+  for (const auto& im : images) info.push_back(info_of(im));
+  SliceStack stack = stack_of(files, info);
+  for (std::size_t k = 0; k < files.size(); ++k) stack.slices[k].image = std::move(images[k].values);
+  return stack;
+}
+
+SliceStack open_slice_images(const std::vector<std::string>& files) {
+  const std::vector<PngInfo> info = read_all(files, read_png_info);
+  SliceStack stack = stack_of(files, info);
+  stack.load_image = [files, info](std::size_t k) {
+    RawImage im = read_png(files[k]);
+    const PngInfo now = info_of(im);
+    if (now.width != info[k].width || now.height != info[k].height || now.max_value != info[k].max_value)
+      throw InputError(files[k], "the file changed while it was being read (its header differs)");
+    return std::move(im.values);
+  };
   return stack;
 }
 

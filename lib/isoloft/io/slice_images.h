@@ -20,6 +20,13 @@ std::vector<std::string> list_slice_files(const std::vector<std::string>& inputs
 ///        from the first, or mixes grayscale with colour or 8 with 16 bit.
 SliceStack read_slice_images(const std::vector<std::string>& files);
 
+/// As read_slice_images() from the PNG headers alone: the images are decoded
+/// on demand (SliceStack::load_image).
+/// \throw InputError as read_slice_images() for the headers; load_image
+///        throws it naming the file for corrupt pixel data or a file changed
+///        since.
+SliceStack open_slice_images(const std::vector<std::string>& files);
+
 namespace detail {
 /// Digit runs by value ("a2" < "a10"), the rest case-insensitively; total.
 bool natural_less(const std::string& a, const std::string& b);

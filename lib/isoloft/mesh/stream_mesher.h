@@ -1,15 +1,16 @@
 // @file mesh/stream_mesher.h
 // @brief The z-interpolated field (paper 2.4) streamed into Marching Cubes (2.5).
-// Each plane of the ZInterpolator is padded by one pixel of `outside` (a
+// Each plane of the field (a ZInterpolator or ZStream) is padded by one pixel of `outside` (a
 // surface cut by the crop border closes within a pixel beyond it), meshed and
-// dropped: memory O(width x height) beyond the slices.
+// dropped: memory O(width x height) beyond the knots the field holds.
 // Cell skipping, the contract of this unit: a cell whose four corners keep one
 // known side of iso over both planes' knot intervals (ZInterpolator::sides(),
 // layer_cells_to_visit; the pad has `outside`'s side) is skipped, and the mesh
 // is bit for bit the one of visiting every cell (skip_cells = false, tested).
 // Sign convention: positive inside; a sample is inside iff value > iso.
 // @warning Layers more than one knot interval apart (slices denser than the
-// plane step) visit every cell; so do Catmull-Rom and natural splines.
+// plane step) visit every cell; splines that overshoot (all but monotone and
+// linear) skip less (sides() widens the knots by their overshoot bound).
 #pragma once
 
 #include <functional>
@@ -18,6 +19,7 @@
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
 #include "isoloft/interp/spline.h"
+#include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/marching_cubes.h"
 
 namespace isoloft {
@@ -45,9 +47,13 @@ struct StreamMeshResult {
 };
 
 /// Marching Cubes of `field` on the planes z = `planes` (increasing, within
-/// the field's z range); field pixel (i, j) is at (x0 + i, y0 + j).
+/// the field's z range); field pixel (i, j) is at (x0 + i, y0 + j). The field
+/// is read in plane order (PlaneSource::reach), so a ZStream's knots are
+/// pulled as the planes need them; interp_seconds excludes reach().
 /// \throw ParamError if planes has fewer than 2 entries, is not increasing,
 ///        or `outside` is above mc.iso.
+StreamMeshResult mesh_interpolated_field(PlaneSource& field, const std::vector<double>& planes, double x0, double y0,
+                                         const MarchingCubesParams& mc, const StreamMeshOptions& options = {});
 StreamMeshResult mesh_interpolated_field(const ZInterpolator& field, const std::vector<double>& planes, double x0,
                                          double y0, const MarchingCubesParams& mc, const StreamMeshOptions& options = {});
 

@@ -1,9 +1,12 @@
 #include "isoloft/pipeline/slice_fields.h"
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
+#include "isoloft/contour/fill.h"
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
@@ -38,6 +41,8 @@ Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {
 }
 
 }  // namespace
+
+std::size_t slice_window() { return kSlicesPerThread * std::size_t(std::max(1, tbb::this_task_arena::max_concurrency())); }
 
 SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& p, std::uint32_t label) {
   SliceMasks m;
@@ -74,13 +79,57 @@ SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const Reconstruc
   return m;
 }
 
-PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin) {
+namespace {
+std::vector<std::uint32_t> runs_of(const Grid2u8& g) {
+  std::vector<std::uint32_t> runs;
+  const std::size_t n = g.size();
+  for (std::size_t i = 0; i < n;) {
+    if (!g.data[i]) {
+      ++i;
+      continue;
+    }
+    const std::size_t begin = i;
+    while (i < n && g.data[i]) ++i;
+    runs.push_back(std::uint32_t(begin));
+    runs.push_back(std::uint32_t(i));
+  }
+  return runs;
+}
+Grid2u8 from_runs(const std::vector<std::uint32_t>& runs, int width, int height) {
+  Grid2u8 g(width, height, 0);
+  for (std::size_t r = 0; r + 1 < runs.size(); r += 2) std::fill(g.data.begin() + runs[r], g.data.begin() + runs[r + 1], 1);
+  return g;
+}
+}  // namespace
+
+PackedMasks pack_masks(const SliceMasks& m) {
+  return {m.inside.width, m.inside.height, m.empty, runs_of(m.inside), runs_of(m.contour)};
+}
+
+SliceMasks unpack_masks(const PackedMasks& p) {
+  SliceMasks m;
+  m.inside = from_runs(p.inside, p.width, p.height);
+  m.contour = from_runs(p.contour, p.width, p.height);
+  m.empty = p.empty;
+  return m;
+}
+
+PixelBox mask_bounds(const SliceMasks& m) {
+  if (m.empty) return {};
+  const int width = m.inside.width, height = m.inside.height;
   int x0 = width, y0 = height, x1 = -1, y1 = -1;
-  for (const auto& m : masks) {
-    if (m.empty) continue;
-    for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width; ++x)
-        if (m.inside(x, y) || m.contour(x, y)) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      if (m.inside(x, y) || m.contour(x, y)) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  if (x1 < 0) return {};
+  return {x0, y0, x1 + 1, y1 + 1};
+}
+
+PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, int margin) {
+  int x0 = width, y0 = height, x1 = -1, y1 = -1;  // inclusive
+  for (const auto& b : bounds) {
+    if (b.empty()) continue;
+    x0 = std::min(x0, b.x0), y0 = std::min(y0, b.y0), x1 = std::max(x1, b.x1 - 1), y1 = std::max(y1, b.y1 - 1);
   }
   if (x1 < 0) return {};
   return {std::max(0, x0 - margin), std::max(0, y0 - margin), std::min(width, x1 + margin + 1), std::min(height, y1 + margin + 1)};
@@ -104,21 +153,29 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   const bool fine = polylines && p.polyline_raster_width > 0;
   const double k = fine ? double(p.polyline_raster_width) / stack_width : 1.0;
   int fit_w = b.width(), fit_h = b.height();
+  // The contour pixels and inside over the crop; masks and labels without
+  // their features thinner than mask_min_feature (the points, the band and
+  // the sign guard all use this mask).
+  Grid2u8 contour = crop(m.contour, b), inside = crop(m.inside, b);
+  if ((kind == InputKind::Masks || kind == InputKind::Labels) && p.mask_min_feature > 1) {
+    inside = remove_thin_features(inside, p.mask_min_feature);
+    contour = mask_boundary(inside);
+  }
   if (fine) {
     std::vector<Polygon> polys = s.polygons;
     for (auto& poly : polys)
       for (auto& q : poly.points) q = Vec2d(k * (q.x() - b.x0 + 0.5) - 0.5, k * (q.y() - b.y0 + 0.5) - 0.5);
     fit_w = int(std::ceil(k * b.width())), fit_h = int(std::ceil(k * b.height()));
-    Grid2u8 contour, inside;
-    rasterize_polygons(polys, fit_w, fit_h, contour, inside);
-    r.points = contour_normals(contour, inside, p.normals);
+    Grid2u8 fine_contour, fine_inside;
+    rasterize_polygons(polys, fit_w, fit_h, fine_contour, fine_inside);
+    r.points = contour_normals(fine_contour, fine_inside, p.normals);
   } else if (polylines) {
     std::vector<Polygon> shifted = s.polygons;
     for (auto& poly : shifted)
       for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
     r.points = polygon_points(shifted, p.polyline_spacing);
   } else {
-    r.points = contour_normals(crop(m.contour, b), crop(m.inside, b), p.normals);
+    r.points = contour_normals(contour, inside, p.normals);
     if (kind != InputKind::Contours && p.mask_edge_offset != 0)
       for (std::size_t i = 0; i < r.points.size(); ++i) r.points.points[i] += p.mask_edge_offset * r.points.normals[i];
   }
@@ -133,18 +190,34 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   }
   MpuParams mp = p.mpu;
   mp.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(fit_w - 0.5, fit_h - 0.5));
+  // Signed distance to the contour pixels: far from them the fill's
+  // inside/outside is exact.
+  const bool band = p.mpu_band > 0;
+  Grid2f trust;
+  if (band || p.sign_guard > 0) trust = distance_to_contour_signed(contour, inside);
+  if (band) mp.domain_distance = k * (p.mpu_band + kBandPointMargin);
   r.fit = fit_mpu(r.points, mp);
   if (fine)  // report the points in working crop coordinates
     for (auto& q : r.points.points) q = (q + Vec2d(0.5, 0.5)) / k - Vec2d(0.5, 0.5);
-  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k);
+  // The narrow band needs f only near the curve (paper 2.2): with mpu_band,
+  // f is evaluated within mpu_band of a contour pixel and the pixels beyond
+  // take the fill's signed distance (only their sign is used).
+  Grid2u8 where;
+  if (band) {
+    where = Grid2u8(b.width(), b.height(), 0);
+    for (std::size_t i = 0; i < where.size(); ++i) where.data[i] = std::abs(trust.data[i]) <= p.mpu_band;
+  }
+  Grid2f f = evaluate_on_grid(r.fit.curve, b.width(), b.height(), 0.5 * (k - 1), 0.5 * (k - 1), k, band ? &where : nullptr);
   if (fine)
     for (float& v : f.data) v = float(v / k);
-  if (keep) r.mpu = f;  // the raw fit, before the sign guard
+  if (band)
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (!where.data[i]) f.data[i] = trust.data[i];
+  if (keep) r.mpu = f;  // the raw fit (the fill's distances beyond the band), before the sign guard
   if (p.sign_guard > 0) {
     // Far from every contour pixel the fill's inside/outside is exact; where
     // the fit disagrees there (a spurious zero crossing), the sample takes the
     // signed pixel distance instead, so no curve piece survives out there.
-    const Grid2f trust = distance_to_contour_signed(crop(m.contour, b), crop(m.inside, b));
     for (std::size_t i = 0; i < f.size(); ++i)
       if (std::abs(trust.data[i]) > p.sign_guard && (f.data[i] > 0) != (trust.data[i] > 0)) {
         f.data[i] = trust.data[i];
@@ -155,46 +228,54 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   t0 = Clock::now();
   const MpuCurve& curve = r.fit.curve;
   const auto f_working = [&curve, k](const Vec2d& q) { return curve.value(k * (q + Vec2d(0.5, 0.5)) - Vec2d(0.5, 0.5)) / k; };
-  const NarrowBandResult band = narrow_band_distance(f, f_working, p.band);
-  r.field = extend_distance(band, p.extend);
+  const NarrowBandResult nb = narrow_band_distance(f, f_working, p.band);
+  r.field = extend_distance(nb, p.extend);
   r.t_dist = seconds_since(t0);
   if (keep) r.distance = r.field;
   return r;
 }
 
-void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+float most_negative(float so_far, const Grid2f& f) {
+  return f.empty() ? so_far : std::min(so_far, *std::min_element(f.data.begin(), f.data.end()));
+}
+
+Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
+                         const InterpParams& interp) {
   // Empty slices (no inside) are all outside. One next to a non-empty slice
   // gets that neighbour's field moved 1 / cap_extent of the way to its cap
   // slice (interp/spline.h, cap_slice), so the object closes between them
   // like an end cap reaching cap_extent of the gap. With two non-empty
   // neighbours it takes the lower of the two. Empty slices with no non-empty
   // neighbour take the most negative value of the object's fields.
-  float most_negative = -1.0f;
-  for (const auto& f : fields)
-    if (!f.empty()) most_negative = std::min(most_negative, *std::min_element(f.data.begin(), f.data.end()));
-  std::vector<Grid2f> out(fields.size());
-  for (std::size_t k = 0; k < fields.size(); ++k) {
-    if (!fields[k].empty()) continue;
-    Grid2f g;
-    for (std::size_t nb : {k - 1, k + 1}) {
-      if (nb >= fields.size() || fields[nb].empty()) continue;  // k - 1 wraps for k = 0
-      const Grid2f& f = fields[nb];
-      Grid2f closed = f;
-      if (interp.cap_shape == CapShape::Flat) {
-        for (float& v : closed.data) v = float(v + (std::min(v, 0.0f) - interp.cap_depth - v) / interp.cap_extent);
-      } else {
-        const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
-        const float drop = float((top + interp.cap_depth) / interp.cap_extent);
-        for (float& v : closed.data) v -= drop;
-      }
-      if (g.empty()) {
-        g = std::move(closed);
-      } else {
-        for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], closed.data[i]);
-      }
+  Grid2f g;
+  for (const Grid2f* nb : {below, above}) {
+    if (!nb || nb->empty()) continue;
+    const Grid2f& f = *nb;
+    Grid2f closed = f;
+    if (interp.cap_shape == CapShape::Flat) {
+      for (float& v : closed.data) v = float(v + (std::min(v, 0.0f) - interp.cap_depth - v) / interp.cap_extent);
+    } else {
+      const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
+      const float drop = float((top + interp.cap_depth) / interp.cap_extent);
+      for (float& v : closed.data) v -= drop;
     }
-    out[k] = g.empty() ? Grid2f(box.width(), box.height(), most_negative) : std::move(g);
+    if (g.empty()) {
+      g = std::move(closed);
+    } else {
+      for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], closed.data[i]);
+    }
   }
+  return g.empty() ? Grid2f(box.width(), box.height(), most_negative) : g;
+}
+
+void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+  float lowest = -1.0f;
+  for (const auto& f : fields) lowest = most_negative(lowest, f);
+  std::vector<Grid2f> out(fields.size());
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    if (fields[k].empty())
+      out[k] = empty_slice_field(k > 0 ? &fields[k - 1] : nullptr, k + 1 < fields.size() ? &fields[k + 1] : nullptr, lowest,
+                                 box, interp);
   for (std::size_t k = 0; k < fields.size(); ++k)
     if (fields[k].empty()) fields[k] = std::move(out[k]);
 }

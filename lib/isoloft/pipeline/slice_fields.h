@@ -23,6 +23,15 @@ struct ReconstructParams;
 
 namespace isoloft::detail {
 
+/// Slices computed at once per thread: 4 keeps a batch's end (waiting for its
+/// slowest slice) short, 2 was ~13 % slower; each one in flight holds its
+/// masks and fit (docs/decisions.md: slices streamed).
+inline constexpr std::size_t kSlicesPerThread = 4;
+
+/// Slices computed at once (kSlicesPerThread x the threads), and so held by
+/// reconstruct() as slice fields before the spline's knots.
+std::size_t slice_window();
+
 /// One slice of one object: its contour and inside pixels.
 struct SliceMasks {
   Grid2u8 contour;  ///< contour pixels (1)
@@ -38,8 +47,22 @@ struct SliceMasks {
 ///        image (unless params.binarize) or an open contour the fill rejects.
 SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& params, std::uint32_t label);
 
-/// Bounding box of all insides and contours plus margin, clipped; empty if none.
-PixelBox object_box(const std::vector<SliceMasks>& masks, int width, int height, int margin);
+/// A slice's masks kept between reconstruct()'s two passes: each mask as its
+/// runs of 1s, [begin, end) in row-major pixel index, so O(contour length)
+/// bytes instead of two full images (warnings are not kept).
+struct PackedMasks {
+  int width = 0, height = 0;
+  bool empty = true;
+  std::vector<std::uint32_t> inside, contour;  ///< begin, end, begin, end, ...
+};
+PackedMasks pack_masks(const SliceMasks& m);
+SliceMasks unpack_masks(const PackedMasks& p);
+
+/// Bounding box of a slice's inside and contour pixels; empty if m.empty.
+PixelBox mask_bounds(const SliceMasks& m);
+
+/// Union of the slices' mask_bounds() plus margin, clipped; empty if all are.
+PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, int margin);
 
 /// The Levin field over b: exact signed EDT to the contour pixels (contours,
 /// polylines) or to the mask's edge (masks, labels).
@@ -48,6 +71,15 @@ Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
 /// Fewer contour points than this cannot carry a conic fit (6 coefficients).
 inline constexpr std::size_t kMinMpuPoints = 6;
 
+/// Distance from a pixel within ReconstructParams::mpu_band of a contour pixel
+/// to the nearest contour point is at most mpu_band + this, px: a mask's
+/// points lie |mask_edge_offset| <= 2 px from their boundary pixels, polygon
+/// samples within 1 px of their rasterised pixels (and 1 px to spare). The
+/// MPU domain (MpuParams::domain_distance) is the band grown by it, so every
+/// evaluated pixel lies in a fitted cell.
+inline constexpr double kBandPointMargin = 3.0;
+
+/// One slice through the paper's stages 2.1-2.2.
 struct MarkerSlice {
   Grid2f field;            ///< signed distance (narrow band + extension), before the filter
   bool fallback = false;   ///< too few points for a curve: exact pixel distances instead
@@ -70,5 +102,14 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
 /// (max + cap_depth) / cap_extent (the lower of two), so the object closes in
 /// the gap like an end cap; without one the most negative value of all fields.
 void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp);
+
+/// min(-1, the lowest value of f): fold over the non-empty fields for the
+/// value of an empty slice without a non-empty neighbour.
+float most_negative(float so_far, const Grid2f& f);
+
+/// One empty slice's field as fill_empty_slices() gives it, from its
+/// neighbours' fields (null or empty: none) and most_negative() of all fields.
+Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
+                         const InterpParams& interp);
 
 }  // namespace isoloft::detail
