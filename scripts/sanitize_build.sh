@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The ASan + UBSan build (clang-14, -O1, any report fatal) in build-asan/,
+# The ASan + UBSan build (clang-14, -O0 -g1, any report fatal) in build-asan/,
 # shared by test.sh (the library, the CLI, the corpus replay, a test subset)
 # and fuzz.sh (the libFuzzer targets): the library carries libFuzzer's
 # coverage instrumentation in both, so one build serves both.

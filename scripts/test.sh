@@ -3,9 +3,10 @@
 # -Werror=odr, so two different definitions of one name fail the build), then
 # the whole test suite: unit, property and oracle tests under ctest; then a
 # lean AddressSanitizer + UndefinedBehaviorSanitizer build (sanitize_build.sh:
-# build-asan/, clang-14, -O1: the library, the CLI, the fuzz corpus replay and
-# the readers', atomic outputs', contour and bad-input tests) and its tests.
-# ISOLOFT_SANITIZE=0 skips it.
+# build-asan/, clang-14, -O0 -g1: the library, the CLI, the fuzz corpus replay and
+# the readers', atomic outputs', contour and bad-input tests) and its tests,
+# and ISOLOFT_FUZZ_SECONDS (default 10) of fuzzing per reader.
+# ISOLOFT_SANITIZE=0 skips both.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 JOBS="${ISOLOFT_JOBS:-$(nproc)}"
@@ -24,4 +25,9 @@ if [[ "${ISOLOFT_SANITIZE:-1}" != 0 ]]; then
   export LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan.supp"
   (cd "$ROOT/build-asan" && ctest --output-on-failure -j "$JOBS" --timeout 900)
   echo "test: sanitizer build and tests took $((SECONDS - t0)) s"
+  # A short libFuzzer run of every reader from the committed corpus (a crash
+  # fails the run; scripts/fuzz.sh 60 is the minute-per-target run).
+  t0=$SECONDS
+  "$ROOT/scripts/fuzz.sh" "${ISOLOFT_FUZZ_SECONDS:-10}"
+  echo "test: fuzzing took $((SECONDS - t0)) s"
 fi
