@@ -67,7 +67,10 @@ Inputs read_volume_input(const InputRequest& r) {
   reject(r, bool(r.pixel_size), "--pixel-size", "a volume carries its own voxel size");
   in.volume = std::make_unique<Volume>(read_volume(path));
   for (auto& w : in.volume->warnings) in.warnings.push_back(w);
-  detail::check_finite_voxels(*in.volume, path);
+  // An integer volume's voxels are finite as read; volume_stack checks them
+  // anyway (the same error), so only a float volume needs the scan here,
+  // before the whole-number test below.
+  if (!in.volume->integer) detail::check_finite_voxels(*in.volume, path);
   VolumeSlicing slicing;
   if (!r.axis.empty()) {
     if (r.axis != "i" && r.axis != "j" && r.axis != "k")
@@ -233,9 +236,7 @@ RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std:
     if (configure) configure(job, ropt);
     ReconstructResult r = reconstruct(job.stack, params, ropt);
     for (auto& w : r.warnings) all.warnings.push_back(job.name.empty() ? w : "ROI '" + job.name + "': " + w);
-    const StageTimes& t = r.times;
-    all.times.contour += t.contour, all.times.mpu += t.mpu, all.times.dist += t.dist, all.times.filter += t.filter;
-    all.times.interp += t.interp, all.times.mesh += t.mesh, all.times.decimate += t.decimate;
+    all.times += r.times;
     for (auto& ob : r.objects) {
       RunObject out{j, std::move(ob), {}, job.color.value_or(label_colour(all.objects.size())), {}};
       out.mesh = job.stack.patient ? in_patient_space(out.object.mesh, *job.stack.patient) : out.object.mesh;

@@ -134,12 +134,7 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
 }
 
 double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z) {
-  const double h = z1 - z0;
-  const double t = (z - z0) / h;
-  if (kind == SplineKind::Linear) return f0 + t * (f1 - f0);
-  const double t2 = t * t, t3 = t2 * t;
-  const double h00 = 2 * t3 - 3 * t2 + 1, h10 = t3 - 2 * t2 + t, h01 = -2 * t3 + 3 * t2, h11 = t3 - t2;
-  return h00 * f0 + h10 * h * m0 + h01 * f1 + h11 * h * m1;
+  return HermiteBasis(kind, z0, z1, z).value(f0, f1, m0, m1);
 }
 
 namespace {
@@ -213,12 +208,18 @@ void ZInterpolator::evaluate(double q, Grid2f& out) const {
   const std::size_t k = interval(q);
   q = std::clamp(q, z_.front(), z_.back());
   const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
-  const double z0 = z_[k], z1 = z_[k + 1];
-  tbb::parallel_for(0, h, [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      const std::size_t p = f0.index(x, y);
-      out.data[p] = float(hermite(kind_, z0, z1, f0.data[p], f1.data[p], m0.data[p], m1.data[p], q));
+  const HermiteBasis basis(kind_, z_[k], z_[k + 1], q);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    const std::size_t p0 = f0.index(0, rows.begin()), p1 = f0.index(0, rows.end() - 1) + std::size_t(w);
+    const float *a = f0.data.data(), *b = f1.data.data(), *ma = m0.data.data(), *mb = m1.data.data();
+    float* o = out.data.data();
+    if (basis.linear) {
+      for (std::size_t p = p0; p < p1; ++p) o[p] = float(double(a[p]) + basis.t * (double(b[p]) - double(a[p])));
+      return;
     }
+    const double h00 = basis.h00, h10h = basis.h10h, h01 = basis.h01, h11h = basis.h11h;
+    for (std::size_t p = p0; p < p1; ++p)  // HermiteBasis::value, vectorised
+      o[p] = float(h00 * double(a[p]) + h10h * double(ma[p]) + h01 * double(b[p]) + h11h * double(mb[p]));
   });
 }
 

@@ -1,5 +1,7 @@
 #include "isoloft/io/volume.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <bit>
 #include <cstring>
@@ -130,8 +132,8 @@ void decode_as(const unsigned char* src, std::size_t count, bool swap, float* ds
 }
 }  // namespace
 
-void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst) {
-  const bool swap = big_endian != (std::endian::native == std::endian::big);
+namespace {
+void decode_serial(const unsigned char* src, std::size_t count, ScalarType t, bool swap, float* dst) {
   switch (t) {
     case ScalarType::U8:
       decode_as<std::uint8_t>(src, count, false, dst);
@@ -158,6 +160,16 @@ void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, b
       decode_as<double>(src, count, swap, dst);
       break;
   }
+}
+}  // namespace
+
+void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst) {
+  const bool swap = big_endian != (std::endian::native == std::endian::big);
+  const std::size_t size = scalar_size(t);
+  constexpr std::size_t kBlock = std::size_t(1) << 20;  // samples per task
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
+    decode_serial(src + r.begin() * size, r.size(), t, swap, dst + r.begin());
+  });
 }
 
 }  // namespace detail
