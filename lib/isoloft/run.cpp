@@ -67,10 +67,7 @@ Inputs read_volume_input(const InputRequest& r) {
   reject(r, bool(r.pixel_size), "--pixel-size", "a volume carries its own voxel size");
   in.volume = std::make_unique<Volume>(read_volume(path));
   for (auto& w : in.volume->warnings) in.warnings.push_back(w);
-  // An integer volume's voxels are finite as read; volume_stack checks them
-  // anyway (the same error), so only a float volume needs the scan here,
-  // before the whole-number test below.
-  if (!in.volume->integer) detail::check_finite_voxels(*in.volume, path);
+  detail::check_finite_voxels(*in.volume, path);
   VolumeSlicing slicing;
   if (!r.axis.empty()) {
     if (r.axis != "i" && r.axis != "j" && r.axis != "k")

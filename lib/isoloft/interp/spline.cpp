@@ -91,27 +91,32 @@ double extremum_tangent(std::span<const double> z, std::span<const double> f, st
 }  // namespace
 
 void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m) {
+  spline_tangents(kind, z, f, m, 0, z.size() - 1);
+}
+
+void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m,
+                     std::size_t lo, std::size_t hi) {
   const std::size_t n = z.size();
   auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
   switch (kind) {
     case SplineKind::Linear:
-      for (std::size_t i = 0; i < n; ++i) m[i] = 0.0;
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = 0.0;
       return;
     case SplineKind::CatmullRom:
-      for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t i = lo; i <= hi; ++i) {
         if (i == 0) m[i] = slope(0);
         else if (i == n - 1) m[i] = slope(n - 2);
         else m[i] = (f[i + 1] - f[i - 1]) / (z[i + 1] - z[i - 1]);
       }
       return;
     case SplineKind::Monotone:
-      for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t i = lo; i <= hi; ++i) {
         const bool has_l = i > 0, has_r = i + 1 < n;
         m[i] = hyman_clamp(parabolic_tangent(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
       }
       return;
     case SplineKind::ExtremumPreserving:
-      for (std::size_t i = 0; i < n; ++i) m[i] = extremum_tangent(z, f, i);
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, f, i);
       return;
     case SplineKind::Natural: {
       // Second derivatives M with M_0 = M_{n-1} = 0 (Thomas algorithm), then
@@ -126,8 +131,8 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
         d[i] = (rhs - a * d[i - 1]) / denom;
       }
       for (std::size_t i = n - 1; i-- > 1;) M[i] = d[i] - c[i] * M[i + 1];
-      for (std::size_t i = 0; i + 1 < n; ++i) m[i] = slope(i) - (z[i + 1] - z[i]) * (2 * M[i] + M[i + 1]) / 6;
-      m[n - 1] = slope(n - 2) + (z[n - 1] - z[n - 2]) * (M[n - 2] + 2 * M[n - 1]) / 6;
+      for (std::size_t i = lo; i <= hi && i + 1 < n; ++i) m[i] = slope(i) - (z[i + 1] - z[i]) * (2 * M[i] + M[i + 1]) / 6;
+      if (hi == n - 1) m[n - 1] = slope(n - 2) + (z[n - 1] - z[n - 2]) * (M[n - 2] + 2 * M[n - 1]) / 6;
       return;
     }
   }
@@ -165,6 +170,10 @@ double Spline1D::operator()(double q) const {
 }
 
 ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind)
+    : ZInterpolator(std::move(slices), z, kind, 0, z.empty() ? 0 : z.size() - 1) {}
+
+ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo,
+                             std::size_t hi)
     : slices_(std::move(slices)), z_(std::move(z)), kind_(kind) {
   check_knots(z_);
   if (slices_.size() != z_.size()) throw ParamError("interpolator: slice count differs from z count");
@@ -172,14 +181,15 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   for (const auto& s : slices_)
     if (s.width != w || s.height != h) throw ParamError("interpolator: slices differ in size");
   const std::size_t n = z_.size();
+  if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
   tangents_.assign(n, Grid2f(w, h, 0.0f));
   if (kind_ == SplineKind::Linear) return;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
     std::vector<double> f(n), m(n);
     for (std::size_t p = r.begin(); p != r.end(); ++p) {
       for (std::size_t k = 0; k < n; ++k) f[k] = slices_[k].data[p];
-      spline_tangents(kind_, z_, f, m);
-      for (std::size_t k = 0; k < n; ++k) tangents_[k].data[p] = float(m[k]);
+      spline_tangents(kind_, z_, f, m, lo, hi);
+      for (std::size_t k = lo; k <= hi; ++k) tangents_[k].data[p] = float(m[k]);
     }
   });
 }

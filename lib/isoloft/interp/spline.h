@@ -72,6 +72,10 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
 
 /// Tangents of one column. \pre z increasing; z, f, m of one size >= 2.
 void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m);
+/// The same tangents, only m[lo..hi] written (each the value the whole
+/// column's call gives). \pre lo <= hi < z.size().
+void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m,
+                     std::size_t lo, std::size_t hi);
 
 /// The cubic Hermite basis at z on the interval [z0, z1], for many columns
 /// at one z: value() gives hermite()'s result bit for bit.
@@ -111,6 +115,9 @@ class ZInterpolator {
  public:
   /// \throw ParamError unless slices.size() == z.size() >= 2, z increasing, one size.
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind);
+  /// Only the tangents of knots lo..hi (the others 0): evaluate() and sides()
+  /// on the intervals between them only. \pre lo <= hi < z.size().
+  ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo, std::size_t hi);
   /// The field at z, parallel over rows.
   void evaluate(double z, Grid2f& out) const;
   [[nodiscard]] const std::vector<double>& z() const { return z_; }
