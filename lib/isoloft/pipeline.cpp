@@ -10,6 +10,7 @@
 #include <deque>
 #include <exception>
 #include <limits>
+#include <map>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -171,23 +172,46 @@ void check_stack(const SliceStack& stack) {
 
 std::string object_name(std::uint32_t label) { return label ? "label " + std::to_string(label) : "object"; }
 
+// A label stack's masks (paper 2.1) for every label at once: each slice
+// decoded and scanned once (detail::label_masks), not once per label.
+struct LabelStackMasks {
+  struct Object {
+    std::vector<detail::PackedMasks> masks;  // per slice
+    std::vector<PixelBox> bounds;
+  };
+  std::map<std::uint32_t, Object> objects;
+};
+
+LabelStackMasks label_stack_masks(const Run& run) {
+  const std::size_t n = run.slices();
+  std::vector<std::vector<detail::LabelMasks>> per_slice(n);
+  std::atomic<long> done{0};
+  for_slices(run, 0, n, "contour", done, [&](std::size_t k) {
+    with_slice(run.stack, k, [&](const Slice& s) { per_slice[k] = detail::label_masks(s.image); });
+  });
+  LabelStackMasks out;
+  for (std::size_t k = 0; k < n; ++k)
+    for (auto& m : per_slice[k]) {
+      auto [it, added] = out.objects.try_emplace(m.label);
+      if (added) {
+        it->second.masks.assign(n, detail::PackedMasks{run.stack.width, run.stack.height, true, {}, {}});
+        it->second.bounds.assign(n, PixelBox{});
+      }
+      it->second.masks[k] = std::move(m.masks);
+      it->second.bounds[k] = m.bounds;
+    }
+  return out;
+}
+
 // The objects: one (label 0), or each label of a label stack (those asked for).
-std::vector<std::uint32_t> objects_to_reconstruct(const Run& run) {
+std::vector<std::uint32_t> objects_to_reconstruct(const Run& run, const LabelStackMasks* labelled) {
   const std::vector<std::uint32_t>& asked = run.options.labels;
   if (run.stack.kind != InputKind::Labels) {
     if (!asked.empty()) throw ParamError("labels: a label selection needs labels input (InputKind::Labels)");
     return {0};
   }
-  std::vector<std::set<std::uint32_t>> in_slice(run.slices());
-  std::atomic<long> done{0};
-  for_slices(run, 0, run.slices(), "labels", done, [&](std::size_t k) {
-    with_slice(run.stack, k, [&](const Slice& s) {
-      for (auto v : s.image.data)
-        if (v) in_slice[k].insert(v);
-    });
-  });
   std::set<std::uint32_t> seen;
-  for (const auto& s : in_slice) seen.insert(s.begin(), s.end());
+  for (const auto& [label, object] : labelled->objects) seen.insert(label);
   std::vector<std::uint32_t> labels(seen.begin(), seen.end());
   if (!asked.empty()) {
     std::vector<std::uint32_t> keep;
@@ -199,6 +223,12 @@ std::vector<std::uint32_t> objects_to_reconstruct(const Run& run) {
   }
   if (labels.empty()) run.warn("no labels to reconstruct (every slice is 0)");
   return labels;
+}
+
+void finish_contours(const Run& run, const std::vector<detail::PackedMasks>& masks, const std::vector<PixelBox>& bounds,
+                     ObjectResult& obj) {
+  obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const auto& m) { return !m.empty; }));
+  obj.box = detail::object_box(bounds, run.stack.width, run.stack.height, run.params.crop_margin);
 }
 
 // Stage (paper 2.1): contour and inside of every slice, kept packed until
@@ -218,9 +248,14 @@ std::vector<detail::PackedMasks> contour_stage(const Run& run, ObjectResult& obj
   });
   for (auto& w : warnings)
     for (auto& line : w) run.warn(std::move(line));
-  obj.slices_with_contours = int(std::count_if(masks.begin(), masks.end(), [](const auto& m) { return !m.empty; }));
-  obj.box = detail::object_box(bounds, run.stack.width, run.stack.height, run.params.crop_margin);
+  finish_contours(run, masks, bounds, obj);
   return masks;
+}
+
+// A label's masks from label_stack_masks.
+std::vector<detail::PackedMasks> label_contours(const Run& run, LabelStackMasks::Object&& labelled, ObjectResult& obj) {
+  finish_contours(run, labelled.masks, labelled.bounds, obj);
+  return std::move(labelled.masks);
 }
 
 void add_fit_stats(FitStats& s, const MarkerSlice& m) {
@@ -625,21 +660,66 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   params_table<ReconstructParams>().validate(params);
   ReconstructResult result;
   const Run run{stack, params, options, result};
-  for (const std::uint32_t label : objects_to_reconstruct(run)) {
-    ObjectResult obj;
-    obj.label = label;
+  std::optional<LabelStackMasks> labelled;
+  if (stack.kind == InputKind::Labels) {
     const auto t0 = Clock::now();
-    std::vector<detail::PackedMasks> masks = contour_stage(run, obj);
+    labelled = label_stack_masks(run);
     result.times.contour += seconds_since(t0);
-    if (obj.slices_with_contours == 0) {
-      run.warn(object_name(label) + ": no slice has an inside; nothing to reconstruct");
-      continue;
+  }
+  const std::vector<std::uint32_t> labels = objects_to_reconstruct(run, labelled ? &*labelled : nullptr);
+  // Each object's masks, then its stages: objects are independent, so they
+  // run side by side unless a callback sees them object by object (stage
+  // fields, planes, samples); each keeps its own warnings and times, joined
+  // in label order, so the result is the serial one.
+  const std::size_t n = labels.size();
+  std::vector<ObjectResult> objects(n);
+  std::vector<std::vector<detail::PackedMasks>> masks(n);
+  std::vector<ReconstructResult> parts(n);
+  for (std::size_t l = 0; l < n; ++l) {
+    const Run part{stack, params, options, parts[l]};
+    ObjectResult& obj = objects[l];
+    obj.label = labels[l];
+    const auto t0 = Clock::now();
+    if (labelled) {
+      LabelStackMasks::Object& o = labelled->objects.at(obj.label);
+      const bool again = std::find(labels.begin() + std::ptrdiff_t(l) + 1, labels.end(), obj.label) != labels.end();
+      masks[l] = label_contours(part, again ? LabelStackMasks::Object(o) : std::move(o), obj);
+    } else {
+      masks[l] = contour_stage(part, obj);
     }
-    if (options.on_estimate) options.on_estimate(estimate_work(run, masks, obj));
-    stream_stages(run, std::move(masks), obj);
-    decimate_stage(run, obj);
-    check_stage(run, obj);
-    result.objects.push_back(std::move(obj));
+    parts[l].times.contour += seconds_since(t0);
+    // Before any fit, object by object in label order (it may throw: over budget).
+    if (options.on_estimate && obj.slices_with_contours > 0) options.on_estimate(estimate_work(part, masks[l], obj));
+  }
+  std::vector<std::exception_ptr> errors(n);
+  auto stages = [&](std::size_t l) {
+    const Run part{stack, params, options, parts[l]};
+    ObjectResult& obj = objects[l];
+    try {
+      if (obj.slices_with_contours == 0) {
+        part.warn(object_name(obj.label) + ": no slice has an inside; nothing to reconstruct");
+        return;
+      }
+      stream_stages(part, std::move(masks[l]), obj);
+      decimate_stage(part, obj);
+      check_stage(part, obj);
+    } catch (...) {
+      errors[l] = std::current_exception();
+    }
+  };
+  const bool side_by_side = n > 1 && !options.on_slice_fields && !options.on_plane && !options.on_sample;
+  if (side_by_side) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t l = r.begin(); l < r.end(); ++l) stages(l);
+    });
+  }
+  for (std::size_t l = 0; l < n; ++l) {
+    if (!side_by_side) stages(l);
+    if (errors[l]) std::rethrow_exception(errors[l]);  // the first object's in label order, as run one by one
+    ReconstructResult& part = parts[l];
+    for (auto& w : part.warnings) result.warnings.push_back(std::move(w));
+    result.times += part.times;
+    if (objects[l].slices_with_contours > 0) result.objects.push_back(std::move(objects[l]));
   }
   return result;
 }

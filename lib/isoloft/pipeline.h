@@ -94,9 +94,15 @@ struct FitStats {
 };
 
 struct StageTimes {
-  // Wall seconds, summed over objects.
+  // Wall seconds, summed over objects (objects run side by side: their sum
+  // can exceed the run's wall time).
   double contour = 0, mpu = 0, dist = 0, filter = 0, interp = 0, mesh = 0, decimate = 0;
   [[nodiscard]] double total() const { return contour + mpu + dist + filter + interp + mesh + decimate; }
+  StageTimes& operator+=(const StageTimes& o) {
+    contour += o.contour, mpu += o.mpu, dist += o.dist, filter += o.filter;
+    interp += o.interp, mesh += o.mesh, decimate += o.decimate;
+    return *this;
+  }
 };
 
 struct ObjectResult {

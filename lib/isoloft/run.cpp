@@ -307,9 +307,7 @@ RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std:
     if (configure) configure(job, ropt);
     ReconstructResult r = reconstruct(job.stack, params, ropt);
     for (auto& w : r.warnings) all.warnings.push_back(job.name.empty() ? w : "ROI '" + job.name + "': " + w);
-    const StageTimes& t = r.times;
-    all.times.contour += t.contour, all.times.mpu += t.mpu, all.times.dist += t.dist, all.times.filter += t.filter;
-    all.times.interp += t.interp, all.times.mesh += t.mesh, all.times.decimate += t.decimate;
+    all.times += r.times;
     for (auto& ob : r.objects) {
       RunObject out{j, std::move(ob), {}, job.color.value_or(label_colour(all.objects.size())), {}};
       out.mesh = job.stack.patient ? in_patient_space(out.object.mesh, *job.stack.patient) : out.object.mesh;

@@ -74,7 +74,7 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
       for (int y = rows.begin(); y != rows.end(); ++y) {
         const float* row = d.data.data() + d.index(0, y);
-        for (int x = 0; x < w; ++x) {
+        const auto one = [&](int x) {
           const int xa = std::max(0, x - far.r), xb = std::min(w - 1, x + far.r);
           const float* gx = far.g.data() + (far.r - x);
           float s = 0.0f, sx = 0.0f;
@@ -83,14 +83,53 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
             sx += gx[xx];
           }
           rows_pass(x, y) = s / sx;
+        };
+        // Away from the row's ends the stencil is whole: its weight sum is
+        // one number, and four pixels' sums run side by side (each in its
+        // own order, so the same floats as one() gives).
+        const int n = 2 * far.r + 1, interior0 = far.r, interior1 = w - far.r;  // [interior0, interior1)
+        float whole = 0.0f;
+        for (int j = 0; j < n; ++j) whole += far.g[std::size_t(j)];
+        int x = 0;
+        for (; x < std::min(w, interior0); ++x) one(x);
+        for (; x + 4 <= interior1; x += 4) {
+          const float* src = row + (x - far.r);
+          float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
+          for (int j = 0; j < n; ++j) {
+            const float g = far.g[std::size_t(j)];
+            s0 += g * src[j], s1 += g * src[j + 1], s2 += g * src[j + 2], s3 += g * src[j + 3];
+          }
+          float* o = &rows_pass(x, y);
+          o[0] = s0 / whole, o[1] = s1 / whole, o[2] = s2 / whole, o[3] = s3 / whole;
         }
+        for (; x < w; ++x) one(x);
       }
     });
   }
   Grid2f out(w, h);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
+      const int ya_far = std::max(0, y - far.r), yb_far = std::min(h - 1, y + far.r);
+      const float* gy_far = far.g.data() + (far.r - y);
+      const auto is_far = [&](int x) { return std::abs(double(d(x, y))) >= p.d_max; };
       for (int x = 0; x < w; ++x) {
+        if (any_far && x + 4 <= w && is_far(x) && is_far(x + 1) && is_far(x + 2) && is_far(x + 3)) {
+          // Four far pixels side by side: the column pass below, each sum in
+          // its own order (the same doubles), over contiguous loads.
+          double acc0 = 0.0, acc1 = 0.0, acc2 = 0.0, acc3 = 0.0, sy = 0.0;
+          for (int yy = ya_far; yy <= yb_far; ++yy) {
+            const double g = double(gy_far[yy]);
+            const float* rp = &rows_pass(x, yy);
+            acc0 += g * rp[0], acc1 += g * rp[1], acc2 += g * rp[2], acc3 += g * rp[3];
+            sy += gy_far[yy];
+          }
+          out(x, y) = clamp_to_side(d(x, y), acc0 / sy, p.d_min);
+          out(x + 1, y) = clamp_to_side(d(x + 1, y), acc1 / sy, p.d_min);
+          out(x + 2, y) = clamp_to_side(d(x + 2, y), acc2 / sy, p.d_min);
+          out(x + 3, y) = clamp_to_side(d(x + 3, y), acc3 / sy, p.d_min);
+          x += 3;
+          continue;
+        }
         const float in = d(x, y);
         const double a = std::abs(double(in));
         if (a <= p.d_min) {
@@ -98,12 +137,10 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
           continue;
         }
         if (a >= p.d_max) {
-          const int ya = std::max(0, y - far.r), yb = std::min(h - 1, y + far.r);
-          const float* gy = far.g.data() + (far.r - y);
           double acc = 0.0, sy = 0.0;
-          for (int yy = ya; yy <= yb; ++yy) {
-            acc += double(gy[yy]) * rows_pass(x, yy);
-            sy += gy[yy];
+          for (int yy = ya_far; yy <= yb_far; ++yy) {
+            acc += double(gy_far[yy]) * rows_pass(x, yy);
+            sy += gy_far[yy];
           }
           out(x, y) = clamp_to_side(in, acc / sy, p.d_min);
           continue;
@@ -116,7 +153,25 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
         const float* gy = K.g.data() + (K.r - y);
         double sx = 0.0, sy = 0.0, acc = 0.0;
         for (int xx = xa; xx <= xb; ++xx) sx += gx[xx];
-        for (int yy = ya; yy <= yb; ++yy) {
+        int yy = ya;
+        for (; yy + 3 <= yb; yy += 4) {  // four rows' sums side by side, each in the one-row order
+          const float* r0 = d.data.data() + d.index(0, yy);
+          const float *r1 = r0 + w, *r2 = r1 + w, *r3 = r2 + w;
+          float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
+          for (int xx = xa; xx <= xb; ++xx) {
+            const float g = gx[xx];
+            s0 += g * r0[xx], s1 += g * r1[xx], s2 += g * r2[xx], s3 += g * r3[xx];
+          }
+          acc += double(gy[yy]) * double(s0);
+          sy += gy[yy];
+          acc += double(gy[yy + 1]) * double(s1);
+          sy += gy[yy + 1];
+          acc += double(gy[yy + 2]) * double(s2);
+          sy += gy[yy + 2];
+          acc += double(gy[yy + 3]) * double(s3);
+          sy += gy[yy + 3];
+        }
+        for (; yy <= yb; ++yy) {
           const float* row = d.data.data() + d.index(0, yy);
           float s = 0.0f;
           for (int xx = xa; xx <= xb; ++xx) s += gx[xx] * row[xx];

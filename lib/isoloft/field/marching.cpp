@@ -31,25 +31,33 @@ template <class Touched>
 void offer(detail::ExtendState& s, const std::vector<std::uint8_t>& status, int i, ExtendUpdate update,
            Touched&& touched) {
   const int x = i % s.width, y = i / s.width;
-  for (int k = 0; k < 8; ++k) {
-    const int qx = x + kDx8[k], qy = y + kDy8[k];
-    if (qx < 0 || qy < 0 || qx >= s.width || qy >= s.height) continue;
-    const int q = qy * s.width + qx;
-    if (status[q] == kKnown) continue;
-    if (update == ExtendUpdate::ClosestPoint) {
-      if (s.seg[q] == s.seg[i]) continue;
-      const double c2 = detail::segment_distance2(s, qx, qy, s.seg[i]);
+  const bool interior = x > 0 && y > 0 && x + 1 < s.width && y + 1 < s.height;
+  if (update == ExtendUpdate::ClosestPoint) {
+    const std::int32_t si = s.seg[i];
+    const detail::SegmentGeom g = s.geom[std::size_t(si)];  // a copy: the writes below cannot alias it
+    for (int k = 0; k < 8; ++k) {
+      const int qx = x + kDx8[k], qy = y + kDy8[k];
+      if (!interior && (qx < 0 || qy < 0 || qx >= s.width || qy >= s.height)) continue;
+      const int q = qy * s.width + qx;
+      if (status[q] == kKnown || s.seg[q] == si) continue;
+      const double c2 = detail::segment_distance2(g, qx, qy);
       if (c2 < s.value[q]) {
         s.value[q] = c2;
-        s.seg[q] = s.seg[i];
+        s.seg[q] = si;
         touched(q);
       }
-    } else {
-      const double u = detail::eikonal_update(s, qx, qy, status.data());
-      if (u < s.value[q]) {
-        s.value[q] = u;
-        touched(q);
-      }
+    }
+    return;
+  }
+  for (int k = 0; k < 8; ++k) {
+    const int qx = x + kDx8[k], qy = y + kDy8[k];
+    if (!interior && (qx < 0 || qy < 0 || qx >= s.width || qy >= s.height)) continue;
+    const int q = qy * s.width + qx;
+    if (status[q] == kKnown) continue;
+    const double u = detail::eikonal_update(s, qx, qy, status.data());
+    if (u < s.value[q]) {
+      s.value[q] = u;
+      touched(q);
     }
   }
 }

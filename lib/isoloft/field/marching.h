@@ -86,14 +86,18 @@ struct ExtendState {
   std::vector<std::uint8_t> fixed;  ///< 1 on band pixels
 };
 
-/// Squared distance from (x, y) to segment k.
-inline double segment_distance2(const ExtendState& s, int x, int y, std::int32_t k) {
-  const SegmentGeom& g = s.geom[std::size_t(k)];
+/// Squared distance from (x, y) to segment g.
+inline double segment_distance2(const SegmentGeom& g, int x, int y) {
   const double px = x - g.ax, py = y - g.ay;
   double t = (px * g.dx + py * g.dy) * g.inv;
   t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
   const double ex = px - t * g.dx, ey = py - t * g.dy;
   return ex * ex + ey * ey;
+}
+
+/// Squared distance from (x, y) to segment k.
+inline double segment_distance2(const ExtendState& s, int x, int y, std::int32_t k) {
+  return segment_distance2(s.geom[std::size_t(k)], x, y);
 }
 
 /// From segment k walks the links both ways while within 0.01 px of the best

@@ -91,27 +91,32 @@ double extremum_tangent(std::span<const double> z, std::span<const double> f, st
 }  // namespace
 
 void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m) {
+  spline_tangents(kind, z, f, m, 0, z.size() - 1);
+}
+
+void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m,
+                     std::size_t lo, std::size_t hi) {
   const std::size_t n = z.size();
   auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
   switch (kind) {
     case SplineKind::Linear:
-      for (std::size_t i = 0; i < n; ++i) m[i] = 0.0;
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = 0.0;
       return;
     case SplineKind::CatmullRom:
-      for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t i = lo; i <= hi; ++i) {
         if (i == 0) m[i] = slope(0);
         else if (i == n - 1) m[i] = slope(n - 2);
         else m[i] = (f[i + 1] - f[i - 1]) / (z[i + 1] - z[i - 1]);
       }
       return;
     case SplineKind::Monotone:
-      for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t i = lo; i <= hi; ++i) {
         const bool has_l = i > 0, has_r = i + 1 < n;
         m[i] = hyman_clamp(parabolic_tangent(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
       }
       return;
     case SplineKind::ExtremumPreserving:
-      for (std::size_t i = 0; i < n; ++i) m[i] = extremum_tangent(z, f, i);
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, f, i);
       return;
     case SplineKind::Natural: {
       // Second derivatives M with M_0 = M_{n-1} = 0 (Thomas algorithm), then
@@ -126,20 +131,15 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
         d[i] = (rhs - a * d[i - 1]) / denom;
       }
       for (std::size_t i = n - 1; i-- > 1;) M[i] = d[i] - c[i] * M[i + 1];
-      for (std::size_t i = 0; i + 1 < n; ++i) m[i] = slope(i) - (z[i + 1] - z[i]) * (2 * M[i] + M[i + 1]) / 6;
-      m[n - 1] = slope(n - 2) + (z[n - 1] - z[n - 2]) * (M[n - 2] + 2 * M[n - 1]) / 6;
+      for (std::size_t i = lo; i <= hi && i + 1 < n; ++i) m[i] = slope(i) - (z[i + 1] - z[i]) * (2 * M[i] + M[i + 1]) / 6;
+      if (hi == n - 1) m[n - 1] = slope(n - 2) + (z[n - 1] - z[n - 2]) * (M[n - 2] + 2 * M[n - 1]) / 6;
       return;
     }
   }
 }
 
 double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z) {
-  const double h = z1 - z0;
-  const double t = (z - z0) / h;
-  if (kind == SplineKind::Linear) return f0 + t * (f1 - f0);
-  const double t2 = t * t, t3 = t2 * t;
-  const double h00 = 2 * t3 - 3 * t2 + 1, h10 = t3 - 2 * t2 + t, h01 = -2 * t3 + 3 * t2, h11 = t3 - t2;
-  return h00 * f0 + h10 * h * m0 + h01 * f1 + h11 * h * m1;
+  return HermiteBasis(kind, z0, z1, z).value(f0, f1, m0, m1);
 }
 
 namespace {
@@ -170,6 +170,10 @@ double Spline1D::operator()(double q) const {
 }
 
 ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind)
+    : ZInterpolator(std::move(slices), z, kind, 0, z.empty() ? 0 : z.size() - 1) {}
+
+ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo,
+                             std::size_t hi)
     : slices_(std::move(slices)), z_(std::move(z)), kind_(kind) {
   check_knots(z_);
   if (slices_.size() != z_.size()) throw ParamError("interpolator: slice count differs from z count");
@@ -177,14 +181,15 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   for (const auto& s : slices_)
     if (s.width != w || s.height != h) throw ParamError("interpolator: slices differ in size");
   const std::size_t n = z_.size();
+  if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
   tangents_.assign(n, Grid2f(w, h, 0.0f));
   if (kind_ == SplineKind::Linear) return;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
     std::vector<double> f(n), m(n);
     for (std::size_t p = r.begin(); p != r.end(); ++p) {
       for (std::size_t k = 0; k < n; ++k) f[k] = slices_[k].data[p];
-      spline_tangents(kind_, z_, f, m);
-      for (std::size_t k = 0; k < n; ++k) tangents_[k].data[p] = float(m[k]);
+      spline_tangents(kind_, z_, f, m, lo, hi);
+      for (std::size_t k = lo; k <= hi; ++k) tangents_[k].data[p] = float(m[k]);
     }
   });
 }
@@ -213,12 +218,18 @@ void ZInterpolator::evaluate(double q, Grid2f& out) const {
   const std::size_t k = interval(q);
   q = std::clamp(q, z_.front(), z_.back());
   const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
-  const double z0 = z_[k], z1 = z_[k + 1];
-  tbb::parallel_for(0, h, [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      const std::size_t p = f0.index(x, y);
-      out.data[p] = float(hermite(kind_, z0, z1, f0.data[p], f1.data[p], m0.data[p], m1.data[p], q));
+  const HermiteBasis basis(kind_, z_[k], z_[k + 1], q);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    const std::size_t p0 = f0.index(0, rows.begin()), p1 = f0.index(0, rows.end() - 1) + std::size_t(w);
+    const float *a = f0.data.data(), *b = f1.data.data(), *ma = m0.data.data(), *mb = m1.data.data();
+    float* o = out.data.data();
+    if (basis.linear) {
+      for (std::size_t p = p0; p < p1; ++p) o[p] = float(double(a[p]) + basis.t * (double(b[p]) - double(a[p])));
+      return;
     }
+    const double h00 = basis.h00, h10h = basis.h10h, h01 = basis.h01, h11h = basis.h11h;
+    for (std::size_t p = p0; p < p1; ++p)  // HermiteBasis::value, vectorised
+      o[p] = float(h00 * double(a[p]) + h10h * double(ma[p]) + h01 * double(b[p]) + h11h * double(mb[p]));
   });
 }
 

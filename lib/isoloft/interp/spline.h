@@ -72,6 +72,28 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
 
 /// Tangents of one column. \pre z increasing; z, f, m of one size >= 2.
 void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m);
+/// The same tangents, only m[lo..hi] written (each the value the whole
+/// column's call gives). \pre lo <= hi < z.size().
+void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const double> f, std::span<double> m,
+                     std::size_t lo, std::size_t hi);
+
+/// The cubic Hermite basis at z on the interval [z0, z1], for many columns
+/// at one z: value() gives hermite()'s result bit for bit.
+struct HermiteBasis {
+  HermiteBasis(SplineKind kind, double z0, double z1, double z) {
+    const double h = z1 - z0;
+    t = (z - z0) / h;
+    linear = kind == SplineKind::Linear;
+    const double t2 = t * t, t3 = t2 * t;
+    h00 = 2 * t3 - 3 * t2 + 1, h10h = (t3 - 2 * t2 + t) * h, h01 = -2 * t3 + 3 * t2, h11h = (t3 - t2) * h;
+  }
+  [[nodiscard]] double value(double f0, double f1, double m0, double m1) const {
+    if (linear) return f0 + t * (f1 - f0);
+    return h00 * f0 + h10h * m0 + h01 * f1 + h11h * m1;
+  }
+  double t, h00, h10h, h01, h11h;  // h10h, h11h: the tangent terms' basis times the interval length
+  bool linear;
+};
 
 double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z);
 
@@ -93,6 +115,9 @@ class ZInterpolator {
  public:
   /// \throw ParamError unless slices.size() == z.size() >= 2, z increasing, one size.
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind);
+  /// Only the tangents of knots lo..hi (the others 0): evaluate() and sides()
+  /// on the intervals between them only. \pre lo <= hi < z.size().
+  ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo, std::size_t hi);
   /// The field at z, parallel over rows.
   void evaluate(double z, Grid2f& out) const;
   [[nodiscard]] const std::vector<double>& z() const { return z_; }

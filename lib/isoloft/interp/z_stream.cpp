@@ -83,7 +83,11 @@ void ZStream::next_block() {
   }
   for (; pulled_first_ < keep_from && !pulled_.empty(); ++pulled_first_, count(-1)) pulled_.pop_front();
   const auto t0 = std::chrono::steady_clock::now();
-  window_.emplace(std::move(knots), std::vector<double>(z_.begin() + long(w0_), z_.begin() + long(w1_) + 1), kind_);
+  // Tangents only where they are used: evaluate() on this block's intervals
+  // [e0, e1), sides() on those and the one before (the mesher's previous layer).
+  const std::size_t t0_knot = e0_ - std::min<std::size_t>(e0_, 1);
+  window_.emplace(std::move(knots), std::vector<double>(z_.begin() + long(w0_), z_.begin() + long(w1_) + 1), kind_,
+                  t0_knot - w0_, e1_ - w0_);
   count(2 * long(w1_ - w0_ + 1));  // knots and tangents
   tangent_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -101,7 +105,8 @@ void ZStream::evaluate(double z, Grid2f& out) const {
 }
 
 void ZStream::sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const {
-  if (!window_ || k < w0_ || k + 1 > w1_) throw ParamError("z stream: sides() of an interval not held");
+  // The block's intervals and the one before: the window's tangents are those.
+  if (!window_ || k + 1 < e0_ || k >= e1_) throw ParamError("z stream: sides() of an interval not held");
   window_->sides(k - w0_, iso, margin, out);
 }
 

@@ -1,5 +1,9 @@
 #include "isoloft/io/file_util.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -10,6 +14,16 @@
 
 namespace isoloft::detail {
 
+void advise_huge_pages(void* p, std::size_t bytes) {
+  constexpr std::size_t kHuge = std::size_t(2) << 20;
+  if (bytes < 4 * kHuge) return;
+  const std::uintptr_t b = (reinterpret_cast<std::uintptr_t>(p) + kHuge - 1) / kHuge * kHuge;
+  const std::uintptr_t e = (reinterpret_cast<std::uintptr_t>(p) + bytes) / kHuge * kHuge;
+#ifdef MADV_HUGEPAGE
+  if (e > b) madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);  // a hint: failure is harmless
+#endif
+}
+
 std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_t offset) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open file");
@@ -17,11 +31,29 @@ std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_
   const std::streamoff size = in.tellg();
   if (size < 0) throw InputError(path, "cannot read file");
   if (std::uint64_t(size) < offset) throw InputError(path, "file is shorter than its header");
-  std::vector<unsigned char> bytes(std::size_t(std::uint64_t(size) - offset));
+  std::vector<unsigned char> bytes;
+  resize_large(bytes, std::size_t(std::uint64_t(size) - offset));
   in.seekg(std::streamoff(offset));
   if (!bytes.empty() && !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size())))
     throw InputError(path, "read error");
   return bytes;
+}
+
+FileBytes::FileBytes(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  struct stat st {};
+  if (fd >= 0 && ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+    void* p = ::mmap(nullptr, std::size_t(st.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+    if (p != MAP_FAILED) map_ = p, size_ = std::size_t(st.st_size);
+  }
+  if (fd >= 0) ::close(fd);
+  if (map_) return;
+  copy_ = read_file_bytes(path);  // its errors, for files that cannot be mapped (or are empty)
+  size_ = copy_.size();
+}
+
+FileBytes::~FileBytes() {
+  if (map_) ::munmap(map_, size_);
 }
 
 std::vector<unsigned char> inflate_exact(const unsigned char* src, std::size_t n, std::size_t expected,

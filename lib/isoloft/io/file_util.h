@@ -10,9 +10,32 @@
 
 namespace isoloft::detail {
 
+/// A vector of n default values whose pages the kernel may back with huge
+/// pages (fewer page faults on first touch for volumes of 100s of MB).
+template <class T>
+void resize_large(std::vector<T>& v, std::size_t n);
+
 /// Whole file (from byte `offset`) into memory.
 /// \throw InputError(path, ...) if the file is missing or unreadable.
 std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_t offset = 0);
+
+/// A whole file, read-only: mapped into memory (no copy; the page cache's
+/// pages), or read (read_file_bytes) where it cannot be mapped.
+/// \throw InputError(path, ...) as read_file_bytes.
+class FileBytes {
+ public:
+  explicit FileBytes(const std::string& path);
+  ~FileBytes();
+  FileBytes(const FileBytes&) = delete;
+  FileBytes& operator=(const FileBytes&) = delete;
+  [[nodiscard]] const unsigned char* data() const { return map_ ? static_cast<const unsigned char*>(map_) : copy_.data(); }
+  [[nodiscard]] std::size_t size() const { return size_; }
+
+ private:
+  void* map_ = nullptr;
+  std::size_t size_ = 0;
+  std::vector<unsigned char> copy_;
+};
 
 /// Inflate a zlib or gzip stream (auto-detected) that must decode to exactly
 /// `expected` bytes.
@@ -23,5 +46,14 @@ std::vector<unsigned char> inflate_exact(const unsigned char* src, std::size_t n
 /// nx*ny*nz with overflow and sanity checks (each size >= 1, total < 2^34).
 /// \throw InputError(file, ...) if the sizes are unusable.
 std::size_t checked_voxel_count(int nx, int ny, int nz, const std::string& file);
+
+void advise_huge_pages(void* p, std::size_t bytes);
+
+template <class T>
+void resize_large(std::vector<T>& v, std::size_t n) {
+  v.reserve(n);
+  advise_huge_pages(v.data(), n * sizeof(T));
+  v.resize(n);
+}
 
 }  // namespace isoloft::detail

@@ -53,7 +53,7 @@ bool is_true(const std::string& v) {
 }  // namespace
 
 Volume read_metaimage(const std::string& mhd) {
-  const std::vector<unsigned char> header = detail::read_file_bytes(mhd);
+  const detail::FileBytes header(mhd);  // a .mha's data too (LOCAL)
   std::map<std::string, std::string> kv;
   std::size_t pos = 0, local_offset = 0;
   bool local = false;
@@ -153,10 +153,10 @@ Volume read_metaimage(const std::string& mhd) {
   const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, mhd);
   const std::size_t nbytes = count * detail::scalar_size(type);
   std::string data_name = mhd;
-  std::vector<unsigned char> file;
-  if (local) {
-    file.assign(header.begin() + std::ptrdiff_t(local_offset), header.end());
-  } else {
+  std::vector<unsigned char> file;  // the data file's bytes; LOCAL data stay in `header`
+  const unsigned char* bytes = header.data() + local_offset;
+  std::size_t size = header.size() - local_offset;
+  if (!local) {
     const std::string& df = *get("ElementDataFile");
     if (df == "LIST" || df.find('%') != std::string::npos || df.find(' ') != std::string::npos)
       throw InputError(mhd, "multi-file MetaImage data '" + df + "' is not supported");
@@ -164,11 +164,13 @@ Volume read_metaimage(const std::string& mhd) {
     if (dp.is_relative()) dp = std::filesystem::path(mhd).parent_path() / dp;
     data_name = dp.string();
     file = detail::read_file_bytes(data_name);
+    bytes = file.data();
+    size = file.size();
   }
-  const unsigned char* data = file.data();
+  const unsigned char* data = bytes;
   std::vector<unsigned char> inflated;
   if (compressed) {
-    inflated = detail::inflate_exact(file.data(), file.size(), nbytes, data_name);
+    inflated = detail::inflate_exact(bytes, size, nbytes, data_name);
     data = inflated.data();
   } else {
     long long skip = 0;
@@ -177,13 +179,13 @@ Volume read_metaimage(const std::string& mhd) {
       if (h.size() != 1 || h[0] < -1 || h[0] != std::floor(h[0])) throw InputError(mhd, "bad HeaderSize");
       skip = (long long)h[0];
     }
-    if (skip == -1) skip = (long long)file.size() - (long long)nbytes;  // data at the end of the file
-    if (skip < 0 || std::size_t(skip) + nbytes > file.size())
-      throw InputError(data_name, "data truncated: " + std::to_string(file.size()) + " bytes, need " +
+    if (skip == -1) skip = (long long)size - (long long)nbytes;  // data at the end of the file
+    if (skip < 0 || std::size_t(skip) + nbytes > size)
+      throw InputError(data_name, "data truncated: " + std::to_string(size) + " bytes, need " +
                                       std::to_string(nbytes + std::size_t(std::max(skip, 0LL))));
-    data = file.data() + skip;
+    data = bytes + skip;
   }
-  v.data.resize(count);
+  detail::resize_large(v.data, count);
   detail::decode_scalars(data, count, type, big, v.data.data());
   return v;
 }

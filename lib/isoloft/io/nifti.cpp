@@ -158,7 +158,7 @@ Volume read_nifti(const std::string& path) {
   const bool scaled = nim->scl_slope != 0 && std::isfinite(nim->scl_slope) && std::isfinite(nim->scl_inter) &&
                       (nim->scl_slope != 1 || nim->scl_inter != 0);
   const double slope = scaled ? nim->scl_slope : 1.0, inter = scaled ? nim->scl_inter : 0.0;
-  v.data.resize(count);
+  detail::resize_large(v.data, count);
   float* out = v.data.data();
   switch (dt) {
     case DT_UINT8: decode<std::uint8_t>(bytes.data(), count, slope, inter, out); break;

@@ -295,7 +295,7 @@ Volume read_nrrd(const std::string& path) {
       if (std::abs(v.direction.col(a).dot(v.direction.col(b))) > kOrthogonalityTolerance)
         throw InputError(path, "sheared voxel axes (space directions not orthogonal): not supported");
   v.integer = type != ScalarType::F32 && type != ScalarType::F64;
-  v.data.resize(count);
+  detail::resize_large(v.data, count);
   detail::decode_scalars(static_cast<const unsigned char*>(n->data), count, type,
                          std::endian::native == std::endian::big, v.data.data());
   return v;

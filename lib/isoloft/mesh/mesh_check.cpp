@@ -50,31 +50,42 @@ MeshCheck check_mesh(const TriMesh& mesh) {
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || n.squaredNorm() == 0.0) ++r.degenerate_triangles;
   }
 
-  // Edges: sort the directed half-edges by their undirected key.
+  // Edges: the directed half-edges grouped by their undirected key (min,
+  // max): bucketed by min vertex (a counting sort), each bucket sorted by max.
   struct HalfEdge {
-    std::uint64_t key;    // min << 32 | max
-    std::uint32_t face;   // triangle index
+    std::uint32_t other;  // the larger vertex
     bool forward;         // traversed from min to max
   };
-  std::vector<HalfEdge> he;
-  he.reserve(3 * nf);
+  std::vector<std::uint32_t> first(nv + 1, 0);
   for (std::size_t f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k) {
       const auto a = std::uint32_t(mesh.triangles[f][k]), b = std::uint32_t(mesh.triangles[f][(k + 1) % 3]);
-      if (a == b) continue;  // degenerate: not an edge
-      he.push_back({(std::uint64_t(std::min(a, b)) << 32) | std::max(a, b), std::uint32_t(f), a < b});
+      if (a != b) ++first[std::min(a, b) + 1];  // degenerate: not an edge
     }
-  std::sort(he.begin(), he.end(), [](const HalfEdge& x, const HalfEdge& y) { return x.key < y.key; });
+  std::partial_sum(first.begin(), first.end(), first.begin());
+  std::vector<HalfEdge> he(first.back());
+  {
+    std::vector<std::uint32_t> at(first.begin(), first.end() - 1);
+    for (std::size_t f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const auto a = std::uint32_t(mesh.triangles[f][k]), b = std::uint32_t(mesh.triangles[f][(k + 1) % 3]);
+        if (a != b) he[at[std::min(a, b)]++] = {std::max(a, b), a < b};
+      }
+  }
   long edges = 0;
-  for (std::size_t s = 0; s < he.size();) {
-    std::size_t e = s;
-    while (e < he.size() && he[e].key == he[s].key) ++e;
-    const std::size_t n = e - s;
-    ++edges;
-    if (n == 1) ++r.boundary_edges;
-    else if (n > 2) ++r.nonmanifold_edges;
-    else if (he[s].forward == he[s + 1].forward) ++r.inconsistent_edges;
-    s = e;
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto b = he.begin() + std::ptrdiff_t(first[v]), e = he.begin() + std::ptrdiff_t(first[v + 1]);
+    std::sort(b, e, [](const HalfEdge& x, const HalfEdge& y) { return x.other < y.other; });
+    for (auto s = b; s != e;) {
+      auto t = s;
+      while (t != e && t->other == s->other) ++t;
+      const auto n = t - s;
+      ++edges;
+      if (n == 1) ++r.boundary_edges;
+      else if (n > 2) ++r.nonmanifold_edges;
+      else if (s->forward == (s + 1)->forward) ++r.inconsistent_edges;
+      s = t;
+    }
   }
 
   // Vertex stars: the triangles around v, joined when they share an edge

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include "isoloft/contour/fill.h"
 #include "isoloft/contour/rasterize.h"
@@ -112,6 +113,64 @@ SliceMasks unpack_masks(const PackedMasks& p) {
   m.contour = from_runs(p.contour, p.width, p.height);
   m.empty = p.empty;
   return m;
+}
+
+std::vector<LabelMasks> label_masks(const Grid2u32& image) {
+  const int W = image.width, H = image.height;
+  const std::uint32_t* d = image.data.data();
+  const std::size_t n = image.size();
+  struct Acc {
+    LabelMasks out;
+    int x0, y0, x1 = -1, y1 = -1;  // inclusive bounds of the contour pixels (those of the inside)
+  };
+  std::map<std::uint32_t, Acc> acc;
+  Acc* last = nullptr;
+  auto of = [&](std::uint32_t v) -> Acc& {
+    if (last && last->out.label == v) return *last;
+    auto [it, added] = acc.try_emplace(v);
+    if (added) it->second.out.label = v, it->second.x0 = W, it->second.y0 = H;
+    return *(last = &it->second);
+  };
+  // Inside: the runs of each label in row-major order (runs_of of == label).
+  for (std::size_t i = 0; i < n;) {
+    const std::uint32_t v = d[i];
+    if (!v) {
+      ++i;
+      continue;
+    }
+    const std::size_t begin = i;
+    while (i < n && d[i] == v) ++i;
+    auto& runs = of(v).out.masks.inside;
+    runs.push_back(std::uint32_t(begin));
+    runs.push_back(std::uint32_t(i));
+  }
+  // Contour: mask_boundary (a pixel of the label on the image border or with
+  // a 4-neighbour of another value), as runs of one label.
+  std::uint32_t open = 0;  // label of the contour run ending at the previous pixel, 0 if none
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = std::size_t(y) * std::size_t(W) + std::size_t(x);
+      const std::uint32_t v = d[i];
+      const bool edge = v && (x == 0 || y == 0 || x == W - 1 || y == H - 1 || d[i - 1] != v || d[i + 1] != v ||
+                              d[i - std::size_t(W)] != v || d[i + std::size_t(W)] != v);
+      const std::uint32_t now = edge ? v : 0;
+      if (open && now != open) of(open).out.masks.contour.push_back(std::uint32_t(i));
+      if (now && now != open) of(now).out.masks.contour.push_back(std::uint32_t(i));
+      open = now;
+      if (edge) {
+        Acc& a = of(v);
+        a.x0 = std::min(a.x0, x), a.x1 = std::max(a.x1, x), a.y0 = std::min(a.y0, y), a.y1 = std::max(a.y1, y);
+      }
+    }
+  if (open) of(open).out.masks.contour.push_back(std::uint32_t(n));
+  std::vector<LabelMasks> out;
+  out.reserve(acc.size());
+  for (auto& [v, a] : acc) {
+    a.out.masks.width = W, a.out.masks.height = H, a.out.masks.empty = false;
+    a.out.bounds = {a.x0, a.y0, a.x1 + 1, a.y1 + 1};
+    out.push_back(std::move(a.out));
+  }
+  return out;
 }
 
 PixelBox mask_bounds(const SliceMasks& m) {

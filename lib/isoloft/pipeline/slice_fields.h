@@ -58,6 +58,19 @@ struct PackedMasks {
 PackedMasks pack_masks(const SliceMasks& m);
 SliceMasks unpack_masks(const PackedMasks& p);
 
+/// One label of a label image: its masks packed as pack_masks(slice_masks())
+/// packs them (inside: == label; contour: mask_boundary() of it) and their
+/// mask_bounds().
+struct LabelMasks {
+  std::uint32_t label = 0;
+  PackedMasks masks;
+  PixelBox bounds;
+};
+
+/// Every non-zero label of `image`, in increasing order, from one pass over
+/// its pixels (the same masks as slice_masks() of each label in turn).
+std::vector<LabelMasks> label_masks(const Grid2u32& image);
+
 /// Bounding box of a slice's inside and contour pixels; empty if m.empty.
 PixelBox mask_bounds(const SliceMasks& m);
 
