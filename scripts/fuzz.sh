@@ -17,13 +17,27 @@ done
 B="$ROOT/build-asan"
 "$ROOT/scripts/sanitize_build.sh" "${TARGETS[@]/#/fuzz_}"
 cd "$B"
+# Targets run side by side, one per core (each fuzzer is one process).
+JOBS="${ISOLOFT_JOBS:-$(nproc)}"
+fuzz_one() {
+  local t=$1
+  mkdir -p "corpus/$t"
+  # 2 GB RSS and 10 s per input: a larger or slower one is a finding too.
+  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan.supp" "./fuzz/fuzz_$t" -max_total_time="$SECS" \
+    -rss_limit_mb=2048 -timeout=10 -max_len=65536 -artifact_prefix="$B/crash-$t-" "corpus/$t" "$ROOT/fuzz/corpus/$t" \
+    > "fuzz-$t.log" 2>&1
+}
+declare -A pid_of
 status=0
 for t in "${TARGETS[@]}"; do
-  mkdir -p "corpus/$t"
+  while (($(jobs -rp | wc -l) >= JOBS)); do wait -n || true; done
   echo "fuzz: $t for $SECS s"
-  # 2 GB RSS and 10 s per input: a larger or slower one is a finding too.
-  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan.supp" "./fuzz/fuzz_$t" -max_total_time="$SECS" -rss_limit_mb=2048 -timeout=10 \
-    -max_len=65536 -artifact_prefix="$B/crash-$t-" "corpus/$t" "$ROOT/fuzz/corpus/$t" 2>&1 | tail -n 4 || status=1
+  fuzz_one "$t" &
+  pid_of[$t]=$!
+done
+for t in "${TARGETS[@]}"; do
+  wait "${pid_of[$t]}" || { status=1; echo "fuzz: $t FAILED"; }
+  echo "fuzz: $t: $(grep -E '^Done [0-9]+ runs' "fuzz-$t.log" || tail -n 3 "fuzz-$t.log")"
 done
 ls "$B"/crash-* 2>/dev/null && status=1
 exit $status
