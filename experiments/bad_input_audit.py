@@ -15,7 +15,6 @@ import shutil
 import signal
 import struct
 import subprocess
-import sys
 import tempfile
 import time
 import zlib
@@ -55,12 +54,14 @@ def png(path, width, height, rows=None):
                 + chunk(b"IDAT", b"".join(parts)) + chunk(b"IEND", b""))
 
 
-def arc_row(y, size=48, r=12, fill=False):
+def arc_row(y, size=48, r=12):
+    """Row y of a half-circle arc of radius r about the image centre (an open contour)."""
     row = bytearray(size)
+    c = size // 2
     for i in range(401):
         a = math.pi * i / 400
-        if round(24 + 12 * math.sin(a)) == y:
-            row[round(24 + 12 * math.cos(a))] = 255
+        if round(c + r * math.sin(a)) == y:
+            row[round(c + r * math.cos(a))] = 255
     return bytes(row)
 
 

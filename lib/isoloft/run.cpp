@@ -43,7 +43,8 @@ constexpr double kImageBytes = 4, kMaskBytes = 2, kFillBytes = 9;
 double stack_bytes(const SliceStack& st) {
   const double n = double(st.slices.size()), pixels = double(st.width) * double(st.height);
   const bool held = !st.load_image && !st.has_polygons();  // every slice's image in memory (volumes)
-  const double packed = n * double(st.height) * 4 * sizeof(std::uint32_t);  // run-length masks: ~2 runs a row each
+  // Run-length masks of every slice: ~1 (begin, end) pair of uint32 a row in each of the two.
+  const double packed = n * double(st.height) * 2 * 2 * sizeof(std::uint32_t);
   return pixels * ((held ? n * kImageBytes : 0) + slices_in_flight(n) * (kImageBytes + kMaskBytes + kFillBytes)) + packed;
 }
 

@@ -250,9 +250,9 @@ TEST_F(BadInput, StaleTempsOfKilledRunsAreNeverInputAndAreSwept) {
 // process to die by it with no hidden or final output left.
 void expect_signal_cleans_up(const fs::path& dir, const std::string& input, int sig) {
   const std::string out = (dir / "m.ply").string(), vol = (dir / "v.nrrd").string();
-  // Levin's method and 250 px slice spacing: a staged volume within ~0.2 s of
-  // a ~0.4 s Release run and ~8 s of the -O0 sanitizer build's; what is
-  // tested is the cleanup, common to every method.
+  // Levin's method and 250 px slice spacing: a staged volume after ~0.15 s
+  // of a ~0.25 s Release run, after ~7 s of the -O0 sanitizer build's 28 s
+  // (measured); what is tested is the cleanup, common to every method.
   const std::vector<std::string> args{ISOLOFT_CLI, "reconstruct", input,         "-o",     out,     "--volume",
                                       vol,         "--quiet",     "--z-spacing", "250",    "--method", "levin"};
   const pid_t pid = ::fork();
