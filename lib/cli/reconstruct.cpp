@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -152,6 +153,7 @@ void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, cons
       {"fill.max_gap", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
       {"fill.open_contours", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
       {"binarize", images && kind != InputKind::Labels, "only with contour or mask images"},
+      {"label_partition", kind == InputKind::Labels, "only with label input (--input labels, or an integer label volume)"},
   };
   for (const Use& u : uses)
     if (!u.used)
@@ -230,7 +232,7 @@ int Commands::reconstruct() {
   // Run the pipeline, one stack at a time, with the per-job outputs.
   std::vector<std::string> volume_files;
   std::mutex dump_mutex;
-  std::unique_ptr<NrrdWriter> volume;
+  std::map<std::uint32_t, std::unique_ptr<NrrdWriter>> volumes;  // per label: a label partition interleaves them
   RunResult run = run_jobs(in, params, labels, [&](const Job& job, ReconstructOptions& ropt) {
     const SliceStack& stack = job.stack;
     progress.finish();
@@ -254,13 +256,14 @@ int Commands::reconstruct() {
             g.axes = Eigen::Vector3d(s, s, s * params.interp.z_step).asDiagonal();
             g.origin = {x0 * s, y0 * s, z * s};
           }
-          volume = std::make_unique<NrrdWriter>(outputs.stage(path), plane.width, plane.height, count, g);
+          volumes[label] = std::make_unique<NrrdWriter>(outputs.stage(path), plane.width, plane.height, count, g);
           volume_files.push_back(path);
         }
-        volume->write_plane(plane);
+        NrrdWriter& volume = *volumes.at(label);
+        volume.write_plane(plane);
         if (index == count - 1) {
-          volume->finish();
-          volume.reset();
+          volume.finish();
+          volumes.erase(label);
         }
       };
     }

@@ -70,6 +70,7 @@ struct ReconstructParams {
   double mpu_band = 4.0;
   int mask_min_feature = 2;
   int crop_margin = 32;
+  bool label_partition = true;
   FillParams fill;              ///< contour/: even-odd fill, open contours
   NormalsParams normals;        ///< contour/: paper 2.1
   MpuParams mpu;                ///< fit/: paper 2.1
