@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/pipeline/slice_fields.h"
@@ -124,10 +125,11 @@ struct Run {
   const ReconstructParams& params;
   const ReconstructOptions& options;
   ReconstructResult& result;
+  std::uint32_t label = 0;  ///< the object this part of the run is for (0: the only one, or every label)
 
   [[nodiscard]] std::size_t slices() const { return stack.slices.size(); }
   void progress(const char* stage, long done, long total) const {
-    if (options.progress) options.progress(stage, done, total);
+    if (options.progress) options.progress(label, stage, done, total);
   }
   void warn(std::string w) const { result.warnings.push_back(std::move(w)); }
 };
@@ -583,7 +585,7 @@ std::string empty_reason(const Run& run, float top, const ObjectResult& obj) {
       << " px): no surface crosses it";
   } else if (const double span = run.stack.slices.back().z - run.stack.slices.front().z; span < run.params.interp.z_step) {
     o << "the slices span " << span << " px in z, less than one plane step interp.z_step = " << run.params.interp.z_step
-      << " px (check --z-spacing / the slice z)";
+      << " px (check " << option_name("--z-spacing") << " / the slice z)";
   } else {
     o << "the object (" << obj.slices_with_contours << " slice(s) with contours, box " << obj.box.width() << "x"
       << obj.box.height() << " px) is smaller than the sampling grid (a pixel in the plane, interp.z_step = "
@@ -606,7 +608,8 @@ void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, Objec
   if (plane_count(z, p.interp.z_step) < 2) {
     std::ostringstream o;
     o << "the slices span " << z.back() - z.front() << " px in z (end caps included), less than one plane step "
-      << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check --z-spacing / the slice z)";
+      << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check " << option_name("--z-spacing")
+      << " / the slice z)";
     throw InputError(run.stack.slices.front().source, o.str());
   }
   ZStream stream(z, p.interp.spline, obj.box.width(), obj.box.height(), [&] { return feed.next(); }, &count);
@@ -659,7 +662,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   check_stack(stack);
   params_table<ReconstructParams>().validate(params);
   ReconstructResult result;
-  const Run run{stack, params, options, result};
+  const Run run{stack, params, options, result, 0};
   std::optional<LabelStackMasks> labelled;
   if (stack.kind == InputKind::Labels) {
     const auto t0 = Clock::now();
@@ -676,7 +679,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   std::vector<std::vector<detail::PackedMasks>> masks(n);
   std::vector<ReconstructResult> parts(n);
   for (std::size_t l = 0; l < n; ++l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], labels[l]};
     ObjectResult& obj = objects[l];
     obj.label = labels[l];
     const auto t0 = Clock::now();
@@ -693,7 +696,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   }
   std::vector<std::exception_ptr> errors(n);
   auto stages = [&](std::size_t l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], labels[l]};
     ObjectResult& obj = objects[l];
     try {
       if (obj.slices_with_contours == 0) {
