@@ -18,6 +18,7 @@
 #include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/mesh/stream_mesher.h"
@@ -146,10 +147,11 @@ struct Run {
   const ReconstructParams& params;
   const ReconstructOptions& options;
   ReconstructResult& result;
+  std::uint32_t label = 0;  ///< the object this part of the run is for (0: the only one, or every label)
 
   [[nodiscard]] std::size_t slices() const { return stack.slices.size(); }
   void progress(const char* stage, long done, long total) const {
-    if (options.progress) options.progress(stage, done, total);
+    if (options.progress) options.progress(label, stage, done, total);
   }
   void warn(std::string w) const { result.warnings.push_back(std::move(w)); }
 };
@@ -612,7 +614,7 @@ std::string empty_reason(const Run& run, float top, const ObjectResult& obj) {
       << " px): no surface crosses it";
   } else if (const double span = run.stack.slices.back().z - run.stack.slices.front().z; span < run.params.interp.z_step) {
     o << "the slices span " << span << " px in z, less than one plane step interp.z_step = " << run.params.interp.z_step
-      << " px (check --z-spacing / the slice z)";
+      << " px (check " << option_name("--z-spacing") << " / the slice z)";
   } else {
     o << "the object (" << obj.slices_with_contours << " slice(s) with contours, box " << obj.box.width() << "x"
       << obj.box.height() << " px) is smaller than the sampling grid (a pixel in the plane, interp.z_step = "
@@ -636,7 +638,8 @@ class ObjectStream {
     if (plane_count(z_, p.interp.z_step) < 2) {
       std::ostringstream o;
       o << "the slices span " << z_.back() - z_.front() << " px in z (end caps included), less than one plane step "
-        << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check --z-spacing / the slice z)";
+        << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check " << option_name("--z-spacing")
+        << " / the slice z)";
       throw InputError(run.stack.slices.front().source, o.str());
     }
     slices_.emplace(run, obj, masks_, count_);
@@ -1001,7 +1004,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   check_stack(stack);
   params_table<ReconstructParams>().validate(params);
   ReconstructResult result;
-  const Run run{stack, params, options, result};
+  const Run run{stack, params, options, result, 0};
   std::optional<LabelStackMasks> labelled;
   if (stack.kind == InputKind::Labels) {
     const auto t0 = Clock::now();
@@ -1025,7 +1028,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   std::vector<std::vector<detail::PackedMasks>> masks(n);
   std::vector<ReconstructResult> parts(n);
   for (std::size_t l = 0; l < n; ++l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], l < labels.size() ? labels[l] : 0};
     ObjectResult& obj = objects[l];
     const auto t0 = Clock::now();
     if (l == labels.size()) {  // the union
@@ -1044,7 +1047,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   }
   std::vector<std::exception_ptr> errors(n);
   auto finish = [&](std::size_t l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], objects[l].label};
     try {
       decimate_stage(part, objects[l]);
       check_stage(part, objects[l]);
@@ -1054,7 +1057,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   };
   if (partition) {
     std::vector<PartitionObject> po;
-    for (std::size_t l = 0; l < n; ++l) po.push_back({Run{stack, params, options, parts[l]}, objects[l], std::move(masks[l])});
+    for (std::size_t l = 0; l < n; ++l) po.push_back({Run{stack, params, options, parts[l], objects[l].label}, objects[l], std::move(masks[l])});
     partition_stages(run, po);
     tbb::parallel_for(std::size_t(0), labels.size(), finish);
     for (std::size_t l = 0; l < labels.size(); ++l)
@@ -1069,7 +1072,7 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
     return result;
   }
   auto stages = [&](std::size_t l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], labels[l]};
     ObjectResult& obj = objects[l];
     try {
       if (obj.slices_with_contours == 0) {

@@ -10,6 +10,7 @@
 #include "isoloft/contour/fill.h"
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/field/filter.h"
 #include "isoloft/field/marching.h"
@@ -31,7 +32,8 @@ void check_binary(const Slice& s, std::uint32_t max_value) {
       if (v != 0 && v != max_value)
         throw InputError(s.source, "not a binary image: value " + std::to_string(v) + " at pixel (" + std::to_string(x) + ", " +
                                        std::to_string(y) + ") is neither 0 nor " + std::to_string(max_value) +
-                                       " (use --input labels for label images, or --binarize to threshold at half range)");
+                                       " (use " + option_given("--input", "labels") + " for label images, or " + option_given("--binarize") +
+                                       " to threshold at half range)");
     }
 }
 
