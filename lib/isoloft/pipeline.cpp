@@ -74,6 +74,11 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
               "= fit and evaluate the whole crop box",
               Range{0.0, 1e4, false, false})
             .cli("--mpu-band"),
+        field("mask_boundary", &P::mask_boundary, "",
+              "masks/labels: traced (the smooth sub-pixel curve keeping every drawn pixel on its side, fitted exactly: "
+              "the distance to it; not in the paper; mask_curve.*) or pixel-centres (the paper 2.1: boundary pixel "
+              "centres moved mask_edge_offset out, the MPU fit)")
+            .cli("--mask-boundary"),
         field("mask_min_feature", &P::mask_min_feature, "px",
               "marker2006, masks/labels: mask features (lines, spurs, islands; notches, holes, gaps) narrower than this "
               "are removed before the contour points are taken, by an opening and a closing with a square of this side "
@@ -98,6 +103,7 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
                          ", the value outside the end caps), got " + std::to_string(p.mc.iso));
     }};
     ParamTable<P>::nest(rows, checks, "fill", &P::fill, params_table<FillParams>());
+    ParamTable<P>::nest(rows, checks, "mask_curve", &P::mask_curve, params_table<MaskCurveParams>());
     ParamTable<P>::nest(rows, checks, "normals", &P::normals, params_table<NormalsParams>());
     ParamTable<P>::nest(rows, checks, "mpu", &P::mpu, params_table<MpuParams>());
     ParamTable<P>::nest(rows, checks, "band", &P::band, params_table<NarrowBandParams>());
@@ -556,10 +562,15 @@ constexpr double kBytesPerTriangle = 160;
 // inside masks.
 constexpr double kRasterBytesPerPixel = 2;
 
-// Plane count of sample_planes() over the capped z range, without making it.
-double plane_count(const std::vector<double>& z, double step) {
-  return std::max(0.0, std::ceil((z.back() - z.front()) / step - 1e-9)) + 1;
+// mesh_planes().size(), without making them.
+double plane_count(const std::vector<double>& z, const InterpParams& interp) {
+  if (!interp.planes_on_slices || z.size() < 3)
+    return std::max(0.0, std::ceil((z.back() - z.front()) / interp.z_step - 1e-9)) + 1;
+  return std::ceil((z[1] - z.front()) / interp.z_step) + std::ceil((z.back() - z[1]) / interp.z_step) + 1;
 }
+
+// Whether the knots span less than one plane step: nothing to mesh.
+bool thinner_than_a_step(const std::vector<double>& z, double step) { return (z.back() - z.front()) / step < 1 - 1e-9; }
 
 // Pixels in the runs of a packed mask (begin, end, begin, end, ...).
 double run_pixels(const std::vector<std::uint32_t>& runs) {
@@ -580,7 +591,7 @@ WorkEstimate estimate_work(const Run& run, const std::vector<detail::PackedMasks
   e.box = obj.box;
   e.slices = long(run.slices());
   const std::vector<double> z = knot_z(run);
-  e.planes = plane_count(z, p.interp.z_step);
+  e.planes = plane_count(z, p.interp);
   const std::size_t n = masks.size();
   std::vector<double> perimeter(n + 2, 0.0), area(n + 2, 0.0);
   for (std::size_t k = 0; k < n; ++k) {
@@ -635,7 +646,7 @@ class ObjectStream {
       : run_(run), obj_(obj), masks_(std::move(masks)), empty_(masks_.size()), z_(knot_z(run)), tap_(std::move(tap)) {
     const ReconstructParams& p = run.params;
     for (std::size_t k = 0; k < masks_.size(); ++k) empty_[k] = masks_[k].empty;
-    if (plane_count(z_, p.interp.z_step) < 2) {
+    if (thinner_than_a_step(z_, p.interp.z_step)) {
       std::ostringstream o;
       o << "the slices span " << z_.back() - z_.front() << " px in z (end caps included), less than one plane step "
         << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check " << option_name("--z-spacing")
@@ -652,7 +663,7 @@ class ObjectStream {
   [[nodiscard]] PlaneSource& field() { return *stream_; }
   [[nodiscard]] const std::vector<double>& knots() const { return z_; }
   [[nodiscard]] std::vector<double> planes() const {
-    return sample_planes(z_.front(), z_.back(), run_.params.interp.z_step);
+    return mesh_planes(z_, run_.params.interp);
   }
   [[nodiscard]] const ObjectResult& object() const { return obj_; }
 
@@ -805,14 +816,18 @@ struct Competition {
   }
 
   // Label l's partition field over its box: its field minus the best other.
+  // A tie goes to the first label in order: the highest's value is at least
+  // the least positive float, so exactly one label claims every point.
   void psi(std::size_t l, const Grid2f& phi, const PixelBox& b, const PixelBox& ubox, Grid2f& out) const {
     out = Grid2f(b.width(), b.height());
     for (int y = 0; y < b.height(); ++y)
       for (int x = 0; x < b.width(); ++x) {
         const int ux = x + b.x0 - ubox.x0, uy = y + b.y0 - ubox.y0;
-        out(x, y) = phi(x, y) - (who(ux, uy) == std::int32_t(l) ? top2(ux, uy) : top1(ux, uy));
+        out(x, y) = who(ux, uy) == std::int32_t(l) ? std::max(phi(x, y) - top2(ux, uy), kTieWinner)
+                                                   : phi(x, y) - top1(ux, uy);
       }
   }
+  static constexpr float kTieWinner = std::numeric_limits<float>::denorm_min();
 };
 
 // One object of a label partition: its own Run (warnings, times), result and masks.

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "isoloft/contour/fill.h"
+#include "isoloft/contour/mask_curve.h"
 #include <optional>
 
 #include "isoloft/contour/normals.h"
@@ -57,6 +58,15 @@ class Method {
   std::string name_ = "isoloft";
 };
 
+/// Where the contour of a mask or label slice comes from (curve-fitting methods).
+enum class MaskBoundary {
+  PixelCentres,  ///< the paper's: boundary pixel centres moved mask_edge_offset along their normals, then the MPU fit
+  Traced,        ///< contour/mask_curve.h: the smooth sub-pixel curve that keeps every drawn pixel on its side
+};
+inline constexpr std::array<EnumName<MaskBoundary>, 2> kMaskBoundaryNames{
+    {{MaskBoundary::PixelCentres, "pixel-centres"}, {MaskBoundary::Traced, "traced"}}};
+constexpr std::span<const EnumName<MaskBoundary>> enum_names(MaskBoundary) { return kMaskBoundaryNames; }
+
 /// The pipeline's own parameters, then one struct per stage; docs in the rows
 /// of params_table<ReconstructParams>() (pipeline.cpp).
 struct ReconstructParams {
@@ -69,6 +79,7 @@ struct ReconstructParams {
   double sign_guard = 2.0;
   double mpu_band = 4.0;
   int mask_min_feature = 2;
+  MaskBoundary mask_boundary = MaskBoundary::Traced;  ///< the isoloft method's; marker2006: pixel-centres
   int crop_margin = 32;
   bool label_partition = true;
   FillParams fill;              ///< contour/: even-odd fill, open contours
@@ -77,7 +88,8 @@ struct ReconstructParams {
   NarrowBandParams band;        ///< field/: paper 2.2
   ExtendParams extend;          ///< field/: paper 2.2
   FilterParams filter;          ///< field/: paper 2.3
-  InterpParams interp{.spline = SplineKind::ExtremumPreserving};  ///< interp/: paper 2.4 (spline: isoloft's)
+  MaskCurveParams mask_curve;    ///< contour/: the traced mask boundary
+  InterpParams interp{.spline = SplineKind::ExtremumPreserving, .planes_on_slices = true};  ///< interp/: paper 2.4 (isoloft's)
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };

@@ -173,13 +173,32 @@ TEST(EndToEnd, OnePixelSliceFallsBackToPixelDistances) {
     if (k == 1) return x == 20 && y == 20 ? 3 : 0;
     return (x - 20) * (x - 20) + (y - 20) * (y - 20) < 100 ? 3 : 0;
   });
-  ReconstructParams p;
+  const ReconstructParams p = method_defaults(Method::Marker2006);
   st.kind = InputKind::Labels;
   const auto r = reconstruct(st, p);
   ASSERT_EQ(r.objects.size(), 1u);
   EXPECT_EQ(r.objects[0].fit.fallback_slices, 1);
   EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold);
   EXPECT_FALSE(r.warnings.empty());
+}
+
+// The traced boundary needs no points to fit: a one-pixel slice is a small
+// loop around its pixel, and the object stays closed.
+TEST(EndToEnd, OnePixelSliceIsTracedAroundItsPixel) {
+  SliceStack st = label_stack(3, 40, 4.0, [](int x, int y, int k) -> std::uint32_t {
+    if (k == 1) return x == 20 && y == 20 ? 3 : 0;
+    return (x - 20) * (x - 20) + (y - 20) * (y - 20) < 100 ? 3 : 0;
+  });
+  st.kind = InputKind::Labels;
+  ReconstructOptions o;
+  o.sample_z = {4.0};
+  float centre = 0;
+  o.on_sample = [&](std::uint32_t, const Grid2f& f, const PixelBox& b, double) { centre = f(20 - b.x0, 20 - b.y0); };
+  const auto r = reconstruct(st, ReconstructParams{}, o);
+  ASSERT_EQ(r.objects.size(), 1u);
+  EXPECT_EQ(r.objects[0].fit.fallback_slices, 0);
+  EXPECT_GT(centre, 0.0f) << "the drawn pixel is inside at its slice";
+  EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold);
 }
 
 // An empty slice next to an object closes it like an end cap: the surface
@@ -297,7 +316,10 @@ TEST(EndToEnd, FrogStomachFitHoldsItsBound) {
   for (std::size_t k = 0; k < st.slices.size(); ++k) st.slices[k].z = 6.0 * double(k);
   ReconstructOptions opt;
   opt.labels = {15};
-  const ReconstructResult r = reconstruct(st, ReconstructParams{}, opt);
+  ReconstructParams p;
+  p.mask_boundary = MaskBoundary::PixelCentres;  // the MPU fit (the traced boundary fits none)
+  p.label_partition = false;
+  const ReconstructResult r = reconstruct(st, p, opt);
   ASSERT_EQ(r.objects.size(), 1u);
   const FitStats& f = r.objects[0].fit;
   const double tol = ReconstructParams{}.mpu.tol;

@@ -58,7 +58,7 @@ Resident resident_oracle(const SliceStack& st, const ReconstructParams& p, const
     if (zs >= z.front() && zs <= z.back()) field.evaluate(zs, r.samples[zs]);
   StreamMeshOptions o;
   o.outside = -float(p.interp.cap_depth);
-  r.mesh = mesh_interpolated_field(field, sample_planes(z.front(), z.back(), p.interp.z_step), box.x0, box.y0, p.mc, o).mesh;
+  r.mesh = mesh_interpolated_field(field, mesh_planes(z, p.interp), box.x0, box.y0, p.mc, o).mesh;
   return r;
 }
 

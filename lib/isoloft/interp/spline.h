@@ -47,6 +47,7 @@ struct InterpParams {
   double cap_depth = 1.0;
   CapShape cap_shape = CapShape::Dome;
   double z_step = 1.0;
+  bool planes_on_slices = false;
 };
 
 template <>
@@ -66,6 +67,9 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
           .cli("--caps"),
       field("z_step", &InterpParams::z_step, "px", "spacing of the sampled z planes (the Marching Cubes grid, paper 2.5)",
             above(0)),
+      field("planes_on_slices", &InterpParams::planes_on_slices, "",
+            "the z planes run through the first slice (every slice when the spacing is a multiple of z_step), so the "
+            "mesh's cross-section there is the slice's own curve (not in the paper); false: from the lower end cap"),
   });
   return t;
 }

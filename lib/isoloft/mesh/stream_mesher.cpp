@@ -60,6 +60,18 @@ std::vector<double> sample_planes(double z_begin, double z_end, double step) {
   return z;
 }
 
+std::vector<double> mesh_planes(const std::vector<double>& z, const InterpParams& interp) {
+  if (!interp.planes_on_slices || z.size() < 3) return sample_planes(z.front(), z.back(), interp.z_step);
+  if (!(interp.z_step > 0)) throw ParamError("interp.z_step must be positive");
+  const double step = interp.z_step, anchor = z[1];
+  // No tolerance below and above: the first and last planes must be outside the caps.
+  const long below = long(std::ceil((anchor - z.front()) / step)), above = long(std::ceil((z.back() - anchor) / step));
+  std::vector<double> planes;
+  planes.reserve(std::size_t(below + above + 1));
+  for (long j = -below; j <= above; ++j) planes.push_back(anchor + double(j) * step);
+  return planes;
+}
+
 StreamMeshResult mesh_interpolated_field(const ZInterpolator& field, const std::vector<double>& planes, double x0,
                                          double y0, const MarchingCubesParams& mc, const StreamMeshOptions& options) {
   WholeField whole(field);

@@ -93,4 +93,12 @@ StreamMeshResult mesh_interpolated_field(const ZInterpolator& field, const std::
 /// \throw ParamError if step <= 0 or z_end <= z_begin.
 std::vector<double> sample_planes(double z_begin, double z_end, double step);
 
+/// The Marching Cubes planes over knots z (end caps included, increasing):
+/// sample_planes(z.front(), z.back(), z_step), or with planes_on_slices a
+/// z_step grid through the first slice z[1] (every slice when the spacing is
+/// a multiple of z_step) from the last plane at or below z.front() to the
+/// first at or above z.back() (beyond the end knots a field holds their
+/// values).
+std::vector<double> mesh_planes(const std::vector<double>& z, const InterpParams& interp);
+
 }  // namespace isoloft

@@ -1,6 +1,8 @@
 // isoloft, the default method: marker2006 with the departures measured to do
-// better (docs/decisions.md, "The isoloft method"): the extremum-preserving z
-// spline (Dougherty, Edelman, Hyman 1989), ReconstructParams{}'s own.
+// better (docs/decisions.md, "The isoloft method"), ReconstructParams{}'s own:
+// masks and labels traced to their sub-pixel boundary (contour/mask_curve.h),
+// z planes through the slices, the extremum-preserving z spline (Dougherty,
+// Edelman, Hyman 1989).
 #include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
 
@@ -9,11 +11,11 @@ namespace isoloft {
 MethodSpec isoloft_method() {
   return {
       .name = "isoloft",
-      .doc = "marker2006 with the departures measured to do better (docs/decisions.md): the extremum-preserving z spline",
+      .doc = "marker2006 with the departures measured to do better (docs/decisions.md): masks traced to their sub-pixel boundary, planes through the slices, the extremum-preserving z spline",
       .defaults = [](ReconstructParams&) {},  // ReconstructParams{} holds the default method's values
       .rows = detail::curve_fit_rows(),
       .fits_curves = true,
-      .slice_field = detail::filtered_marker_slice,
+      .slice_field = detail::curve_slice,
   };
 }
 

@@ -12,7 +12,11 @@ MethodSpec levin_method() {
   return {
       .name = "levin",
       .doc = "baseline: exact per-slice EDT of the contour pixels (Levin 1986 style), no fit, no filter",
-      .defaults = [](ReconstructParams& p) { p.interp.spline = InterpParams{}.spline; },
+      .defaults =
+          [](ReconstructParams& p) {
+            p.interp.spline = InterpParams{}.spline;
+            p.interp.planes_on_slices = InterpParams{}.planes_on_slices;
+          },
       .rows = {},
       .fits_curves = false,
       .slice_field =

@@ -12,7 +12,8 @@ namespace detail {
 const std::vector<std::string>& curve_fit_rows() {
   static const std::vector<std::string> rows{
       "mask_edge_offset", "polyline_spacing", "polyline_raster_width", "sign_guard", "mpu_band", "mask_min_feature",
-      "normals.",         "mpu.",             "band.",                 "extend.",    "filter."};
+      "mask_boundary",    "mask_curve.",      "normals.",              "mpu.",       "band.",    "extend.",
+      "filter."};
   return rows;
 }
 
@@ -22,10 +23,15 @@ MethodSpec marker2006_method() {
   return {
       .name = "marker2006",
       .doc = "the paper (Marker et al. 2006): MPU curve, distance extension, filter, Hyman's monotone z spline",
-      .defaults = [](ReconstructParams& p) { p.interp.spline = InterpParams{}.spline; },
+      .defaults =
+          [](ReconstructParams& p) {
+            p.interp.spline = InterpParams{}.spline;
+            p.interp.planes_on_slices = InterpParams{}.planes_on_slices;
+            p.mask_boundary = MaskBoundary::PixelCentres;
+          },
       .rows = detail::curve_fit_rows(),
       .fits_curves = true,
-      .slice_field = detail::filtered_marker_slice,
+      .slice_field = detail::curve_slice,
   };
 }
 

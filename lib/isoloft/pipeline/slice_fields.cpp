@@ -8,6 +8,7 @@
 #include <map>
 
 #include "isoloft/contour/fill.h"
+#include "isoloft/contour/mask_curve.h"
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
@@ -334,8 +335,27 @@ SliceField marker_slice(const SliceInput& in, const ReconstructParams& p) {
   return r;
 }
 
-SliceField filtered_marker_slice(const SliceInput& in, const ReconstructParams& p) {
-  SliceField r = marker_slice(in, p);
+SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& p) {
+  SliceField r;
+  auto t0 = Clock::now();
+  const Grid2f f = clamped_smoothed_mask(crop(in.masks.inside, in.box), p.mask_curve);
+  r.t_mpu = seconds_since(t0);
+  t0 = Clock::now();
+  // Linear vertices (each between its inside and outside pixel centre);
+  // saddles by f's sign at the cell centre: join the inside.
+  NarrowBandParams band = p.band;
+  band.refine_iterations = 0;
+  band.segment_splits = 1;
+  const NarrowBandResult nb = narrow_band_distance(f, [](const Vec2d&) { return 1.0; }, band);
+  r.field = extend_distance(nb, p.extend);
+  r.t_dist = seconds_since(t0);
+  if (in.keep_stages) r.mpu = f, r.distance = r.field;
+  return r;
+}
+
+SliceField curve_slice(const SliceInput& in, const ReconstructParams& p) {
+  const bool traced = (in.kind == InputKind::Masks || in.kind == InputKind::Labels) && p.mask_boundary == MaskBoundary::Traced;
+  SliceField r = traced ? traced_mask_slice(in, p) : marker_slice(in, p);
   if (p.filter.enabled) {
     const auto t0 = Clock::now();
     r.field = distance_filter(r.field, p.filter);

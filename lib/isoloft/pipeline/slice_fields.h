@@ -136,9 +136,18 @@ inline constexpr double kBandPointMargin = 3.0;
 /// give the exact pixel distance field (fallback = true).
 SliceField marker_slice(const SliceInput& in, const ReconstructParams& params);
 
-/// marker_slice() then the distance-dependent filter if enabled (paper
-/// 2.1-2.3): the curve-fitting methods' slice field.
-SliceField filtered_marker_slice(const SliceInput& in, const ReconstructParams& params);
+/// A mask or label slice traced to its sub-pixel boundary
+/// (contour/mask_curve.h) over in.box, and the exact signed distance to that
+/// curve: in the band, to its segments (the narrow band stage with linear
+/// vertices and saddles joining the inside), beyond by the extension (paper
+/// 2.2). No fit: the traced curve is already the smooth curve the pixels
+/// allow. SliceField::mpu keeps the traced function (figures).
+SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& params);
+
+/// The curve-fitting methods' slice field (paper 2.1-2.3): traced_mask_slice()
+/// for masks and labels with mask_boundary traced, else marker_slice(); then
+/// the distance-dependent filter if enabled.
+SliceField curve_slice(const SliceInput& in, const ReconstructParams& params);
 
 /// Gives every empty slice a field: a non-empty neighbour's field lowered by
 /// (max + cap_depth) / cap_extent (the lower of two), so the object closes in

@@ -146,13 +146,14 @@ void VolumeOutput::start_job(const RunContext& ctx, std::size_t job, JobHooks& h
         g.axes = Eigen::Vector3d(s, s, s * z_step).asDiagonal();
         g.origin = {x0 * s, y0 * s, z * s};
       }
-      writer_ = std::make_unique<NrrdWriter>(ctx.files.stage(path), plane.width, plane.height, count, g);
+      writers_[label] = std::make_unique<NrrdWriter>(ctx.files.stage(path), plane.width, plane.height, count, g);
       files_.push_back(path);
     }
-    writer_->write_plane(plane);
+    NrrdWriter& writer = *writers_.at(label);
+    writer.write_plane(plane);
     if (index == count - 1) {
-      writer_->finish();
-      writer_.reset();
+      writer.finish();
+      writers_.erase(label);
     }
   });
 }

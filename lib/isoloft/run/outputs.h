@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -157,7 +158,7 @@ class VolumeOutput final : public RunOutput {
  private:
   std::string path_;
   std::vector<std::string> files_;
-  std::unique_ptr<NrrdWriter> writer_;  // the object being streamed
+  std::map<std::uint32_t, std::unique_ptr<NrrdWriter>> writers_;  // per object streamed (a label partition interleaves them)
 };
 
 /// --labelmap: the dense label map on a volume input's grid and geometry
