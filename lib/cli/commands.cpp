@@ -24,7 +24,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("inputs", r_.inputs,
                 "PNG slices in stack order, one directory of PNGs, one polyline text file, one label volume "
                 "(.nii .nii.gz .nrrd .nhdr .mha .mhd) or one DICOM RT Structure Set (.dcm)");
-  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl or .off; with labels also one file per label");
+  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl, .off, .vtp or .vtk (VTK: normals and labels as cell data); with labels also one file per label");
   R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
       ->check(CLI::IsMember({"contours", "masks", "labels"}));
   // PositiveNumber lets NaN through (every comparison with it is false).
