@@ -16,12 +16,16 @@ if [[ "${1:-}" == "--full" ]]; then FULL=1; shift; fi
 CLI_PACKAGES=(build-essential cmake git pkg-config time
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev
   libnifti2-dev libteem-dev libdcmtk-dev
-  python3-dev pybind11-dev python3-numpy)
+  python3-dev pybind11-dev python3-numpy
+  python3-venv python3-setuptools python3-wheel python3-build)
 # Tests, oracles (CGAL, Ceres, OpenMesh), benchmarks, the AAL atlas the tests
-# read, the Python packages of the pytest suite and the real-anatomy metrics test,
-# and clang-14 + its runtimes for the sanitizer build and the libFuzzer targets (test.sh, fuzz.sh).
+# read, the Python packages of the pytest suite (images: nibabel; meshes: meshio,
+# VTK; progress bars: tqdm; cohorts: dask, distributed) and the real-anatomy
+# metrics test, and clang-14 + its runtimes for the sanitizer build and the
+# libFuzzer targets (test.sh, fuzz.sh).
 DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev
-  mricron-data python3-pytest python3-meshio python3-vtk9 python3-scipy clang-14 libclang-rt-14-dev)
+  mricron-data python3-pytest python3-meshio python3-vtk9 python3-scipy python3-nibabel python3-tqdm
+  python3-dask python3-distributed clang-14 libclang-rt-14-dev)
 PACKAGES=("${CLI_PACKAGES[@]}")
 ((FULL)) && PACKAGES+=("${DEV_PACKAGES[@]}")
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.

@@ -1,11 +1,18 @@
 #include "cli/commands.h"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/atomic_file.h"
+
+namespace fs = std::filesystem;
 
 namespace isoloft::cli {
 
@@ -17,7 +24,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("inputs", r_.inputs,
                 "PNG slices in stack order, one directory of PNGs, one polyline text file, one label volume "
                 "(.nii .nii.gz .nrrd .nhdr .mha .mhd) or one DICOM RT Structure Set (.dcm)");
-  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl or .off; with labels also one file per label");
+  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl, .off, .vtp or .vtk (VTK: normals and labels as cell data); with labels also one file per label");
   R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
       ->check(CLI::IsMember({"contours", "masks", "labels"}));
   // PositiveNumber lets NaN through (every comparison with it is false).
@@ -66,6 +73,12 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   synth_->add_option("--z-spacing", s_.z_spacing, "Slice spacing in pixels (the z ratio)")->check(positive_finite);
   synth_->add_option("--kind", s_.kind, "contours or masks (PNG images), or polylines (stack.txt)")->check(CLI::IsMember({"contours", "masks", "polylines"}));
   synth_->add_flag("--list", s_.list, "List the shapes and exit");
+
+  batch_ = app.add_subcommand("batch", "Reconstruct a cohort: one case per manifest row on Dask distributed "
+                                       "(python3 -m isoloft.cohort; `isoloft batch --help` for its options)");
+  batch_->prefix_command();  // every argument goes to the Python runner, --help too
+  batch_->allow_extras();
+  batch_->set_help_flag();
 
   eval_ = app.add_subcommand("eval", "Compare a mesh with an analytic truth (from isoloft synth)");
   eval_->add_option("--mesh", e_.mesh, "Mesh to evaluate")->required();
@@ -141,7 +154,36 @@ int Commands::run() {
   if (reconstruct_->parsed()) return reconstruct();
   if (synth_->parsed()) return synth();
   if (eval_->parsed()) return eval();
+  if (batch_->parsed()) return batch();
   return 2;
+}
+
+// `isoloft batch ARGS` is `python3 -m isoloft.cohort --cli THIS ARGS` (Dask
+// lives in Python): this build's package first on the path, the interpreter
+// it was built for unless ISOLOFT_PYTHON names another.
+int Commands::batch() {
+#ifdef ISOLOFT_PYTHON_EXE
+  const std::string built = ISOLOFT_PYTHON_EXE, package_dir = ISOLOFT_PYTHON_PACKAGE_DIR;
+#else
+  const std::string built = "python3", package_dir;
+#endif
+  const char* env = std::getenv("ISOLOFT_PYTHON");
+  const std::string python = env && *env ? env : built;
+  if (!package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py")) {
+    const char* old = std::getenv("PYTHONPATH");
+    const std::string path = package_dir + (old && *old ? ":" + std::string(old) : "");
+    setenv("PYTHONPATH", path.c_str(), 1);
+  }
+  std::error_code ec;
+  const std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  std::vector<std::string> args{python, "-m", "isoloft.cohort"};
+  if (!ec) args.insert(args.end(), {"--cli", self});
+  for (const auto& a : batch_->remaining()) args.push_back(a);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  execvp(python.c_str(), argv.data());
+  throw Error("batch: cannot run " + python + " (" + std::strerror(errno) + "); set ISOLOFT_PYTHON to a Python with isoloft");
 }
 
 }  // namespace isoloft::cli

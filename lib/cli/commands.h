@@ -78,7 +78,8 @@ class Commands {
   int reconstruct();
   int synth();
   int eval();
-  CLI::App *reconstruct_ = nullptr, *synth_ = nullptr, *eval_ = nullptr;
+  int batch();
+  CLI::App *reconstruct_ = nullptr, *synth_ = nullptr, *eval_ = nullptr, *batch_ = nullptr;
   ReconstructArgs r_;
   ParamFlags param_flags_;
   SynthOptions s_;

@@ -2,6 +2,7 @@
 //   reconstruct  slices -> closed surface meshes (+ volume, report)
 //   synth        analytic shape -> contour/mask PNG stack + truth JSON
 //   eval         mesh vs analytic truth -> distances and normal angles
+//   batch        a cohort from a manifest on Dask (runs python3 -m isoloft.cohort)
 // Exit codes: 0 success, 1 bad input or parameters (one line naming the file
 // and the problem), 2 command-line usage errors (from CLI11); a run ended by
 // SIGINT, SIGTERM or SIGHUP dies by that signal with its temp files removed.

@@ -57,6 +57,7 @@ class Method {
  private:
   std::string name_ = "isoloft";
 };
+inline const std::string& to_string(const Method& method) { return method.name(); }
 
 /// Where the contour of a mask or label slice comes from (curve-fitting methods).
 enum class MaskBoundary {

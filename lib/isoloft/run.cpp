@@ -5,7 +5,10 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <map>
+#include <mutex>
 #include <cmath>
 #include <sstream>
 
@@ -43,6 +46,48 @@ void check_run(const Inputs& in, const ReconstructParams& params, const RunOptio
                input_bytes(in), o.budget.max_memory);
   check_labels(in, o.labels, option_name("--labels"));
 }
+
+// Object-level progress: per (job, label) the steps of its stages (contour,
+// fit, planes, decimation), their totals from the stage itself or, before it
+// starts, from the object's work estimate. Steps reported out of order
+// (parallel slices) are dropped, so done only grows.
+class ProgressTracker {
+ public:
+  explicit ProgressTracker(bool decimates) : decimates_(decimates) {}
+
+  void estimate(std::size_t job, const WorkEstimate& e) {
+    std::lock_guard lock(m_);
+    Object& o = objects_[{job, e.label}];
+    o.total[1] = std::max(o.total[1], long(e.slices));
+    o.total[2] = std::max(o.total[2], long(e.planes));
+    o.total[3] = std::max(o.total[3], decimates_ ? 1L : 0L);
+  }
+
+  /// Fills the object's done and total; false for a stale step.
+  bool step(RunProgress& p) {
+    const std::size_t s = p.stage == "contour" ? 0 : p.stage == "interpolate+mesh" ? 2 : p.stage == "decimate" ? 3 : 1;
+    std::lock_guard lock(m_);
+    Object& o = objects_[{p.job, p.label}];
+    if (p.done < o.done[s] || (p.done == o.done[s] && o.seen[s])) return false;
+    o.seen[s] = true;
+    o.done[s] = p.done;
+    o.total[s] = p.total;
+    for (std::size_t k = 0; k < s; ++k) o.done[k] = o.total[k];  // earlier stages are over
+    p.object_done = p.object_total = 0;
+    for (std::size_t k = 0; k < kStages; ++k) p.object_done += o.done[k], p.object_total += o.total[k];
+    return true;
+  }
+
+ private:
+  static constexpr std::size_t kStages = 4;
+  struct Object {
+    std::array<long, kStages> done{}, total{};
+    std::array<bool, kStages> seen{};
+  };
+  bool decimates_;
+  std::mutex m_;
+  std::map<std::pair<std::size_t, std::uint32_t>, Object> objects_;
+};
 
 }  // namespace
 
@@ -125,16 +170,21 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
 
   tbb::task_arena arena(o.threads > 0 ? o.threads : int(tbb::task_arena::automatic));
   std::vector<JobHooks> hooks(in.jobs.size());
+  ProgressTracker tracker(params.decimate.max_error > 0);
   RunResult r;
   arena.execute([&] {
     r = run_jobs(in, params, o.labels, [&](std::size_t j, ReconstructOptions& ropt) {
       for (const auto& out : o.outputs) out->start_job(ctx, j, hooks[j]);
       hooks[j].apply(ropt);
       const Job& job = in.jobs[j];
-      ropt.on_estimate = [&, j](const WorkEstimate& e) { check_object(in.jobs[j], e); };
+      ropt.on_estimate = [&, j](const WorkEstimate& e) {
+        check_object(in.jobs[j], e);
+        tracker.estimate(j, e);
+      };
       if (o.progress)
         ropt.progress = [&, j](std::uint32_t label, const std::string& stage, long done, long total) {
-          o.progress(RunProgress{j, job.name, label, stage, done, total});
+          RunProgress p{j, job.name, label, stage, done, total};
+          if (tracker.step(p)) o.progress(p);
         };
     });
   });

@@ -47,13 +47,18 @@ struct RunResult {
   nlohmann::json report;              ///< run(): the whole report, as --report writes it
 };
 
-/// One progress step of a run, from worker threads.
+/// One progress step of a run, from worker threads. Objects run side by
+/// side, so steps of different objects interleave; per object (job, label)
+/// object_done only grows.
 struct RunProgress {
   std::size_t job = 0;       ///< index into Inputs::jobs
   std::string_view roi;      ///< the job's ROI name, or ""
   std::uint32_t label = 0;   ///< the object's label (0: the only object, or a labels input's shared scan)
-  std::string_view stage;    ///< contour, mpu+distance, interpolate+mesh, decimate
+  std::string_view stage;    ///< contour, mpu+distance (levin: distance), interpolate+mesh, decimate
   long done = 0, total = 0;  ///< of this stage
+  /// The object's steps over its stages: done so far, and the total known so
+  /// far (every stage's once its work estimate is in, before its fit).
+  long object_done = 0, object_total = 0;
 };
 
 /// How a run goes beyond its input and parameters.

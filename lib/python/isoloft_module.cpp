@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -169,15 +170,59 @@ void copy_polygons(const py::handle& loops, Slice& slice, const std::string& whe
   }
 }
 
+// Kind inference (no input=): the share of white pixels whose whole 3x3
+// neighbourhood is white. Filled masks have most (a disc of radius 3 px:
+// 45 %; the 64 px synthetic sphere's masks: 87 %), 1-2 px wide contour
+// curves none (where two curves touch, a few).
+constexpr double kMaskInteriorShare = 0.25;   // at least this: filled masks
+constexpr double kCurveInteriorShare = 0.02;  // at most this: contour curves
+
+// The white pixels of a stack and how many of them have a white 3x3
+// neighbourhood; white: value > threshold.
+std::pair<double, double> white_interior(const SliceStack& st, std::uint32_t threshold) {
+  double white = 0, interior = 0;
+  for (const Slice& s : st.slices) {
+    const Grid2u32& g = s.image;
+    auto w = [&](int x, int y) { return x >= 0 && y >= 0 && x < g.width && y < g.height && g(x, y) > threshold; };
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        if (!w(x, y)) continue;
+        ++white;
+        bool all = true;
+        for (int dy = -1; dy <= 1 && all; ++dy)
+          for (int dx = -1; dx <= 1 && all; ++dx) all = w(x + dx, y + dy);
+        interior += all;
+      }
+  }
+  return {white, interior};
+}
+
+// The kind of a two-valued (binary) image stack given without input=.
+// \throw InputError naming `input` when the shapes do not tell.
+InputKind infer_binary_kind(const SliceStack& st, std::uint32_t threshold) {
+  const auto [white, interior] = white_interior(st, threshold);
+  const double share = white > 0 ? interior / white : 1.0;
+  if (share >= kMaskInteriorShare) return InputKind::Masks;
+  if (share <= kCurveInteriorShare) return InputKind::Contours;
+  char pct[32];
+  std::snprintf(pct, sizeof pct, "%.1f %%", 100 * share);
+  throw InputError("slices", std::string("cannot tell filled masks from contour curves: ") + pct +
+                                 " of the white pixels lie inside a white 3x3 block (filled masks: over " +
+                                 std::to_string(int(100 * kMaskInteriorShare)) + " %, 1-pixel curves: none); give " +
+                                 option_given("--input", "masks") + " or " + option_given("--input", "contours"));
+}
+
 // (n, h, w) arrays or a list of 2D arrays (polylines: a list per slice of
-// point arrays, on a grid of image_shape) as a one-job input.
+// point arrays, on a grid of image_shape) as a one-job input. kind "": from
+// the values (more than two: labels; two: masks or contours by their shapes).
 PyInput from_arrays(const py::object& slices, const std::string& kind, std::optional<double> z_spacing,
                     std::optional<std::vector<double>> slice_z, double pixel_size,
-                    std::optional<std::pair<int, int>> image_shape) {
+                    std::optional<std::pair<int, int>> image_shape, bool binarize) {
   auto in = std::make_shared<Inputs>();
   in->format = InputFormat::Arrays;
   SliceStack st;
-  st.kind = enum_from_string<InputKind>(kind, "input");
+  const bool infer = kind.empty();
+  if (!infer) st.kind = enum_from_string<InputKind>(kind, "input");
   if (!(std::isfinite(pixel_size) && pixel_size > 0))
     throw ParamError("pixel_size: must be finite and > 0, got " + std::to_string(pixel_size));
   st.pixel_size = pixel_size;
@@ -193,7 +238,7 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
     throw InputError("slices", "expected an (n, h, w) numpy array or a list of 2D arrays");
   }
   st.slices.resize(items.size());
-  if (st.kind == InputKind::Polylines) {
+  if (!infer && st.kind == InputKind::Polylines) {
     if (!image_shape) throw ParamError("image_shape: polylines need the grid size (height, width)");
     st.height = image_shape->first, st.width = image_shape->second;
     if (st.width < 1 || st.height < 1) throw ParamError("image_shape: must be positive");
@@ -210,6 +255,26 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
       if (!a) throw InputError("slices[" + std::to_string(k) + "]", "not an array");
       const std::uint32_t m = copy_slice(a, st.slices[k], st.width, st.height, "slices[" + std::to_string(k) + "]");
       st.max_value = std::max(st.max_value, m);
+    }
+    // Two values (0 and v): a binary image whose white is v (a 0/1 uint8 mask needs no binarize).
+    std::optional<std::uint32_t> white;
+    bool binary = true;
+    for (const Slice& s : st.slices) {
+      for (std::uint32_t v : s.image.data) {
+        if (v == 0 || v == white) continue;
+        if (white) {
+          binary = false;
+          break;
+        }
+        white = v;
+      }
+      if (!binary) break;
+    }
+    if (binary && st.kind != InputKind::Labels) st.max_value = white.value_or(st.max_value);
+    if (infer) {
+      if (binary) st.kind = infer_binary_kind(st, st.max_value / 2);
+      else if (binarize) st.kind = infer_binary_kind(st, st.max_value / 2);  // gray, thresholded by the pipeline
+      else st.kind = InputKind::Labels;
     }
   }
   if (slice_z) {
@@ -228,6 +293,35 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
   }
   in->jobs.push_back({std::move(st), "", std::nullopt});
   return {in, {}, 0};
+}
+
+// An image object's voxels (float, x fastest) and geometry (LPS) as a volume input.
+PyInput from_volume(const py::array_t<float, py::array::c_style | py::array::forcecast>& data,
+                    const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
+                    const py::array_t<double, py::array::c_style | py::array::forcecast>& direction, bool integer,
+                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space) {
+  if (data.ndim() != 3) throw InputError(name, "expected a 3D image, got " + std::to_string(data.ndim()) + " dimensions");
+  if (direction.ndim() != 2 || direction.shape(0) != 3 || direction.shape(1) != 3)
+    throw InputError(name, "the direction must be 3 x 3");
+  Volume v;
+  v.nz = int(data.shape(0)), v.ny = int(data.shape(1)), v.nx = int(data.shape(2));
+  v.spacing = spacing;
+  v.origin = origin;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) v.direction(r, c) = direction.at(r, c);
+  v.integer = integer;
+  v.data.assign(data.data(), data.data() + data.size());
+  InputRequest r;
+  r.kind = kind;
+  r.axis = axis;
+  r.space = space;
+  const auto t0 = Clock::now();
+  auto in = std::make_shared<Inputs>();
+  {
+    py::gil_scoped_release release;
+    *in = volume_input(std::move(v), name, r);
+  }
+  return {in, {}, seconds_since(t0)};
 }
 
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
@@ -309,6 +403,16 @@ struct PyResult {
   py::list objects;
 };
 
+// One step of progress, for the Python callback.
+struct PyProgress {
+  std::uint32_t label;
+  std::string roi, stage;
+  long done, total, stage_done, stage_total;
+  explicit PyProgress(const RunProgress& p)
+      : label(p.label), roi(p.roi), stage(p.stage), done(p.object_done), total(p.object_total), stage_done(p.done),
+        stage_total(p.total) {}
+};
+
 // Raised from the progress hook (worker threads) to stop the pipeline after
 // the Python callback raised or Ctrl-C was pressed; the Python error is kept.
 struct CallbackStopped : std::exception {
@@ -359,7 +463,7 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
     py::gil_scoped_acquire gil;
     try {
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-      if (!progress.is_none()) progress(std::string(p.stage), p.done, p.total);
+      if (!progress.is_none()) progress(PyProgress{p});
     } catch (py::error_already_set& e) {
       if (!failed) failed = std::move(e);
       stop = true;
@@ -482,6 +586,7 @@ PYBIND11_MODULE(_isoloft, m) {
   m.doc() = "isoloft: closed surfaces from parallel planar contours (Marker et al. 2006); see the isoloft package";
   m.attr("__version__") = ISOLOFT_VERSION;
   m.attr("git") = ISOLOFT_GIT;
+  m.attr("cli_path") = ISOLOFT_CLI_PATH;  // the CLI built with this module (isoloft.cli prefers a bundled one)
   // Errors name Python keywords (z_spacing, input='labels'), not the CLI's flags.
   set_option_style(OptionStyle::Keywords);
 
@@ -577,14 +682,30 @@ PYBIND11_MODULE(_isoloft, m) {
       .def("save", [](const PyObjectResult& o, const py::object& path, bool ascii) {
         MeshWriteOptions mo = o.data->mesh_options;
         mo.ascii = ascii;
+        mo.label = object_cell_label(o.object());
         const std::string p = py::str(py::module_::import("os").attr("fspath")(path));
         py::gil_scoped_release release;
         write_mesh(p, o.object().mesh, mo);
-      }, py::arg("path"), py::arg("ascii") = false, "writes this mesh as the CLI would (.ply .obj .stl .off)")
+      }, py::arg("path"), py::arg("ascii") = false, "writes this mesh as the CLI would (.ply .obj .stl .off .vtp .vtk)")
       .def("__repr__", [](const PyObjectResult& o) {
         const auto& m = o.object().mesh;
         return "<isoloft.Object label " + std::to_string(o.object().object.label) + ": " +
                std::to_string(m.vertices.size()) + " vertices, " + std::to_string(m.triangles.size()) + " faces>";
+      });
+
+  py::class_<PyProgress>(m, "Progress", "One step of a reconstruct() run, given to its progress callback")
+      .def_readonly("label", &PyProgress::label, "the object's label (0: the only object, or a label input's shared scan)")
+      .def_property_readonly("roi", [](const PyProgress& p) -> py::object {
+        return p.roi.empty() ? py::object(py::none()) : py::str(p.roi);
+      }, "the ROI's name (RT Structure Sets), else None")
+      .def_readonly("stage", &PyProgress::stage, "contour, mpu+distance, interpolate+mesh or decimate")
+      .def_readonly("done", &PyProgress::done, "the object's steps done: only grows")
+      .def_readonly("total", &PyProgress::total, "the object's steps known so far (all of them once its fit starts)")
+      .def_readonly("stage_done", &PyProgress::stage_done)
+      .def_readonly("stage_total", &PyProgress::stage_total)
+      .def("__repr__", [](const PyProgress& p) {
+        return "<isoloft.Progress " + (p.roi.empty() ? "label " + std::to_string(p.label) : "ROI '" + p.roi + "'") + " " +
+               p.stage + " " + std::to_string(p.done) + "/" + std::to_string(p.total) + ">";
       });
 
   py::class_<PyResult>(m, "Result", "What isoloft.reconstruct() returns")
@@ -611,7 +732,9 @@ PYBIND11_MODULE(_isoloft, m) {
       .def("__getitem__", [](const PyResult& r, py::ssize_t i) { return r.objects.attr("__getitem__")(i); });
 
   m.def("_from_arrays", &from_arrays, py::arg("slices"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
-        py::arg("pixel_size"), py::arg("image_shape"));
+        py::arg("pixel_size"), py::arg("image_shape"), py::arg("binarize"));
+  m.def("_from_volume", &from_volume, py::arg("data"), py::arg("spacing"), py::arg("origin"), py::arg("direction"),
+        py::arg("integer"), py::arg("name"), py::arg("kind"), py::arg("axis"), py::arg("space"));
   m.def("_read", &read_input, py::arg("paths"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"),
         py::arg("max_memory"));

@@ -253,10 +253,41 @@ TEST(MeshIo, CorruptFilesThrowInputError) {
   }
 }
 
+// The VTK formats are written, not read: their headers and counts as VTK
+// expects them (python3-vtk9 reads them back in tests/python/test_outputs.py).
+TEST(MeshIo, VtkFormatsAreWrittenWithLabelsAndSpace) {
+  TempDir dir;
+  const TriMesh m = octahedron();
+  isoloft::MeshWriteOptions o;
+  o.label = 7;
+  o.frame = isoloft::PatientFrame{};
+  write_mesh(dir.file("m.vtp"), m, o);
+  write_mesh(dir.file("m.vtk"), m, o);
+  const std::string vtp = isoloft::test::read_text(dir.file("m.vtp")), vtk = isoloft::test::read_text(dir.file("m.vtk"));
+  EXPECT_NE(vtp.find("NumberOfPoints=\"6\""), std::string::npos);
+  EXPECT_NE(vtp.find("NumberOfPolys=\"8\""), std::string::npos);
+  EXPECT_NE(vtp.find("Name=\"SPACE\""), std::string::npos);  // "LPS" as character codes
+  EXPECT_NE(vtp.find(" 76 80 83 0"), std::string::npos);
+  EXPECT_EQ(vtk.rfind("# vtk DataFile Version 4.2\nwritten by isoloft SPACE=LPS\nBINARY\n", 0), 0u);
+  EXPECT_NE(vtk.find("POLYGONS 8 32\n"), std::string::npos);
+  EXPECT_NE(vtk.find("SCALARS Label unsigned_int 1\n"), std::string::npos);
+  // The last label, big-endian, ends the file's data.
+  EXPECT_EQ(vtk.substr(vtk.size() - 5), std::string("\0\0\0\x07\n", 5));
+  try {
+    (void)read_mesh(dir.file("m.vtp"));
+    ADD_FAILURE() << "read a .vtp";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("written, not read"), std::string::npos) << e.what();
+  }
+  std::vector<std::uint32_t> wrong(3);
+  o.triangle_labels = &wrong;
+  EXPECT_THROW(write_mesh(dir.file("w.vtp"), m, o), ParamError);
+}
+
 TEST(MeshIo, WriterParameterErrors) {
   TempDir dir;
   const TriMesh m = octahedron();
-  EXPECT_THROW(write_mesh(dir.file("x.vtk"), m), ParamError);
+  EXPECT_THROW(write_mesh(dir.file("x.vtu"), m), ParamError);
   EXPECT_THROW(write_mesh(dir.file("x"), m), ParamError);
   EXPECT_THROW(write_mesh(dir.file("x.ply"), m, 0.0), ParamError);
   const std::vector<Rgb> too_few(2);

@@ -237,7 +237,8 @@ def test_numpy_scalars_are_parameters():
     (np.zeros((3, 8, 8), np.float32), {}, "slices\\[0\\].*dtype float32"),
     (np.zeros((8, 8), np.uint8), {}, "expected an \\(n, h, w\\) array"),
     ([np.zeros((8, 8), np.uint8), np.zeros((9, 8), np.uint8)], {}, "slices\\[1\\].*differs"),
-    (np.full((3, 8, 8), 7, np.uint8), {}, "slices\\[0\\].*neither 0 nor 255"),
+    (np.stack([np.arange(64, dtype=np.uint8).reshape(8, 8)] * 3), {"input": "contours"},
+     "slices\\[0\\].*neither 0 nor 255"),
     (np.full((3, 8, 8), -1, np.int32), {"input": "labels"}, "slices\\[0\\].*negative"),
     (np.zeros((1, 8, 8), np.uint8), {}, "at least 2 slices"),
     (np.zeros((3, 8, 8), np.uint8), {}, "nothing to reconstruct"),
@@ -284,9 +285,10 @@ def test_threads_give_the_same_bytes(tmp_path):
 
 def test_progress_is_called_per_stage_up_to_its_total():
     calls = []
-    isoloft.reconstruct(isoloft.synth("sphere", z_spacing=8), progress=lambda *a: calls.append(a))
+    isoloft.reconstruct(isoloft.synth("sphere", z_spacing=8), progress=calls.append)
     stages = {}
-    for stage, done, total in calls:
+    for p in calls:
+        stage, done, total = p.stage, p.stage_done, p.stage_total
         assert isinstance(stage, str) and 0 <= done <= total
         stages[stage] = max(stages.get(stage, (0, 0)), (done, total))
     # The streamed pipeline's stages: contour masks, the per-slice fit, distance
@@ -299,8 +301,8 @@ def test_progress_raising_stops_the_run():
     class Stop(Exception):
         pass
 
-    def stop(stage, done, total):
-        raise Stop(stage)
+    def stop(p):
+        raise Stop(p.stage)
 
     with pytest.raises(Stop):
         isoloft.reconstruct(isoloft.synth("sphere", z_spacing=8), progress=stop)

@@ -28,11 +28,13 @@ struct FormatEntry {
 };
 
 // What each format supports, and its reader and writer (io/mesh/*.cpp).
-const std::array<FormatEntry, 4> kFormats{{
+const std::array<FormatEntry, 6> kFormats{{
     {{MeshFormat::Ply, ".ply", "PLY", true, true, true}, detail::read_ply, detail::write_ply},
     {{MeshFormat::Obj, ".obj", "Wavefront OBJ", true, false, true}, detail::read_obj, detail::write_obj},
     {{MeshFormat::Stl, ".stl", "STL", false, true, true}, detail::read_stl, detail::write_stl},
     {{MeshFormat::Off, ".off", "OFF/COFF", true, false, true}, detail::read_off, detail::write_off},
+    {{MeshFormat::Vtp, ".vtp", "VTK XML PolyData", true, true, false}, nullptr, detail::write_vtp},
+    {{MeshFormat::Vtk, ".vtk", "legacy VTK PolyData", true, true, false}, nullptr, detail::write_vtk},
 }};
 
 std::string lower_extension(const std::string& path) {
@@ -49,7 +51,7 @@ const FormatEntry* entry_for(const std::string& path) {
 }
 
 std::string unknown_format(const std::string& path) {
-  return "unknown mesh format '" + lower_extension(path) + "' (use .ply, .obj, .stl or .off)";
+  return "unknown mesh format '" + lower_extension(path) + "' (use .ply, .obj, .stl, .off, .vtp or .vtk)";
 }
 
 }  // namespace
@@ -74,6 +76,13 @@ void Out::flush() {
   if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), fp_) != buf_.size())
     throw Error(path_ + ": write error (" + std::strerror(errno) + ")");
   buf_.clear();
+}
+
+Vec3f facet_normal(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+  const Vec3d u = (b - a).cast<double>(), w = (c - a).cast<double>();
+  const Vec3d n(u.y() * w.z() - u.z() * w.y(), u.z() * w.x() - u.x() * w.z(), u.x() * w.y() - u.y() * w.x());
+  const double len = n.norm();
+  return len > 0.0 ? Vec3f((n / len).cast<float>()) : Vec3f::Zero();
 }
 
 std::string at_line(std::size_t n) { return "line " + std::to_string(n) + ": "; }
@@ -171,7 +180,12 @@ void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOpt
   AtomicFile file(path);
   {
     detail::Out o(path, file.temp_path());
-    format->write(path, o, detail::MeshOut{m, detail::Scaled{m, scale}, vertex_colors, options.ascii, space});
+    if (options.triangle_labels && options.triangle_labels->size() != m.triangles.size())
+      throw ParamError(path + ": " + std::to_string(options.triangle_labels->size()) + " triangle labels for " +
+                       std::to_string(m.triangles.size()) + " triangles");
+    format->write(path, o,
+                  detail::MeshOut{m, detail::Scaled{m, scale}, vertex_colors, options.ascii, space, options.triangle_labels,
+                                  options.label});
     o.close();
   }
   file.commit();
@@ -181,6 +195,7 @@ void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOpt
 TriMesh read_mesh(const std::string& path, std::vector<Rgb>* vertex_colors) {
   const FormatEntry* format = entry_for(path);
   if (!format) throw InputError(path, unknown_format(path));
+  if (!format->read) throw InputError(path, std::string(format->info.name) + " files are written, not read (read .ply, .obj, .stl or .off)");
   return format->read(path, detail::read_file_bytes(path), vertex_colors);
 }
 

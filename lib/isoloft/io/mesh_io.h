@@ -1,5 +1,6 @@
 // @file io/mesh_io.h
-// @brief Triangle mesh files by extension: PLY, OBJ, STL, OFF.
+// @brief Triangle mesh files by extension: PLY, OBJ, STL, OFF read and
+// written; VTK XML PolyData (.vtp) and legacy VTK (.vtk) written.
 // Our own exact, one-pass readers and writers (docs/decisions.md).
 #pragma once
 
@@ -12,7 +13,7 @@
 
 namespace isoloft {
 
-enum class MeshFormat { Ply, Obj, Stl, Off };
+enum class MeshFormat { Ply, Obj, Stl, Off, Vtp, Vtk };
 
 /// What a mesh format supports (the dispatcher's table, io/mesh_io.cpp).
 struct MeshFormatInfo {
@@ -27,11 +28,11 @@ struct MeshFormatInfo {
 /// Every format, in the table's order.
 std::vector<MeshFormatInfo> mesh_formats();
 
-/// .ply .obj .stl .off, any case. \throw ParamError naming the path otherwise.
+/// .ply .obj .stl .off .vtp .vtk, any case. \throw ParamError naming the path otherwise.
 MeshFormat mesh_format_from_path(const std::string& path);
 
 /// Writes `m` atomically, coordinates times `scale` (pixels -> physical units):
-/// PLY binary little-endian (ASCII if `ascii`), OBJ and OFF ASCII, STL binary or
+/// PLY, VTP and VTK binary (ASCII if `ascii`), OBJ and OFF ASCII, STL binary or
 /// ASCII without colours; colours per vertex (OBJ "v x y z r g b", COFF).
 /// \throw ParamError for an unknown extension, a scale not finite and > 0 or a
 ///        colour count != vertex count; Error naming the path if writing fails
@@ -46,6 +47,9 @@ struct MeshWriteOptions {
   bool ras = false;                   ///< with a frame: RAS (x and y negated) instead of LPS
   const std::vector<Rgb>* colors = nullptr;  ///< one per vertex
   bool ascii = false;
+  /// VTK formats: each triangle's label (cell data "Label"), or null: every triangle `label`.
+  const std::vector<std::uint32_t>* triangle_labels = nullptr;
+  std::uint32_t label = 0;
 };
 
 /// write_mesh() with a patient frame: vertices in patient mm, the space named

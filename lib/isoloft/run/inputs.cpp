@@ -64,12 +64,12 @@ Inputs read_polyline_file(const InputRequest& r) {
   return in;
 }
 
-Inputs read_volume_input(const InputRequest& r) {
+// A volume read or given, sliced along its annotated axis; `path` names it in messages.
+Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& r) {
   Inputs in;
-  const std::string& path = r.paths[0];
   reject(r.z_spacing || r.slice_z, "--z-spacing/--slice-z", "a volume carries its own voxel spacing");
   reject(bool(r.pixel_size), "--pixel-size", "a volume carries its own voxel size");
-  in.volume = std::make_unique<Volume>(read_volume(path));
+  in.volume = std::make_unique<Volume>(std::move(volume));
   for (auto& w : in.volume->warnings) in.warnings.push_back(w);
   detail::check_finite_voxels(*in.volume, path);
   VolumeSlicing slicing;
@@ -97,6 +97,8 @@ Inputs read_volume_input(const InputRequest& r) {
   in.jobs.push_back({std::move(in.slicing->stack), "", std::nullopt});  // the slicing keeps its kind, axis and indices
   return in;
 }
+
+Inputs read_volume_input(const InputRequest& r) { return slice_volume(read_volume(r.paths[0]), r.paths[0], r); }
 
 Inputs read_rtstruct_input(const InputRequest& r) {
   Inputs in;
@@ -142,7 +144,27 @@ Inputs read_rtstruct_input(const InputRequest& r) {
   return in;
 }
 
+// The options the format cannot use, and the space's name.
+void check_request(InputFormat format, const InputRequest& r) {
+  if (format != InputFormat::Volume) reject(!r.axis.empty(), "--axis", kVolumeInputOnly);
+  if (format != InputFormat::RtStruct)
+    reject(r.voxel_size || !r.rois.empty(), "--roi/--voxel-size", "only with a DICOM RT Structure Set input");
+  if ((format == InputFormat::Images || format == InputFormat::Polylines) && !r.space.empty())
+    throw ParamError(option_name("--space") + ": the input has no patient space (only volumes and RT Structure Sets do)");
+  if (!r.space.empty() && r.space != "lps" && r.space != "ras")
+    throw ParamError(option_name("--space") + ": unknown value '" + r.space + "' (expected lps or ras)");
+}
+
 }  // namespace
+
+Inputs volume_input(Volume volume, const std::string& name, const InputRequest& r) {
+  check_request(InputFormat::Volume, r);
+  Inputs in = slice_volume(std::move(volume), name, r);
+  in.format = InputFormat::Volume;
+  in.files = {name};
+  in.ras = r.space == "ras";
+  return in;
+}
 
 InputFormat detect_input(const std::vector<std::string>& paths) {
   if (paths.size() != 1 || fs::is_directory(paths[0])) return InputFormat::Images;
@@ -156,13 +178,7 @@ InputFormat detect_input(const std::vector<std::string>& paths) {
 
 Inputs read_inputs(const InputRequest& r) {
   const InputFormat format = detect_input(r.paths);
-  if (format != InputFormat::Volume) reject(!r.axis.empty(), "--axis", kVolumeInputOnly);
-  if (format != InputFormat::RtStruct)
-    reject(r.voxel_size || !r.rois.empty(), "--roi/--voxel-size", "only with a DICOM RT Structure Set input");
-  if ((format == InputFormat::Images || format == InputFormat::Polylines) && !r.space.empty())
-    throw ParamError(option_name("--space") + ": the input has no patient space (only volumes and RT Structure Sets do)");
-  if (!r.space.empty() && r.space != "lps" && r.space != "ras")
-    throw ParamError(option_name("--space") + ": unknown value '" + r.space + "' (expected lps or ras)");
+  check_request(format, r);
   Inputs in;
   switch (format) {
     case InputFormat::Images: in = read_images(r); break;

@@ -78,6 +78,11 @@ InputFormat detect_input(const std::vector<std::string>& paths);
 /// \throw InputError / ParamError naming the file or the option.
 Inputs read_inputs(const InputRequest& request);
 
+/// A volume already in memory (an image object in Python) read as
+/// read_inputs() reads a volume file; `name` stands for its path in messages
+/// and the report. \throw as read_inputs().
+Inputs volume_input(Volume volume, const std::string& name, const InputRequest& request);
+
 /// \throw ParamError (naming `option`) if labels are selected but the input is not a label input.
 void check_labels(const Inputs& in, const std::vector<std::uint32_t>& labels, const std::string& option);
 

@@ -49,6 +49,8 @@ MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii) {
   return mo;
 }
 
+std::uint32_t object_cell_label(const RunObject& o) { return o.object.label ? o.object.label : std::uint32_t(o.job + 1); }
+
 bool several_outputs(const Inputs& in, const RunResult& r) { return in.labels() || r.objects.size() > 1; }
 
 void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r, const MeshWriteOptions& mo,
@@ -59,16 +61,23 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
     o.file = !several    ? output
              : in.labels() ? with_suffix(output, std::string("_label") + std::to_string(o.object.label))
                            : with_suffix(output, "_" + file_safe(in.jobs[o.job].name));
-    write_mesh(staged(o.file), o.mesh, mo);
+    MeshWriteOptions one = mo;
+    one.label = object_cell_label(o);
+    write_mesh(staged(o.file), o.mesh, one);
   }
   if (several) {
     std::vector<TriMesh> parts;
     std::vector<Rgb> colours;
-    for (const auto& o : r.objects) parts.push_back(o.mesh), colours.push_back(o.colour);
+    std::vector<std::uint32_t> triangle_labels;
+    for (const auto& o : r.objects) {
+      parts.push_back(o.mesh), colours.push_back(o.colour);
+      triangle_labels.insert(triangle_labels.end(), o.mesh.triangles.size(), object_cell_label(o));
+    }
     std::vector<Rgb> vertex_colours;
     const TriMesh combined = merge_meshes(parts, colours, &vertex_colours);
     MeshWriteOptions co = mo;
     co.colors = &vertex_colours;
+    co.triangle_labels = &triangle_labels;
     write_mesh(staged(output), combined, co);
   }
 }

@@ -33,6 +33,7 @@
 namespace isoloft {
 
 struct RunResult;
+struct RunObject;
 class NrrdWriter;
 
 /// `name` made safe as a file name part (letters, digits, '-', '_'; others '_').
@@ -48,6 +49,10 @@ std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label
 /// How the run's meshes are written: patient mm with the space named, or
 /// pixels times the stack's pixel size.
 MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii = false);
+
+/// The object's "Label" cell data in VTK files: its label, else (ROIs) its
+/// job's place in the input, 1, 2, ...
+std::uint32_t object_cell_label(const RunObject& o);
 
 /// Whether the run writes one file per object plus a combined one.
 bool several_outputs(const Inputs& in, const RunResult& r);

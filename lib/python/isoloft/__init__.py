@@ -1,9 +1,10 @@
 """isoloft: smooth closed surfaces from sparse parallel planar contours
-(Marker, Braude, Museth & Breen 2006), on numpy arrays.
+(Marker, Braude, Museth & Breen 2006), on numpy arrays, medical images and
+files.
 
     import isoloft
-    stack = isoloft.synth("torus", z_spacing=8)           # analytic test stack
-    res = isoloft.reconstruct(stack)                     # or an (n, h, w) array, or isoloft.read(path)
+    stack = isoloft.synth("torus", z_spacing=8)          # analytic test stack
+    res = isoloft.reconstruct(stack)                     # or an (n, h, w) array, a nibabel image, a path
     obj = res.objects[0]                                 # .label, .vertices (N, 3), .faces (M, 3)
     print(isoloft.evaluate(obj, stack)["in_range"]["mean_distance_px"], res.report["timings_s"]["total"])
 
@@ -16,19 +17,27 @@ subclasses) for bad input and parameters, Error for the rest.
 
 import os as _os
 
+import numpy as _np
+
 from . import _isoloft
-from ._isoloft import (Error, Input, InputError, Object, ParamError, Result, default_params,
+from ._isoloft import (Error, Input, InputError, Object, ParamError, Progress, Result, default_params,
                        describe_params, shapes)
 
 __version__ = _isoloft.__version__
-__all__ = ["reconstruct", "read", "synth", "evaluate", "default_params", "describe_params", "shapes",
-           "Input", "Result", "Object", "Error", "InputError", "ParamError"]
+__all__ = ["reconstruct", "read", "synth", "evaluate", "batch", "progress_bars", "default_params",
+           "describe_params", "shapes", "Input", "Result", "Object", "Progress", "Error", "InputError",
+           "ParamError"]
 
 _KINDS = ("contours", "masks", "labels", "polylines")
+_BUDGET = "4G"  # the CLI's --max-memory and --max-output default
+
+
+def _is_path(x):
+    return isinstance(x, (str, bytes, _os.PathLike))
 
 
 def _paths(path):
-    if isinstance(path, (str, bytes, _os.PathLike)):
+    if _is_path(path):
         return [_os.fsdecode(path)]
     return [_os.fsdecode(p) for p in path]
 
@@ -37,21 +46,73 @@ def _path_or_empty(path):
     return "" if path is None else _os.fsdecode(path)
 
 
+def _rois(roi):
+    return [] if roi is None else [roi] if isinstance(roi, str) else list(roi)
+
+
+def _is_image(x):
+    """A medical image object: nibabel's (an affine and voxel data) or SimpleITK's
+    (origin, spacing, direction), duck-typed."""
+    return (hasattr(x, "affine") and (hasattr(x, "dataobj") or hasattr(x, "get_fdata"))) or \
+        all(hasattr(x, m) for m in ("GetOrigin", "GetSpacing", "GetDirection"))
+
+
+def _image_volume(img):
+    """(voxels as an (nk, nj, ni) array, spacing, origin, direction) of an
+    image object, in DICOM patient space (LPS, mm), x fastest as the volume
+    readers give them."""
+    if hasattr(img, "affine"):  # nibabel: voxel (i, j, k) -> RAS mm by a 4x4 affine
+        data = _np.asanyarray(img.dataobj) if hasattr(img, "dataobj") else _np.asanyarray(img.get_fdata())
+        if data.ndim == 4 and data.shape[3] == 1:
+            data = data[..., 0]
+        if data.ndim != 3:
+            raise InputError(f"slices ({type(img).__name__}): expected a 3D image, got {data.ndim} dimensions")
+        lps = _np.diag([-1.0, -1.0, 1.0]) @ _np.asarray(img.affine, dtype=float)[:3]
+        spacing = _np.linalg.norm(lps[:, :3], axis=0)
+        if not _np.all(spacing > 0):
+            raise InputError(f"slices ({type(img).__name__}): the affine has a zero-length axis")
+        return data.transpose(2, 1, 0), spacing, lps[:, 3], lps[:, :3] / spacing
+    # SimpleITK: origin, spacing and direction (row-major, columns the axes) in LPS; array (k, j, i)
+    data = None
+    module = type(img).__module__.split(".")[0]
+    if module == "SimpleITK":
+        import SimpleITK  # noqa: the image's own module, already imported by its caller
+        data = SimpleITK.GetArrayViewFromImage(img)
+    else:
+        data = _np.asarray(img)
+    if data.ndim != 3:
+        raise InputError(f"slices ({type(img).__name__}): expected a 3D image, got {data.ndim} dimensions")
+    direction = _np.asarray(img.GetDirection(), dtype=float).reshape(3, 3)
+    return data, _np.asarray(img.GetSpacing(), dtype=float), _np.asarray(img.GetOrigin(), dtype=float), direction
+
+
 def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
-         voxel_size=None, space=None, max_memory="4G"):
+         voxel_size=None, space=None, max_memory=_BUDGET):
     """Reads what `isoloft reconstruct` reads, as an Input for reconstruct().
 
     path: a directory of PNG slices or a list of PNG files (input: contours,
     masks or labels; z_spacing or slice_z; pixel_size), a polyline text file,
     a label volume (.nii .nii.gz .nrrd .nhdr .mha .mhd; input labels|masks,
     axis i|j|k, space lps|ras) or a DICOM RT Structure Set (roi: a name or a
-    list of names, voxel_size in mm, space). Options the input cannot use are
-    a ParamError naming them. max_memory: the budget checked from the image
-    headers before decoding ("4G", "512M", bytes; 0 = no limit).
+    list of names, voxel_size in mm, space). A nibabel or SimpleITK image
+    object is read as a volume file is (its voxels and its geometry).
+    Options the input cannot use are a ParamError naming them. max_memory:
+    the budget checked from the image headers before decoding ("4G",
+    "512M", bytes; 0 = no limit).
     """
-    rois = [] if roi is None else [roi] if isinstance(roi, str) else list(roi)
+    if _is_image(path):
+        given = [n for n, v in (("z_spacing", z_spacing), ("slice_z", slice_z), ("pixel_size", pixel_size),
+                                ("roi", roi), ("voxel_size", voxel_size)) if v is not None]
+        if given:
+            raise ParamError(f"{given[0]}: an image carries its own voxel geometry")
+        data, spacing, origin, direction = _image_volume(path)
+        integer = data.dtype.kind in "biu"
+        return _isoloft._from_volume(_np.ascontiguousarray(data, dtype=_np.float32), list(map(float, spacing)),
+                                     list(map(float, origin)), _np.ascontiguousarray(direction, dtype=float),
+                                     integer, f"slices ({type(path).__name__})", input or "", axis or "",
+                                     space or "")
     return _isoloft._read(_paths(path), input or "", z_spacing, None if slice_z is None else list(slice_z),
-                          pixel_size, axis or "", rois, voxel_size, space or "", str(max_memory))
+                          pixel_size, axis or "", _rois(roi), voxel_size, space or "", str(max_memory))
 
 
 def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
@@ -61,50 +122,65 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
     return _isoloft._synth(shape, size, z_spacing, kind)
 
 
-def reconstruct(slices, *, z_spacing=1.0, slice_z=None, pixel_size=1.0, input="contours", method=None,
-                labels=None, threads=None, progress=None, image_shape=None, allow_empty=False, volume=None,
-                labelmap=None, dump_stages=None, report=None, max_memory="4G", max_output="4G", **params):
+def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
+                voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
+                progress=None, allow_empty=False, volume=None, labelmap=None, dump_stages=None, report=None,
+                max_memory=_BUDGET, max_output=_BUDGET, **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
-    slices: an (n, h, w) numpy array or a list of 2D arrays (bool, uint8,
-    uint16: white is above half range; other integers: any label values),
-    slice k at z = k * z_spacing (or slice_z[k]), in pixels; input is
-    contours, masks or labels. input="polylines": slices is a list per slice of
-    (k, 2) x, y point arrays on a grid of image_shape=(h, w). An Input (read(),
-    synth()) or a path (read with the options given here) works too.
-    method: isoloft (default), marker2006 or levin; labels: only these (labels input);
-    threads: worker threads (default: all cores); progress(stage, done, total)
-    is called as the work goes (raise in it to stop); allow_empty: return a
-    surface with no triangles instead of raising on it. Files written with
-    the run, all or none, as the CLI's flags of the same names: volume
-    (OUT.nrrd, the signed distance volume per object), labelmap (a volume
-    input's dense label map, .nii.gz/.nii/.nrrd/.mha), dump_stages (a
-    directory: marker2006's per-slice fields), report (the JSON of .report).
-    max_memory, max_output: the work budget ("4G", "512M", bytes; 0 = no
-    limit), checked before the work. **params: reconstruction parameters by
-    their --print-params names.
+    slices, one of:
+    - an (n, h, w) numpy array or a list of 2D arrays, slice k at
+      z = k * z_spacing (or slice_z[k]) pixels, pixel_size the units of a
+      pixel. input: contours (white curves), masks (filled) or labels (each
+      value an object); without it, the arrays say: more than two values are
+      labels; two (0 and one other, e.g. bool) are filled masks unless they
+      hold only thin curves (contours); anything else is refused, naming
+      `input`. binarize=True thresholds gray images at half their type's
+      range first. input="polylines": a list per slice of (k, 2) x, y point
+      arrays on a grid of image_shape=(h, w).
+    - a nibabel or SimpleITK image, or a path (PNG slices, a polyline file, a
+      NIfTI/NRRD/MetaImage volume, an RT Structure Set): read as read() reads
+      it, with its options given here (input, z_spacing, slice_z,
+      pixel_size, axis, roi, voxel_size, space); images and volumes keep
+      their geometry: the meshes are in patient mm (LPS, or space="ras").
+    - an Input from read() or synth().
+    method: isoloft (default), marker2006 or levin; labels: only these;
+    threads: worker threads (default: all cores); progress(p) is called with
+    a Progress (.label, .roi, .stage, .done, .total: done only grows for an
+    object; see progress_bars()) as the work goes (raise in it to stop);
+    allow_empty: return a surface with no triangles instead of raising on it.
+    Files written with the run, all or none, as the CLI's flags of the same
+    names: volume (OUT.nrrd, the signed distance volume per object),
+    labelmap (a volume's dense label map, .nii.gz/.nii/.nrrd/.mha),
+    dump_stages (a directory: per-slice fields), report (the JSON of
+    .report). max_memory, max_output: the work budget ("4G", "512M", bytes;
+    0 = no limit), checked before the work. **params: reconstruction
+    parameters by their --print-params names.
     """
     if method is not None:
         params["method"] = method
+    read_options = {"input": input, "z_spacing": z_spacing, "slice_z": slice_z, "pixel_size": pixel_size,
+                    "axis": axis, "roi": roi, "voxel_size": voxel_size, "space": space}
     if isinstance(slices, Input):
-        given = [name for name, value, default in (("z_spacing", z_spacing, 1.0), ("slice_z", slice_z, None),
-                                                   ("pixel_size", pixel_size, 1.0), ("input", input, "contours"),
-                                                   ("image_shape", image_shape, None)) if value != default]
+        given = [n for n, v in read_options.items() if v is not None] + (["image_shape"] if image_shape else [])
         if given:
             raise ParamError(f"{given[0]}: the Input already holds its slices and geometry (give it to isoloft.read)")
         stack = slices
-    elif isinstance(slices, (str, bytes, _os.PathLike)):
-        options = {"z_spacing": z_spacing if z_spacing != 1.0 else None, "slice_z": slice_z,
-                   "pixel_size": pixel_size if pixel_size != 1.0 else None,
-                   "input": input if input != "contours" else None, "max_memory": max_memory}
-        stack = read(slices, **options)
+    elif _is_path(slices) or _is_image(slices):
+        if image_shape is not None:
+            raise ParamError("image_shape: only with input='polylines' arrays")
+        stack = read(slices, max_memory=max_memory, **read_options)
     else:
-        if input not in _KINDS:
+        given = [n for n in ("axis", "roi", "voxel_size", "space") if read_options[n] is not None]
+        if given:
+            raise ParamError(f"{given[0]}: only with a volume, an image or an RT Structure Set, not with arrays")
+        if input is not None and input not in _KINDS:
             raise ParamError(f"input: unknown value '{input}' (expected contours, masks, labels or polylines)")
-        z = z_spacing if slice_z is None or z_spacing != 1.0 else None  # both given: the library's error
-        stack = _isoloft._from_arrays(slices, input, z,
-                                      None if slice_z is None else [float(z) for z in slice_z], pixel_size,
-                                      None if image_shape is None else tuple(int(n) for n in image_shape))
+        stack = _isoloft._from_arrays(slices, input or "", z_spacing,
+                                      None if slice_z is None else [float(z) for z in slice_z],
+                                      1.0 if pixel_size is None else pixel_size,
+                                      None if image_shape is None else tuple(int(n) for n in image_shape),
+                                      bool(params.get("binarize", False)))
     if labels is not None:
         labels = [int(l) for l in labels]
     return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
@@ -121,3 +197,77 @@ def evaluate(mesh, truth, *, pixel_size=1.0):
     from synth(), its .truth dict, or the path of a shape.json.
     """
     return _isoloft._evaluate(mesh, truth, pixel_size)
+
+
+def progress_bars(**tqdm_options):
+    """A progress callback drawing one tqdm bar per object (tqdm must be
+    installed): reconstruct(..., progress=isoloft.progress_bars())."""
+    from tqdm.auto import tqdm
+
+    bars = {}
+
+    def update(p):
+        key = (p.roi, p.label)
+        bar = bars.get(key)
+        if bar is None:
+            name = p.roi or (f"label {p.label}" if p.label else "labels" if p.stage == "contour" else "object")
+            bar = bars[key] = tqdm(total=p.total, desc=name, unit="step", **tqdm_options)
+        bar.total = p.total
+        bar.update(p.done - bar.n)  # done only grows per object
+
+    return update
+
+
+def batch(manifest, out, **options):
+    """Runs a cohort: one `isoloft reconstruct` per manifest row on Dask
+    distributed (see isoloft.cohort.batch for the options); returns the
+    summary rows."""
+    from .cohort import batch as run_batch
+    return run_batch(manifest, out, **options)
+
+
+# ---------------------------------------------------------------- conversions
+
+def _combined(objects):
+    """Vertices, faces and each face's label of several objects, concatenated."""
+    vertices, faces, labels, offset = [], [], [], 0
+    for i, o in enumerate(objects):
+        vertices.append(o.vertices)
+        faces.append(_np.asarray(o.faces, dtype=_np.int64) + offset)
+        labels.append(_np.full(len(o.faces), o.label if o.label else i + 1, dtype=_np.uint32))
+        offset += len(o.vertices)
+    return _np.concatenate(vertices), _np.concatenate(faces), _np.concatenate(labels)
+
+
+def _parts(self):
+    return list(self.objects) if isinstance(self, Result) else [self]
+
+
+def _to_meshio(self):
+    """A meshio.Mesh: the triangles, their label as cell data "label"."""
+    import meshio
+    v, f, lab = _combined(_parts(self))
+    return meshio.Mesh(v, [("triangle", f)], cell_data={"label": [lab]})
+
+
+def _to_pyvista(self):
+    """A pyvista.PolyData: the triangles, their label as cell data "label"."""
+    import pyvista
+    v, f, lab = _combined(_parts(self))
+    mesh = pyvista.PolyData(v, _np.hstack([_np.full((len(f), 1), 3, dtype=_np.int64), f]).ravel())
+    mesh.cell_data["label"] = lab
+    return mesh
+
+
+def _to_trimesh(self):
+    """A trimesh.Trimesh (not merged or repaired), the label as face attribute "label"."""
+    import trimesh
+    v, f, lab = _combined(_parts(self))
+    return trimesh.Trimesh(vertices=v, faces=f, face_attributes={"label": lab}, process=False)
+
+
+for _cls in (Object, Result):
+    _cls.to_meshio = _to_meshio
+    _cls.to_pyvista = _to_pyvista
+    _cls.to_trimesh = _to_trimesh
+del _cls

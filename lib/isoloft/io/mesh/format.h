@@ -38,7 +38,12 @@ class Out {
   /// Binary little-endian, each value at its own width.
   template <class... T>
   void bin(T... v) {
-    (put_bin(v), ...);
+    (put_bin<std::endian::little>(v), ...);
+  }
+  /// Binary big-endian (legacy VTK).
+  template <class... T>
+  void bin_be(T... v) {
+    (put_bin<std::endian::big>(v), ...);
   }
   /// Flush and close. \throw Error on any write error (e.g. disk full).
   void close();
@@ -57,11 +62,11 @@ class Out {
     }
     if (buf_.size() >= capacity) flush();
   }
-  template <class T>
+  template <std::endian order, class T>
   void put_bin(T v) {
     unsigned char b[sizeof(T)];
     std::memcpy(b, &v, sizeof(T));
-    if constexpr (std::endian::native == std::endian::big) std::reverse(b, b + sizeof(T));
+    if constexpr (std::endian::native != order) std::reverse(b, b + sizeof(T));
     buf_.append(reinterpret_cast<const char*>(b), sizeof(T));
     if (buf_.size() >= capacity) flush();
   }
@@ -90,12 +95,23 @@ struct MeshOut {
   /// Patient space of the coordinates ("LPS", "RAS"), written into the header
   /// as 3D Slicer reads it ("SPACE=LPS"); empty: none.
   std::string space;
+  /// Per-triangle labels (cell data of the VTK formats), or null: every triangle `label`.
+  const std::vector<std::uint32_t>* labels = nullptr;
+  std::uint32_t label = 0;
 };
+
+/// Triangle t's label (MeshOut::labels, else MeshOut::label).
+inline std::uint32_t cell_label(const MeshOut& m, std::size_t t) { return m.labels ? (*m.labels)[t] : m.label; }
+
+/// Unit normal of triangle (a, b, c), counter-clockwise; zero if degenerate.
+Vec3f facet_normal(const Vec3f& a, const Vec3f& b, const Vec3f& c);
 
 void write_ply(const std::string& path, Out& o, const MeshOut& m);
 void write_obj(const std::string& path, Out& o, const MeshOut& m);
 void write_stl(const std::string& path, Out& o, const MeshOut& m);
 void write_off(const std::string& path, Out& o, const MeshOut& m);
+void write_vtk(const std::string& path, Out& o, const MeshOut& m);
+void write_vtp(const std::string& path, Out& o, const MeshOut& m);
 
 /// Readers of the whole file's bytes; colours cleared when the file has none.
 TriMesh read_ply(const std::string& path, const std::vector<unsigned char>& bytes, std::vector<Rgb>* colors);

@@ -13,15 +13,6 @@
 
 namespace isoloft::detail {
 
-namespace {
-Vec3f facet_normal(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
-  const Vec3d u = (b - a).cast<double>(), w = (c - a).cast<double>();
-  const Vec3d n(u.y() * w.z() - u.z() * w.y(), u.z() * w.x() - u.x() * w.z(), u.x() * w.y() - u.y() * w.x());
-  const double len = n.norm();
-  return len > 0.0 ? Vec3f((n / len).cast<float>()) : Vec3f::Zero();
-}
-
-}  // namespace
 
 void write_stl(const std::string& path, Out& o, const MeshOut& mo) {
   const TriMesh& m = mo.mesh;
