@@ -22,6 +22,7 @@
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/nrrd.h"
+#include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
 
 namespace fs = std::filesystem;
@@ -132,11 +133,14 @@ ReconstructParams read_params_file(const std::string& path, std::optional<Method
   }
 }
 
-// A parameter flag given for a method or input that never reads it: an error
-// naming the flag and where it applies.
-void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Method method, InputFormat format,
-                         InputKind kind) {
-  const bool fits = fits_curves(method);
+// A parameter flag given for a method, z scheme or input that never reads
+// it: an error naming the flag and where it applies.
+void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, const ReconstructParams& params,
+                         InputFormat format, InputKind kind) {
+  for (const auto& row : params_table<ReconstructParams>().rows())
+    if (const std::string flag = flags.given(row.key); !flag.empty())
+      if (const std::string where = unused_param(row.key, params.method.name(), params.z_scheme); !where.empty())
+        throw ParamError(flag + ": has no effect here, " + where);
   const bool images = format == InputFormat::Images;
   struct Use {
     const char* key;
@@ -144,13 +148,7 @@ void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Meth
     const char* where;
   };
   const Use uses[] = {
-      {"polyline_raster_width", fits && kind == InputKind::Polylines,
-       "only with a curve-fitting method (isoloft, marker2006) and a polyline input"},
-      {"sign_guard", fits, "only with a curve-fitting method (isoloft, marker2006)"},
-      {"mpu.n_min", fits, "only with a curve-fitting method (isoloft, marker2006: the MPU fit)"},
-      {"mpu.tol", fits, "only with a curve-fitting method (isoloft, marker2006: the MPU fit)"},
-      {"extend.method", fits, "only with a curve-fitting method (isoloft, marker2006: the distance extension)"},
-      {"filter.enabled", fits, "only with a curve-fitting method (isoloft, marker2006: the filter)"},
+      {"polyline_raster_width", kind == InputKind::Polylines, "only with a polyline input"},
       {"fill.max_gap", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
       {"fill.open_contours", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
       {"binarize", images && kind != InputKind::Labels, "only with contour or mask images"},
@@ -158,7 +156,7 @@ void reject_unused_flags(const ParamFlags& flags, const ReconstructArgs& o, Meth
   for (const Use& u : uses)
     if (!u.used)
       if (const std::string flag = flags.given(u.key); !flag.empty()) throw ParamError(flag + ": has no effect here, " + u.where);
-  if (!o.dump_stages.empty() && !fits)
+  if (!o.dump_stages.empty() && !fits_curves(params.method))
     throw ParamError("--dump-stages: has no effect here, only with a curve-fitting method (isoloft, marker2006)");
 }
 
@@ -211,7 +209,7 @@ int Commands::reconstruct() {
   request.max_memory = o.max_memory_bytes;
   Inputs in = read_inputs(request);
   const double read_seconds = seconds_since(t0);
-  reject_unused_flags(param_flags_, o, params.method, in.format, in.jobs.front().stack.kind);
+  reject_unused_flags(param_flags_, o, params, in.format, in.jobs.front().stack.kind);
   // The input's own footprint through the contour stage, before the work.
   const double input_bytes = isoloft::input_bytes(in);
   {

@@ -18,20 +18,35 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/interp/z_stream.h"
+#include "isoloft/methods/method.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/pipeline/slice_fields.h"
 
 namespace isoloft {
+
+namespace {
+// The method and z scheme rows' docs: each registered one's own line.
+template <class Spec>
+std::string registry_doc(const std::vector<Spec>& specs, const std::string& what) {
+  std::string doc;
+  for (const Spec& s : specs) doc += (doc.empty() ? "" : "; ") + s.name + ": " + s.doc;
+  return doc + "; " + what;
+}
+std::string method_doc() { return registry_doc(methods(), "picks the defaults of the other keys"); }
+std::string z_scheme_doc() { return registry_doc(z_schemes(), "how the slice fields are interpolated in z (paper 2.4)"); }
+}  // namespace
+
+const Method Method::Isoloft{"isoloft"};
+const Method Method::Marker2006{"marker2006"};
+const Method Method::Levin{"levin"};
 
 template <>
 const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
   static const ParamTable<ReconstructParams> table = [] {
     using P = ReconstructParams;
     ParamTable<P>::Rows rows{
-        field("method", &P::method, "",
-              "isoloft (marker2006 with measured departures, docs/decisions.md), marker2006 (the paper) or levin "
-              "(per-slice exact EDT baseline, no fit, no filter); picks the defaults of the other keys")
-            .cli("--method"),
+        name_field("method", &P::method, method_doc(), method_names()).cli("--method"),
+        name_field("z_scheme", &P::z_scheme, z_scheme_doc(), z_scheme_names()).cli("--z-scheme"),
         field("binarize", &P::binarize, "",
               "threshold non-binary contour/mask images at half range instead of rejecting them")
             .cli("--binarize"),
@@ -95,10 +110,12 @@ ReconstructParams params_from_json(const nlohmann::json& j, const ReconstructPar
   return params_table<ReconstructParams>().from_json(j, base);
 }
 
-ReconstructParams method_defaults(Method m) {
+bool fits_curves(const Method& m) { return method_spec(m.name()).fits_curves; }
+
+ReconstructParams method_defaults(const Method& m) {
   ReconstructParams p;
+  method_spec(m.name()).defaults(p);
   p.method = m;
-  if (m != Method::Isoloft) p.interp.spline = InterpParams{}.spline;
   return p;
 }
 
@@ -115,7 +132,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-using detail::MarkerSlice;
 using detail::SliceMasks;
 
 // What every stage of one reconstruct() call shares.
@@ -258,7 +274,7 @@ std::vector<detail::PackedMasks> label_contours(const Run& run, LabelStackMasks:
   return std::move(labelled.masks);
 }
 
-void add_fit_stats(FitStats& s, const MarkerSlice& m) {
+void add_fit_stats(FitStats& s, const SliceField& m) {
   s.points += long(m.points.size());
   s.fallback_slices += m.fallback;
   s.sign_guarded_pixels += m.sign_guarded;
@@ -282,13 +298,18 @@ void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const F
            " slice(s) (spurious zero crossings of the fit, e.g. on thin features); those pixels keep the fill's sign");
 }
 
-// Stages (paper 2.1-2.3, or Levin) slice by slice from the packed masks: the
-// marker2006 MPU curve, distance and filter, or the Levin EDT. Computed
-// slice_window() slices at a time in parallel, handed out in slice order.
+// Stages (paper 2.1-2.3, or a baseline) slice by slice from the packed masks:
+// the method's slice field (MethodSpec::slice_field). Computed slice_window()
+// slices at a time in parallel, handed out in slice order.
 class SliceFields {
  public:
   SliceFields(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks>& masks, ResidentCount& count)
-      : run_(run), obj_(obj), masks_(masks), count_(count), window_(detail::slice_window()) {}
+      : run_(run),
+        obj_(obj),
+        masks_(masks),
+        count_(count),
+        window_(detail::slice_window()),
+        method_(method_spec(run.params.method.name())) {}
 
   // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
   // fit statistics and stage fields are recorded as it is handed out.
@@ -298,15 +319,16 @@ class SliceFields {
     Computed c = std::move(ready_.front());
     ready_.pop_front();
     ++next_;
-    for (const float v : c.field.data) top_ = std::max(top_, v);
-    if (!c.field.empty() && fits_curves(run_.params.method)) {
-      add_fit_stats(obj_.fit, c.fit);
-      if (c.fit.fallback) fallbacks_.push_back(k);
+    SliceField& f = c.slice;
+    for (const float v : f.field.data) top_ = std::max(top_, v);
+    if (!f.field.empty() && method_.fits_curves) {
+      add_fit_stats(obj_.fit, f);
+      if (f.fallback) fallbacks_.push_back(k);
       if (run_.options.on_slice_fields)
-        run_.options.on_slice_fields(SliceStageFields{obj_.label, int(k), obj_.box, std::move(c.fit.points),
-                                                      std::move(c.fit.mpu), std::move(c.fit.distance), c.field});
+        run_.options.on_slice_fields(SliceStageFields{obj_.label, int(k), obj_.box, std::move(f.points), std::move(f.mpu),
+                                                      std::move(f.distance), f.field});
     }
-    return std::move(c.field);
+    return std::move(f.field);
   }
 
   // Splits the wall time of the batches by each stage's share of the CPU time.
@@ -324,34 +346,21 @@ class SliceFields {
 
  private:
   struct Computed {
-    Grid2f field;     // filtered (marker2006) or the Levin field
-    MarkerSlice fit;  // marker2006: statistics, stage fields if asked; its field moved to `field`
-    double t_contour = 0, t_filter = 0;  // CPU seconds
+    SliceField slice;       // the method's field, statistics, stage fields if asked
+    double t_contour = 0;   // CPU seconds unpacking the masks
   };
 
   Computed one(std::size_t k) const {
     Computed c;
     if (masks_[k].empty) return c;
     const Run& run = run_;
-    auto t0 = Clock::now();
-    SliceMasks m = detail::unpack_masks(masks_[k]);
+    const auto t0 = Clock::now();
+    const SliceMasks m = detail::unpack_masks(masks_[k]);
     masks_[k] = {};
     c.t_contour = seconds_since(t0);
-    t0 = Clock::now();
-    if (run.params.method == Method::Levin) {
-      c.field = detail::levin_field(m, obj_.box, run.stack.kind);
-      c.fit.t_dist = seconds_since(t0);
-      return c;
-    }
-    c.fit = detail::marker_slice(m, run.stack.slices[k], obj_.box, run.params, run.stack.kind, run.stack.width,
-                                 bool(run.options.on_slice_fields));
-    c.field = std::move(c.fit.field);
-    m = SliceMasks{};  // release before the filter
-    if (run.params.filter.enabled) {
-      t0 = Clock::now();
-      c.field = distance_filter(c.field, run.params.filter);
-      c.t_filter = seconds_since(t0);
-    }
+    const SliceInput in{m, run.stack.slices[k], obj_.box, run.stack.kind, run.stack.width,
+                        bool(run.options.on_slice_fields)};
+    c.slice = method_.slice_field(in, run.params);
     return c;
   }
 
@@ -360,10 +369,11 @@ class SliceFields {
     const std::size_t k1 = std::min(run_.slices(), k0 + window_);
     ready_.resize(k1 - k0);
     count_.add(long(k1 - k0));  // in flight, then held until the knot feed drops them
-    const char* stage = run_.params.method == Method::Levin ? "distance" : "mpu+distance";
+    const char* stage = method_.fits_curves ? "mpu+distance" : "distance";
     for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { ready_[k - k0] = one(k); });
     for (const Computed& c : ready_) {
-      cpu_contour_ += c.t_contour, cpu_mpu_ += c.fit.t_mpu, cpu_dist_ += c.fit.t_dist, cpu_filter_ += c.t_filter;
+      const SliceField& f = c.slice;
+      cpu_contour_ += c.t_contour, cpu_mpu_ += f.t_mpu, cpu_dist_ += f.t_dist, cpu_filter_ += f.t_filter;
     }
     wall_ += seconds_since(t0);
   }
@@ -373,6 +383,7 @@ class SliceFields {
   std::vector<detail::PackedMasks>& masks_;  // slice k's dropped once computed
   ResidentCount& count_;
   std::size_t window_;
+  const MethodSpec& method_;
   std::deque<Computed> ready_;
   std::size_t next_ = 0;
   std::atomic<long> done_{0};
@@ -563,8 +574,8 @@ WorkEstimate estimate_work(const Run& run, const std::vector<detail::PackedMasks
   e.triangles += 2 * (area[1] + area[n]);
   const double pixels = double(obj.box.width()) * double(obj.box.height());
   e.plane_bytes = double(obj.box.width() + 2) * double(obj.box.height() + 2) * sizeof(float);
-  const std::optional<std::size_t> reach = tangent_reach(p.interp.spline);
-  const double window = double(detail::slice_window()) + (reach ? 2.0 * double(*reach + 1) : double(n)) + 2;
+  const std::optional<std::size_t> knots = z_scheme_spec(p.z_scheme).resident_knots(p);
+  const double window = double(detail::slice_window()) + (knots ? double(*knots) : double(n)) + 2;
   e.field_bytes = std::min(double(n + 2), window) * pixels * sizeof(float) * kFieldCopies;
   if (run.stack.kind == InputKind::Polylines && fits_curves(p.method) && p.polyline_raster_width > 0) {
     const double k = double(p.polyline_raster_width) / run.stack.width;
@@ -609,10 +620,11 @@ void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, Objec
       << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check --z-spacing / the slice z)";
     throw InputError(run.stack.slices.front().source, o.str());
   }
-  ZStream stream(z, p.interp.spline, obj.box.width(), obj.box.height(), [&] { return feed.next(); }, &count);
+  const std::unique_ptr<PlaneSource> stream = z_scheme_spec(p.z_scheme).make(
+      ZSchemeInput{z, obj.box.width(), obj.box.height(), [&] { return feed.next(); }, &count}, p);
   std::optional<Sampling> sampling;
-  if (run.options.on_sample) sampling.emplace(stream, run, obj, z);
-  PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : stream;
+  if (run.options.on_sample) sampling.emplace(*stream, run, obj, z);
+  PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : *stream;
 
   StreamMeshOptions o;
   o.outside = -float(p.interp.cap_depth);
@@ -628,7 +640,7 @@ void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, Objec
   if (obj.mesh.triangles.empty()) obj.empty_reason = empty_reason(run, slices.top(), obj);
   obj.peak_resident_fields = count.peak;
   slices.add_times(run.result.times);
-  run.result.times.interp += r.interp_seconds + stream.tangent_seconds() + (sampling ? sampling->seconds() : 0.0);
+  run.result.times.interp += r.interp_seconds + stream->setup_seconds() + (sampling ? sampling->seconds() : 0.0);
   run.result.times.mesh += r.mesh_seconds;
   if (fits_curves(p.method)) warn_fit(run, slices.fallbacks(), obj.fit, object_name(obj.label));
 }

@@ -11,6 +11,7 @@
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
+#include "isoloft/field/filter.h"
 #include "isoloft/field/marching.h"
 #include "isoloft/field/narrow_band.h"
 #include "isoloft/pipeline.h"
@@ -201,16 +202,20 @@ Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind) {
   return distance_to_mask_edge_signed(inside);
 }
 
-MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& p, InputKind kind,
-                         int stack_width, bool keep) {
+SliceField marker_slice(const SliceInput& in, const ReconstructParams& p) {
+  const SliceMasks& m = in.masks;
+  const Slice& s = in.slice;
+  const PixelBox& b = in.box;
+  const InputKind kind = in.kind;
+  const bool keep = in.keep_stages;
   const bool polylines = kind == InputKind::Polylines;
-  MarkerSlice r;
+  SliceField r;
   auto t0 = Clock::now();
   // Polylines may be fitted on a finer raster (the paper's pelvis): working
   // coordinate x maps to X = k (x + 0.5) - 0.5 (pixel-centre convention at
   // both resolutions), and f is rescaled to working pixels. k = 1 otherwise.
   const bool fine = polylines && p.polyline_raster_width > 0;
-  const double k = fine ? double(p.polyline_raster_width) / stack_width : 1.0;
+  const double k = fine ? double(p.polyline_raster_width) / in.stack_width : 1.0;
   int fit_w = b.width(), fit_h = b.height();
   // The contour pixels and inside over the crop; masks and labels without
   // their features thinner than mask_min_feature (the points, the band and
@@ -291,6 +296,16 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   r.field = extend_distance(nb, p.extend);
   r.t_dist = seconds_since(t0);
   if (keep) r.distance = r.field;
+  return r;
+}
+
+SliceField filtered_marker_slice(const SliceInput& in, const ReconstructParams& p) {
+  SliceField r = marker_slice(in, p);
+  if (p.filter.enabled) {
+    const auto t0 = Clock::now();
+    r.field = distance_filter(r.field, p.filter);
+    r.t_filter = seconds_since(t0);
+  }
   return r;
 }
 
