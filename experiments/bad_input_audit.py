@@ -148,18 +148,24 @@ SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
 def listing(d):
-    return {os.path.relpath(os.path.join(r, f), d) for r, _, fs in os.walk(d) for f in fs}
+    """Files and folders (with a trailing '/') under d."""
+    out = set()
+    for r, ds, fs in os.walk(d):
+        out |= {os.path.relpath(os.path.join(r, f), d) for f in fs}
+        out |= {os.path.relpath(os.path.join(r, x), d) + "/" for x in ds}
+    return out
 
 
-def run_case(cli, name, setup, timeout):
+def run_case(cli, name, setup, timeout, quiet=True, output="m.ply"):
+    """setup(d, cli) -> the arguments after "reconstruct"; `output` (relative to d) is -o unless None."""
     d = tempfile.mkdtemp(prefix="audit_")
     try:
         sig = next((s for s in SIGNALS if name.startswith(s)), None)
         args = setup(d, cli)
         before = listing(d)
-        out = os.path.join(d, "m.ply")
+        out = ["-o", os.path.join(d, output)] if output else []
         cmd = ["/usr/bin/time", "-f", "%e %M", "-o", os.path.join(d, ".time"), "prlimit", "--as=%d" % MEMORY_LIMIT,
-               "timeout", str(timeout), cli, "reconstruct"] + args + ["-o", out, "-q"]
+               "timeout", str(timeout), cli, "reconstruct"] + args + out + (["-q"] if quiet else [])
         p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace")
         if sig:
             time.sleep(2.0)
@@ -170,7 +176,7 @@ def run_case(cli, name, setup, timeout):
         left = sorted(listing(d) - before - {".time"})
         lines = [l for l in err.strip().splitlines()
                  if l and not l.startswith("Command ") and not l.startswith("Run with --help")]
-        msg = lines[0] if lines else ""
+        msg = next((l for l in lines if "error" in l or "warning" in l), lines[0] if lines else "").replace(d + "/", "")
         code = p.returncode
         if code == 124:
             msg = "(timeout %d s) " % timeout + msg
