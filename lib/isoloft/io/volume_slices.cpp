@@ -120,69 +120,106 @@ std::string off_axis_warning(const std::string& path, const std::string& what, i
          kAxisNames[drawn] + (what == "the mask" ? "" : " with --labels for it") + ")";
 }
 
-// Masks: an annotated slice with a tiny fraction of its neighbours' voxels
-// (a stray voxel) pinches the object to those voxels there.
+// An annotated slice with under kStrayFraction of the non-zero voxels of the
+// annotated slices either side, next to a slice that is not annotated: a
+// stray voxel made it "annotated", and every object crossing it is cut or
+// pinched there. (A dense run of slices is data throughout: not checked.)
 constexpr double kStrayFraction = 0.01;
 
 std::size_t nonzero(const Grid2u32& g) {
   return std::size_t(std::count_if(g.data.begin(), g.data.end(), [](std::uint32_t x) { return x != 0; }));
 }
 
-void pinched_slice_warnings(VolumeStack& vs, const std::string& path) {
-  const auto& sl = vs.stack.slices;
-  std::vector<std::size_t> count(sl.size());
-  for (std::size_t s = 0; s < sl.size(); ++s) count[s] = nonzero(sl[s].image);
-  for (std::size_t s = 1; s + 1 < sl.size(); ++s)
-    if (double(count[s]) < kStrayFraction * double(std::min(count[s - 1], count[s + 1])))
-      vs.warnings.push_back(path + ": annotated slice " + kAxisNames[vs.axis] + " = " + std::to_string(vs.annotated[s]) +
-                            " holds " + std::to_string(count[s]) + " non-zero voxel(s), against " +
-                            std::to_string(count[s - 1]) + " and " + std::to_string(count[s + 1]) +
-                            " on the annotated slices either side: the object is pinched to them there (stray voxels?)");
+// Annotated slice s borders a slice that is not.
+bool borders_gap(const VolumeStack& vs, std::size_t s) {
+  const int t = vs.annotated[s];
+  const bool before = s > 0 && vs.annotated[s - 1] == t - 1, after = s + 1 < vs.annotated.size() && vs.annotated[s + 1] == t + 1;
+  return !(before && after);
 }
 
-// Per label (a voxel value, or its value-table index), the slices along each
-// axis that hold it, as bitmaps: label l's words for axis a at
-// bits[a][l * words[a] ...]. Empty when the volume holds more than
-// kMaxCheckedLabels labels (the checks' memory would grow with them).
+// The stray slices (stack indices) and their non-zero voxel counts.
+std::vector<std::size_t> stray_slices(const VolumeStack& vs, std::vector<std::size_t>& count) {
+  const auto& sl = vs.stack.slices;
+  count.assign(sl.size(), 0);
+  for (std::size_t s = 0; s < sl.size(); ++s) count[s] = nonzero(sl[s].image);
+  std::vector<std::size_t> out;
+  for (std::size_t s = 1; s + 1 < sl.size(); ++s)
+    if (borders_gap(vs, s) && double(count[s]) < kStrayFraction * double(std::min(count[s - 1], count[s + 1])))
+      out.push_back(s);
+  return out;
+}
+
+std::string stray_text(const std::string& path, const VolumeStack& vs, std::size_t s, const std::vector<std::size_t>& count) {
+  return path + ": annotated slice " + kAxisNames[vs.axis] + " = " + std::to_string(vs.annotated[s]) + " holds " +
+         std::to_string(count[s]) + " non-zero voxel(s), against " + std::to_string(count[s - 1]) + " and " +
+         std::to_string(count[s + 1]) + " on the annotated slices either side (stray voxels?)";
+}
+
+// Per label (a voxel value, or its value-table index; with `binary`, one
+// object of every non-zero voxel): the slices along each axis that hold it,
+// as bitmaps (label l's words for axis a at bits[a][l * words[a] ...]), its
+// voxels, and its voxels whose neighbour at +1 along each axis is the same
+// label. Empty when the volume holds more than kMaxCheckedLabels labels (the
+// checks' memory would grow with them).
 constexpr std::size_t kMaxCheckedLabels = std::size_t(1) << 16;
 
 struct LabelOccupancy {
   std::vector<float> keys;  // voxel values, in order of first appearance
   std::array<std::size_t, 3> words{};
   std::array<std::vector<std::uint64_t>, 3> bits;
+  std::vector<std::uint64_t> voxels;
+  std::vector<std::array<std::uint64_t, 3>> pairs;
   [[nodiscard]] bool test(std::size_t label, int axis, std::size_t t) const {
     return (bits[std::size_t(axis)][label * words[std::size_t(axis)] + t / 64] >> (t % 64)) & 1;
   }
+  [[nodiscard]] std::vector<std::uint8_t> slices(std::size_t label, int axis, std::size_t n) const {
+    std::vector<std::uint8_t> o(n);
+    for (std::size_t t = 0; t < n; ++t) o[t] = test(label, axis, t);
+    return o;
+  }
 };
 
-LabelOccupancy label_occupancy(const Volume& v) {
+LabelOccupancy label_occupancy(const Volume& v, bool binary) {
   LabelOccupancy out;
   std::unordered_map<float, std::size_t> id;
   out.words = {(std::size_t(v.nx) + 63) / 64, (std::size_t(v.ny) + 63) / 64, (std::size_t(v.nz) + 63) / 64};
   auto set = [&](std::size_t l, int a, std::size_t t) {
     out.bits[std::size_t(a)][l * out.words[std::size_t(a)] + t / 64] |= std::uint64_t(1) << (t % 64);
   };
+  auto same = [binary](float x, float y) { return binary ? y != 0 : x == y; };  // x != 0
   std::size_t last = 0;
   bool have_last = false;
   float last_key = 0;
   for (int k = 0; k < v.nz; ++k)
     for (int j = 0; j < v.ny; ++j) {
       const float* row = v.data.data() + v.index(0, j, k);
+      const float* below = j > 0 ? row - v.nx : nullptr;                               // (i, j - 1, k)
+      const float* behind = k > 0 ? row - std::size_t(v.nx) * std::size_t(v.ny) : nullptr;  // (i, j, k - 1)
       for (int i = 0; i < v.nx;) {
         const float x = row[i];
         int e = i + 1;
-        while (e < v.nx && row[e] == x) ++e;  // a run of one value
+        while (e < v.nx && (binary ? (row[e] != 0) == (x != 0) : row[e] == x)) ++e;  // a run of one label
         if (x != 0) {
-          if (!have_last || x != last_key) {
-            auto [it, added] = id.emplace(x, out.keys.size());
+          const float key = binary ? 1.0f : x;
+          if (!have_last || key != last_key) {
+            auto [it, added] = id.emplace(key, out.keys.size());
             if (added) {
               if (out.keys.size() == kMaxCheckedLabels) return {};
-              out.keys.push_back(x);
+              out.keys.push_back(key);
               for (std::size_t a = 0; a < 3; ++a) out.bits[a].resize(out.keys.size() * out.words[a], 0);
+              out.voxels.push_back(0);
+              out.pairs.push_back({});
             }
-            last = it->second, last_key = x, have_last = true;
+            last = it->second, last_key = key, have_last = true;
           }
-          for (int t = i; t < e; ++t) set(last, 0, std::size_t(t));
+          auto& p = out.pairs[last];
+          out.voxels[last] += std::uint64_t(e - i);
+          p[0] += std::uint64_t(e - i - 1);
+          for (int t = i; t < e; ++t) {
+            set(last, 0, std::size_t(t));
+            if (below) p[1] += same(x, below[t]);
+            if (behind) p[2] += same(x, behind[t]);
+          }
           set(last, 1, std::size_t(j));
           set(last, 2, std::size_t(k));
         }
@@ -192,13 +229,29 @@ LabelOccupancy label_occupancy(const Volume& v) {
   return out;
 }
 
-// Labels: (1) a label whose own sparse axis is not the one sliced; (2) an
-// annotated slice inside a label's range that lacks it (a stray voxel of
-// another label makes a slice "annotated", and every other label crossing it
-// is cut there).
+// Drawn slice by slice along axis b, seen across axis `sliced`: on at least 3
+// slices along b, almost no voxel has a neighbour of its label along b (the
+// slices are one voxel thick), while most have one along `sliced` (the label
+// is not drawn along that one too). A real object, even a thin one, is more
+// than one voxel thick along some slices' normal; a speck is neither.
+constexpr double kDrawnPairs = 0.05, kDensePairs = 0.5;
+
+int other_drawn_axis(const LabelOccupancy& occ, std::size_t l, int sliced, const std::array<std::size_t, 3>& n) {
+  const double voxels = double(occ.voxels[l]);
+  if (!(double(occ.pairs[l][std::size_t(sliced)]) >= kDensePairs * voxels)) return -1;
+  for (int b : {2, 1, 0}) {
+    if (b == sliced || double(occ.pairs[l][std::size_t(b)]) > kDrawnPairs * voxels) continue;
+    const auto o = occ.slices(l, b, n[std::size_t(b)]);
+    if (std::count(o.begin(), o.end(), 1) >= 3) return b;
+  }
+  return -1;
+}
+
+// Labels: (1) a label drawn along another axis than the one sliced; (2) a
+// stray slice, with the labels it cuts.
 void label_warnings(const Volume& v, VolumeStack& vs, const std::string& path) {
   constexpr std::size_t kNamed = 5;  // labels named per warning; the rest counted
-  const LabelOccupancy occ = label_occupancy(v);
+  const LabelOccupancy occ = label_occupancy(v, false);
   const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
   const int a = vs.axis;
   auto label_of = [&](float key) {
@@ -207,29 +260,25 @@ void label_warnings(const Volume& v, VolumeStack& vs, const std::string& path) {
   std::vector<std::size_t> order(occ.keys.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return label_of(occ.keys[x]) < label_of(occ.keys[y]); });
-  // (1) per axis, the label's occupied slices as bytes, for sparsity().
-  std::map<int, std::vector<std::string>> off_axis;  // drawn axis -> labels
+  // (1) drawn axis -> the labels drawn along it, and one's slices.
+  std::map<int, std::vector<std::string>> off_axis;
   std::map<int, std::vector<std::uint8_t>> example;
   // (2) per annotated slice (stack index), the labels cut there.
-  std::vector<std::vector<std::int64_t>> cut(vs.annotated.size());
+  std::vector<std::size_t> count;
+  const std::vector<std::size_t> stray = stray_slices(vs, count);
+  std::vector<std::vector<std::string>> cut(stray.size());
   for (const std::size_t l : order) {
-    Occupancy o;
-    for (std::size_t ax = 0; ax < 3; ++ax) {
-      o[ax].resize(n[ax]);
-      for (std::size_t t = 0; t < n[ax]; ++t) o[ax][t] = occ.test(l, int(ax), t);
-    }
-    const int drawn = sparse_axis_of(o);
-    if (drawn != a && sparsity(o[std::size_t(drawn)]) > 0 && sparsity(o[std::size_t(a)]) == 0) {
+    if (const int drawn = other_drawn_axis(occ, l, a, n); drawn >= 0) {
       off_axis[drawn].push_back(std::to_string(label_of(occ.keys[l])));
-      example.emplace(drawn, o[std::size_t(drawn)]);
+      example.emplace(drawn, occ.slices(l, drawn, n[std::size_t(drawn)]));
       continue;  // cut everywhere along the sliced axis: (2) would only repeat it
     }
-    const auto& mine = o[std::size_t(a)];
+    const auto mine = occ.slices(l, a, n[std::size_t(a)]);
     const auto first = std::find(mine.begin(), mine.end(), 1) - mine.begin();
     const auto last = std::find(mine.rbegin(), mine.rend(), 1).base() - mine.begin();
-    for (std::size_t s = 0; s < vs.annotated.size(); ++s) {
-      const int t = vs.annotated[s];
-      if (t > first && t < last - 1 && !mine[std::size_t(t)]) cut[s].push_back(label_of(occ.keys[l]));
+    for (std::size_t i = 0; i < stray.size(); ++i) {
+      const int t = vs.annotated[stray[i]];
+      if (t > first && t < last - 1 && !mine[std::size_t(t)]) cut[i].push_back(std::to_string(label_of(occ.keys[l])));
     }
   }
   auto listed = [&](const auto& labels) {
@@ -240,26 +289,11 @@ void label_warnings(const Volume& v, VolumeStack& vs, const std::string& path) {
   };
   for (const auto& [drawn, labels] : off_axis)
     vs.warnings.push_back(off_axis_warning(path, "label(s) " + listed(labels), drawn, a, example[drawn]));
-  std::size_t cut_slices = 0;
-  for (std::size_t s = 0; s < cut.size(); ++s) {
-    if (cut[s].empty()) continue;
-    if (++cut_slices > kNamed) continue;
-    std::vector<std::string> names, here;
-    for (const std::int64_t x : cut[s]) names.push_back(std::to_string(x));
-    std::vector<std::uint32_t> present;
-    for (const std::uint32_t x : vs.stack.slices[s].image.data)
-      if (x != 0 && (present.empty() || present.back() != x)) present.push_back(x);
-    std::sort(present.begin(), present.end());
-    present.erase(std::unique(present.begin(), present.end()), present.end());
-    for (const std::uint32_t x : present) here.push_back(std::to_string(x));
-    vs.warnings.push_back(path + ": annotated slice " + kAxisNames[a] + " = " + std::to_string(vs.annotated[s]) + " (" +
-                          std::to_string(nonzero(vs.stack.slices[s].image)) + " non-zero voxel(s), label(s) " +
-                          listed(here) + ") lacks label(s) " + listed(names) +
-                          " found on annotated slices either side: each is cut there (stray voxels of another label?)");
-  }
-  if (cut_slices > kNamed)
-    vs.warnings.push_back(path + ": " + std::to_string(cut_slices - kNamed) +
-                          " more annotated slice(s) lack labels found on either side of them");
+  for (std::size_t i = 0; i < stray.size() && i < kNamed; ++i)
+    vs.warnings.push_back(stray_text(path, vs, stray[i], count) +
+                          (cut[i].empty() ? "" : ": label(s) " + listed(cut[i]) + " crossing it are cut there"));
+  if (stray.size() > kNamed)
+    vs.warnings.push_back(path + ": " + std::to_string(stray.size() - kNamed) + " more annotated slice(s) like that");
 }
 
 }  // namespace
@@ -338,12 +372,13 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
   if (labels) {
     label_warnings(v, out, path);
   } else {
-    if (slicing.axis >= 0) {
-      const int drawn = sparse_axis_of(scan.occupied);
-      if (drawn != a && sparsity(scan.occupied[std::size_t(drawn)]) > 0)
-        out.warnings.push_back(off_axis_warning(path, "the mask", drawn, a, scan.occupied[std::size_t(drawn)]));
-    }
-    pinched_slice_warnings(out, path);
+    const LabelOccupancy occ = label_occupancy(v, true);
+    const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
+    if (const int drawn = occ.keys.empty() ? -1 : other_drawn_axis(occ, 0, a, n); drawn >= 0)
+      out.warnings.push_back(off_axis_warning(path, "the mask", drawn, a, scan.occupied[std::size_t(drawn)]));
+    std::vector<std::size_t> count;
+    for (const std::size_t i : stray_slices(out, count))
+      out.warnings.push_back(stray_text(path, out, i, count) + ": the object is pinched to them there");
   }
   return out;
 }

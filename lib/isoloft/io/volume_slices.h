@@ -45,7 +45,9 @@ struct VolumeStack {
 ///          data); an annotated slice inside a label's range that lacks it
 ///          (a stray voxel of another label made the slice annotated: the
 ///          label is cut there); a mask slice with under 1 % of the voxels of
-///          the annotated slices either side (pinched to a stray voxel).
+///          the annotated slices either side (pinched to a stray voxel). Both
+///          only next to a slice that is not annotated: a dense run of
+///          slices is data throughout, its gaps real.
 VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path);
 
 /// The dense label map on the volume's grid: the annotated slices as they
