@@ -80,14 +80,32 @@ void check_header(const std::string& path) {
   if (!v1 && !v2) throw InputError(path, "not a readable NIfTI file (no NIfTI-1 or NIfTI-2 header)");
   const bool swap = v1 ? get32(0, false) != 348 : get32(0, false) != 540;
   if (got < (v1 ? 348 : 540)) throw InputError(path, "not a readable NIfTI file (truncated header)");
-  if (!v1) return;  // NIfTI-2 stores doubles; niftilib reports their sizes as read
-  std::int16_t ndim;
-  std::memcpy(&ndim, h + 40, 2);
-  if (swap) ndim = std::int16_t(__builtin_bswap16(std::uint16_t(ndim)));
-  for (int d = 1; d <= std::clamp<int>(ndim, 0, 3); ++d) {
-    const std::uint32_t bits = get32(76 + 4 * std::size_t(d), swap);
-    float dx;
-    std::memcpy(&dx, &bits, 4);
+  // niftilib converts the header before it checks it: a dim[0] beyond 7
+  // overruns its arrays (a NIfTI-2 one of 12885442562 overflowed the stack,
+  // found by fuzzing). So dim[0], the magic and the sizes in use are checked here.
+  auto get64 = [&](std::size_t off) {
+    std::uint64_t v;
+    std::memcpy(&v, h + off, 8);
+    return swap ? __builtin_bswap64(v) : v;
+  };
+  std::uint16_t ndim1;
+  std::memcpy(&ndim1, h + 40, 2);
+  const std::int64_t ndim = v1 ? std::int16_t(swap ? __builtin_bswap16(ndim1) : ndim1) : std::int64_t(get64(16));
+  if (ndim < 1 || ndim > 7)
+    throw InputError(path, "not a readable NIfTI file (dim[0] = " + std::to_string(ndim) + ", must be 1 to 7)");
+  if (v2 && std::memcmp(h + 4, "n+2\0\r\n\032\n", 8) != 0 && std::memcmp(h + 4, "ni2\0\r\n\032\n", 8) != 0)
+    throw InputError(path, "not a readable NIfTI file (bad NIfTI-2 magic)");
+  for (int d = 1; d <= std::min<int>(int(ndim), 3); ++d) {
+    double dx;
+    if (v1) {
+      const std::uint32_t bits = get32(76 + 4 * std::size_t(d), swap);
+      float f;
+      std::memcpy(&f, &bits, 4);
+      dx = f;
+    } else {
+      const std::uint64_t bits = get64(104 + 8 * std::size_t(d));
+      std::memcpy(&dx, &bits, 8);
+    }
     if (!(std::isfinite(dx) && dx > 0))
       throw InputError(path, "voxel size (pixdim[" + std::to_string(d) + "] = " + std::to_string(dx) + ") is not finite and > 0");
   }
