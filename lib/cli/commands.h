@@ -27,9 +27,10 @@ struct ReconstructArgs {
   std::string space;               ///< patient space of the outputs: lps (default) or ras
   std::string labelmap;            ///< volumes: the dense label map out
   int threads = 0;
-  std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output); parsed below
-  double max_memory_bytes = 0, max_output_bytes = 0;  ///< 0 = no limit
+  std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output)
+  long max_files = 4096;                             ///< --max-files (0 = no limit)
   bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
+  bool allow_external_data = false;                  ///< --allow-external-data
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
 
@@ -87,8 +88,5 @@ class Commands {
   std::string command_line_;
   std::string activity_;
 };
-
-/// Writes text to `path` atomically (temp file + rename).
-void write_text_atomic(const std::string& path, const std::string& text);
 
 }  // namespace isoloft::cli

@@ -70,6 +70,7 @@ struct ReconstructParams {
   double mpu_band = 4.0;
   int mask_min_feature = 2;
   int crop_margin = 32;
+  bool label_partition = true;
   FillParams fill;              ///< contour/: even-odd fill, open contours
   NormalsParams normals;        ///< contour/: paper 2.1
   MpuParams mpu;                ///< fit/: paper 2.1
@@ -169,8 +170,9 @@ struct ReconstructOptions {
   std::vector<double> sample_z;
   /// Each object's field over its crop box at every sample_z it reaches.
   std::function<void(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z)> on_sample;
-  /// Stage name, items done, items total.
-  std::function<void(const std::string&, long, long)> progress;
+  /// The object's label (0: the only object, or the label scan shared by
+  /// every label), stage name, items done, items total; from worker threads.
+  std::function<void(std::uint32_t label, const std::string& stage, long done, long total)> progress;
 };
 
 struct ReconstructResult {

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <mutex>
 #include <set>
@@ -180,17 +181,11 @@ void AtomicFile::commit() {
 
 OutputSet::~OutputSet() { discard(); }
 
-namespace {
-
-// One file, one key: the absolute path with symbolic links and "." / ".."
-// resolved as far as the path exists ("out/x.nrrd" and "./out/x.nrrd" meet).
-std::string file_key(const std::string& path) {
+std::string output_key(const std::string& path) {
   std::error_code ec;
   const fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
   return ec ? fs::absolute(path).lexically_normal().string() : p.string();
 }
-
-}  // namespace
 
 void OutputSet::create_directories(const std::string& dir) {
   if (dir.empty()) return;
@@ -210,7 +205,7 @@ void OutputSet::create_directories(const std::string& dir) {
 std::string OutputSet::stage(const std::string& final_path) {
   if (final_path.empty()) throw Error("output path is empty");
   create_directories(fs::path(final_path).parent_path().string());
-  const std::string key = file_key(final_path);
+  const std::string key = output_key(final_path);
   for (const auto& f : files_)
     if (f.key == key)
       throw Error(final_path + ": the run writes this file twice" +
@@ -325,6 +320,16 @@ std::vector<std::string> OutputSet::staged() const {
   std::vector<std::string> out;
   for (const auto& f : files_) out.push_back(f.staged);
   return out;
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  AtomicFile f(path);
+  {
+    std::ofstream out(f.temp_path(), std::ios::binary);
+    out << text;
+    if (!out) throw InputError(path, "cannot write file");
+  }
+  f.commit();
 }
 
 }  // namespace isoloft

@@ -16,6 +16,10 @@ namespace isoloft {
 /// Creates the parent directories of path. \throw Error naming the directory.
 void ensure_parent_dir(const std::string& path);
 
+/// One file, one key: `path` absolute, with "." and ".." and symbolic links
+/// resolved as far as it exists ("out/x.nrrd" and "./out/x.nrrd" meet).
+[[nodiscard]] std::string output_key(const std::string& path);
+
 /// `AtomicFile f(out); write(f.temp_path()); f.commit();`: the destructor
 /// removes the temp file unless committed.
 class AtomicFile {
@@ -41,6 +45,10 @@ class AtomicFile {
   int slot_ = -1;  // in the signal registry
   bool committed_ = false;
 };
+
+/// Writes text to `path` atomically (temp file + rename).
+/// \throw InputError naming the path if it cannot be written.
+void write_text_atomic(const std::string& path, const std::string& text);
 
 /// Installs handlers for SIGINT, SIGTERM and SIGHUP that unlink every
 /// registered temp and staged file (async-signal-safe: unlink() only), then

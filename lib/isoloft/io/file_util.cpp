@@ -13,6 +13,7 @@
 #include <limits>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 
 namespace isoloft::detail {
 
@@ -88,7 +89,7 @@ std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_
 }
 
 void check_data_file(const std::string& header, const std::string& name, const std::string& resolved,
-                     bool allow_external, const std::string& allow_option) {
+                     bool allow_external) {
   namespace fs = std::filesystem;
   if (!allow_external) {
     const fs::path folder = fs::path(header).parent_path();
@@ -99,7 +100,7 @@ void check_data_file(const std::string& header, const std::string& name, const s
     if (!inside)
       throw InputError(header, "data file '" + name + "' (" + (ec ? resolved : real.string()) +
                                    ") lies outside the header's folder: only files in its folder or below are read "
-                                   "unless " + allow_option + " is given");
+                                   "unless " + option_given("--allow-external-data") + " is given");
   }
   try {
     check_regular_file(resolved);

@@ -36,10 +36,10 @@ std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_
 /// folder). Unless `allow_external`, it must lie in the header's folder or
 /// below once symbolic links are resolved (a header must not reach files the
 /// user never named, e.g. "../../etc/passwd"); it must be a regular file.
-/// \throw InputError(header, ...) naming the data file, and `allow_option`
-///        (the flag that lifts the folder rule) when it lies outside.
+/// \throw InputError(header, ...) naming the data file, and the option that
+///        lifts the folder rule (--allow-external-data) when it lies outside.
 void check_data_file(const std::string& header, const std::string& name, const std::string& resolved,
-                     bool allow_external, const std::string& allow_option);
+                     bool allow_external);
 
 /// A whole file, read-only: mapped into memory (no copy; the page cache's
 /// pages), or read (read_file_bytes) where it cannot be mapped.

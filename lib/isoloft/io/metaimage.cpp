@@ -235,7 +235,7 @@ Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) 
     std::filesystem::path dp(df);
     if (dp.is_relative()) dp = std::filesystem::path(mhd).parent_path() / dp;
     data_name = dp.string();
-    detail::check_data_file(mhd, df, data_name, options.allow_external_data, options.allow_external_option);
+    detail::check_data_file(mhd, df, data_name, options.allow_external_data);
   }
   if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample});
   if (!local) {

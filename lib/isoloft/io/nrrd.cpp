@@ -292,7 +292,7 @@ DataLayout data_layout(const std::string& path, const detail::FileBytes& file, c
     // As teem resolves it: names starting with '/' or "X:" as they are, the others from the header's folder.
     const bool as_is = !name.empty() && (name[0] == '/' || (name.size() > 1 && name[1] == ':'));
     const std::string resolved = as_is ? name : (folder.empty() ? "." : folder) + "/" + name;
-    detail::check_data_file(path, name, resolved, options.allow_external_data, options.allow_external_option);
+    detail::check_data_file(path, name, resolved, options.allow_external_data);
     out.files.push_back(resolved);
   }
   return out;

@@ -18,6 +18,7 @@
 #include <mutex>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/io/file_util.h"
 
 namespace isoloft {
@@ -171,7 +172,7 @@ std::vector<std::vector<Vec2d>> split_keyholes(const std::vector<Vec2d>& polygon
 
 SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& path, std::vector<std::string>& warnings) {
   if (!(grid.voxel_size > 0 && std::isfinite(grid.voxel_size)))
-    throw ParamError("--voxel-size: must be finite and > 0, got " + std::to_string(grid.voxel_size));
+    throw ParamError(option_name("--voxel-size") + ": must be finite and > 0, got " + std::to_string(grid.voxel_size));
   const std::string what = "ROI '" + roi.name + "'";
   struct Plane {
     double z;
@@ -229,7 +230,7 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
                        " contour(s) not CLOSED_PLANAR with 3 or more points skipped");
   if (specks > 0)
     warnings.push_back(path + ": " + what + ": " + std::to_string(specks) + " contour loop(s) smaller than one pixel of the " +
-                       std::to_string(grid.voxel_size) + " mm working grid dropped (give a smaller --voxel-size to keep them)");
+                       std::to_string(grid.voxel_size) + " mm working grid dropped (give a smaller " + option_name("--voxel-size") + " to keep them)");
   if (planes.empty()) throw InputError(path, what + " has no closed planar contour");
   if (planes.size() < 2)
     throw InputError(path, what + " has contours on one plane only (z = " + std::to_string(planes.front().z) +
@@ -245,7 +246,7 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   const double wx = std::ceil((xhi - xlo) / s) + 2.0 * grid.margin + 1, wy = std::ceil((yhi - ylo) / s) + 2.0 * grid.margin + 1;
   constexpr double kMaxGrid = 1 << 15;  // pixels across: a 32768^2 working grid is surely a wrong voxel size
   if (wx > kMaxGrid || wy > kMaxGrid)
-    throw ParamError("--voxel-size " + std::to_string(s) + " mm: " + what + " would need a " + std::to_string(long(wx)) +
+    throw ParamError(option_name("--voxel-size") + " " + std::to_string(s) + " mm: " + what + " would need a " + std::to_string(long(wx)) +
                      " x " + std::to_string(long(wy)) + " pixel grid");
   SliceStack st;
   st.kind = InputKind::Polylines;

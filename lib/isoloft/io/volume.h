@@ -64,7 +64,6 @@ struct VolumeReadOptions {
   /// Data files a header names (NRRD `data file`, MetaImage `ElementDataFile`)
   /// may lie outside the header's folder (else an error names them).
   bool allow_external_data = false;
-  std::string allow_external_option = "--allow-external-data";  ///< its name in that error
   /// Called once the header is read and checked, before any voxel is
   /// allocated or decoded (a budget check throws from here).
   std::function<void(const VolumeHeader&)> on_header;

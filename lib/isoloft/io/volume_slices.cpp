@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 
 namespace isoloft {
 
@@ -116,8 +117,9 @@ std::string off_axis_warning(const std::string& path, const std::string& what, i
   return path + ": " + what + ": drawn on slices along " + kAxisNames[drawn] + " (" +
          std::to_string(std::count(first, last, 1)) + " of the " + std::to_string(last - first) + " slices from " +
          kAxisNames[drawn] + " = " + std::to_string(first - occ_drawn.begin()) + " hold it), but the volume is sliced along " +
-         kAxisNames[sliced] + ", across which it is thin lines: the surface will be wrong (give --axis " +
-         kAxisNames[drawn] + (what == "the mask" ? "" : " with --labels for it") + ")";
+         kAxisNames[sliced] + ", across which it is thin lines: the surface will be wrong (give " +
+         option_given("--axis", std::string(1, kAxisNames[drawn])) +
+         (what == "the mask" ? "" : " with " + option_name("--labels") + " for it") + ")";
 }
 
 // An annotated slice with under kStrayFraction of the non-zero voxels of the
@@ -307,7 +309,7 @@ int sparse_axis(const Volume& v) { return sparse_axis_of(scan_voxels(v, false).o
 VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path) {
   if (slicing.kind != InputKind::Labels && slicing.kind != InputKind::Masks)
     throw ParamError("a volume holds labels or masks");
-  if (slicing.axis < -1 || slicing.axis > 2) throw ParamError("--axis: must be i, j or k");
+  if (slicing.axis < -1 || slicing.axis > 2) throw ParamError(option_name("--axis") + ": must be i, j or k");
   VolumeStack out;
   const VoxelScan scan = scan_voxels(v, slicing.kind == InputKind::Labels);
   out.axis = slicing.axis >= 0 ? slicing.axis : sparse_axis_of(scan.occupied);
@@ -318,18 +320,19 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
   if (scan.first_nonfinite_row != kNoRow) detail::check_finite_voxels(v, path);
   if (std::abs(su - sw) > kSquareTolerance * std::max(su, sw))
     throw InputError(path, std::string("voxels are not square across axis ") + kAxis[a] + " (" + std::to_string(su) +
-                               " x " + std::to_string(sw) + " mm): resample the volume, or give another --axis");
+                               " x " + std::to_string(sw) + " mm): resample the volume, or give another " + option_name("--axis"));
   const bool labels = slicing.kind == InputKind::Labels;
   if (labels && scan.first_nonlabel_row != kNoRow)
     for (std::size_t i = scan.first_nonlabel_row * std::size_t(v.nx); i < v.data.size(); ++i)
       if (v.data[i] < 0 || v.data[i] != std::floor(v.data[i]) || v.data[i] > float(1 << 24))
         throw InputError(path, "not a label map: value " + std::to_string(v.data[i]) + " at voxel " + std::to_string(i) +
-                                   " is not a non-negative integer (use --input masks for any non-zero voxel as inside)");
+                                   " is not a non-negative integer (use " + option_given("--input", "masks") +
+                                   " for any non-zero voxel as inside)");
   if (labels)  // exact values beyond 2^24 (the voxels hold indices into the table)
     for (const std::int64_t x : v.value_table)
       if (x < 0 || x > std::int64_t(std::numeric_limits<std::uint32_t>::max()))
-        throw InputError(path, "not a label map: value " + std::to_string(x) +
-                                   " is not a label (0 .. 2^32 - 1; use --input masks for any non-zero voxel as inside)");
+        throw InputError(path, "not a label map: value " + std::to_string(x) + " is not a label (0 .. 2^32 - 1; use " +
+                                   option_given("--input", "masks") + " for any non-zero voxel as inside)");
   const auto& occ = scan.occupied[std::size_t(a)];
   for (int t = 0; t < int(occ.size()); ++t)
     if (occ[std::size_t(t)]) out.annotated.push_back(t);

@@ -71,6 +71,12 @@ struct LabelMasks {
 /// its pixels (the same masks as slice_masks() of each label in turn).
 std::vector<LabelMasks> label_masks(const Grid2u32& image);
 
+/// Over `box` of a label image: inside the labels' union, how much farther its
+/// edge is than the edge of the pixel's own label (exact distances to the
+/// edges halfway between pixel centres), else 0. Zero wherever a label meets
+/// only the background; the union's field is its labels' plus this.
+Grid2f union_healing(const Grid2u32& image, const PixelBox& box);
+
 /// Bounding box of a slice's inside and contour pixels; empty if m.empty.
 PixelBox mask_bounds(const SliceMasks& m);
 
