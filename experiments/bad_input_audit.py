@@ -148,18 +148,24 @@ SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
 def listing(d):
-    return {os.path.relpath(os.path.join(r, f), d) for r, _, fs in os.walk(d) for f in fs}
+    """Files and folders (with a trailing '/') under d."""
+    out = set()
+    for r, ds, fs in os.walk(d):
+        out |= {os.path.relpath(os.path.join(r, f), d) for f in fs}
+        out |= {os.path.relpath(os.path.join(r, x), d) + "/" for x in ds}
+    return out
 
 
-def run_case(cli, name, setup, timeout):
+def run_case(cli, name, setup, timeout, quiet=True, output="m.ply"):
+    """setup(d, cli) -> the arguments after "reconstruct"; `output` (relative to d) is -o unless None."""
     d = tempfile.mkdtemp(prefix="audit_")
     try:
         sig = next((s for s in SIGNALS if name.startswith(s)), None)
         args = setup(d, cli)
         before = listing(d)
-        out = os.path.join(d, "m.ply")
+        out = ["-o", os.path.join(d, output)] if output else []
         cmd = ["/usr/bin/time", "-f", "%e %M", "-o", os.path.join(d, ".time"), "prlimit", "--as=%d" % MEMORY_LIMIT,
-               "timeout", str(timeout), cli, "reconstruct"] + args + ["-o", out, "-q"]
+               "timeout", str(timeout), cli, "reconstruct"] + args + out + (["-q"] if quiet else [])
         p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace")
         if sig:
             time.sleep(2.0)
@@ -170,7 +176,7 @@ def run_case(cli, name, setup, timeout):
         left = sorted(listing(d) - before - {".time"})
         lines = [l for l in err.strip().splitlines()
                  if l and not l.startswith("Command ") and not l.startswith("Run with --help")]
-        msg = lines[0] if lines else ""
+        msg = next((l for l in lines if "error" in l or "warning" in l), lines[0] if lines else "").replace(d + "/", "")
         code = p.returncode
         if code == 124:
             msg = "(timeout %d s) " % timeout + msg
@@ -210,14 +216,27 @@ def cell(r):
     return "%d | %.2f | %.0f | %s%s" % (r["code"], r["s"], r["mib"], msg, left)
 
 
-def main():
+def write_atomic(path, text):
+    """The table, whole or not at all (an interrupted audit leaves the last one)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def audit_arguments():
+    """The audits' shared command line: the table out, the CLI, an older CLI to compare."""
     ap = argparse.ArgumentParser()
     ap.add_argument("out")
     ap.add_argument("cli")
     ap.add_argument("before", nargs="?")
     ap.add_argument("--timeout", type=int, default=60)
     ap.add_argument("--only", default="")
-    a = ap.parse_args()
+    return ap
+
+
+def main():
+    a = audit_arguments().parse_args()
     all_cases = {**cases(), **signal_cases()}
     names = [n for n in all_cases if not a.only or n in a.only.split(",")]
     rows = []
@@ -233,10 +252,7 @@ def main():
     head = "| case | " + ("before: exit | s | MiB | message | " if a.before else "") + "after: exit | s | MiB | message |\n"
     head += "|---" * (1 + (8 if a.before else 4)) + "|\n"
     body = "".join("| %s | %s%s |\n" % (n, (cell(b) + " | ") if b else "", cell(r)) for n, b, r in rows)
-    tmp = a.out + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(head + body)
-    os.replace(tmp, a.out)
+    write_atomic(a.out, head + body)
 
 
 if __name__ == "__main__":

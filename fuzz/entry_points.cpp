@@ -44,12 +44,18 @@ void guarded(const std::string& path, F&& f) {
   std::remove(path.c_str());
 }
 
-// A read volume goes on as the CLI takes it: checked, then sliced.
+// A read volume goes on as the CLI takes it: checked, then sliced as masks
+// and as labels (the label checks and warnings).
 void slice_volume(const Volume& v, const std::string& path) {
   detail::check_finite_voxels(v, path);
   VolumeSlicing s;
   s.kind = InputKind::Masks;
   (void)volume_stack(v, s, path);
+  s.kind = InputKind::Labels;
+  try {
+    (void)volume_stack(v, s, path);
+  } catch (const Error&) {  // not a label map: the masks above were the test
+  }
 }
 
 void png(const std::uint8_t* d, std::size_t n) {

@@ -62,6 +62,13 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--max-output", r_.max_output,
                 "Output budget (e.g. 4G; 0 = no limit): the run stops before the work if the estimated files (mesh, "
                 "--volume, --labelmap, --dump-stages) are larger (default 4G)");
+  R->add_option("--max-files", r_.max_files,
+                "Most files a run may write (0 = no limit): one mesh per label or ROI, volumes, label map, report; "
+                "the run stops before the work if it would write more")
+      ->check(CLI::NonNegativeNumber);
+  R->add_flag("--allow-external-data", r_.allow_external_data,
+              "Volumes: read a data file that a NRRD or MetaImage header names outside the header's folder (refused "
+              "by default: a header must not reach files you did not name)");
   R->add_flag("--allow-empty", r_.allow_empty, "Write a surface with no triangles instead of failing on it");
   R->add_flag("-q,--quiet", r_.quiet, "No progress display and no warnings on stderr");
   param_flags_.add_to(*R);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "isoloft/pipeline.h"
+#include "isoloft/run/budget.h"
 
 namespace isoloft::cli {
 
@@ -28,7 +29,9 @@ struct ReconstructArgs {
   std::string labelmap;            ///< volumes: the dense label map out
   int threads = 0;
   std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output)
+  long max_files = kDefaultMaxFiles;                  ///< --max-files (0 = no limit)
   bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
+  bool allow_external_data = false;                  ///< --allow-external-data
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
 

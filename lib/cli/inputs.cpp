@@ -43,6 +43,7 @@ InputRequest input_request(const ReconstructArgs& a) {
   r.rois = a.rois;
   if (a.voxel_size_opt->count()) r.voxel_size = a.voxel_size;
   r.space = a.space;
+  r.allow_external_data = a.allow_external_data;
   return r;
 }
 

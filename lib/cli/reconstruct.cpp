@@ -134,7 +134,7 @@ int Commands::reconstruct() {
   const auto t_start = Clock::now();
   const ReconstructArgs& o = r_;
   RunOptions run;
-  run.budget = {parse_size(o.max_memory, "--max-memory"), parse_size(o.max_output, "--max-output")};
+  run.budget = {parse_size(o.max_memory, "--max-memory"), parse_size(o.max_output, "--max-output"), o.max_files};
 
   // Parameters: the method's defaults < --params file < flags; the method
   // from --method, else the file's, else the default.

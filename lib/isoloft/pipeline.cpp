@@ -986,7 +986,8 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
     if (h.sample) {
       for (std::size_t l = 0; l < labels; ++l) run.options.on_sample(objects[l].obj.label, psi[l], boxes[l], h.z);
     } else {
-      run.progress("interpolate+mesh", ++done, count);
+      ++done;  // every label's planes advance together
+      for (std::size_t l = 0; l < labels; ++l) objects[l].run.progress("interpolate+mesh", done, count);
     }
   }
   for (std::size_t l = 0; l < labels; ++l) streams[l]->finish(meshers[l]->finish(), seconds[l]);

@@ -14,6 +14,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/io/atomic_file.h"
 
 namespace isoloft {
 
@@ -32,13 +33,57 @@ std::string object_text(const Job& job, const WorkEstimate& e) {
   return what.str();
 }
 
-// Before any work: the outputs' own checks, the labels, and the input's
-// footprint through the contour stage.
+// The objects the run will make, before any work: each label in a label
+// input's slices (those asked for), else one per job.
+std::vector<PlannedObject> planned_objects(const Inputs& in, const std::vector<std::uint32_t>& asked) {
+  std::vector<PlannedObject> out;
+  if (!in.labels()) {
+    for (std::size_t j = 0; j < in.jobs.size(); ++j) out.push_back({j, 0});
+    return out;
+  }
+  std::vector<std::uint32_t> seen;
+  for (const Slice& s : in.first().slices) {
+    std::uint32_t last = 0;  // labels come in runs: most pixels repeat their neighbour
+    for (const std::uint32_t v : s.image.data)
+      if (v != 0 && v != last) seen.push_back(last = v);
+    std::sort(seen.begin(), seen.end());
+    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+  }
+  for (const std::uint32_t l : seen)
+    if (asked.empty() || std::find(asked.begin(), asked.end(), l) != asked.end()) out.push_back({0, l});
+  return out;
+}
+
+// Before any work: how many files the run writes, and that no two writers
+// share one (ROI names that meet once made file-safe, one path given twice).
+void check_planned_files(const Inputs& in, const RunOptions& o) {
+  const std::vector<PlannedObject> objects = planned_objects(in, o.labels);
+  std::vector<PlannedFile> files;
+  for (const auto& out : o.outputs)
+    for (PlannedFile& f : out->planned_files(in, objects)) files.push_back(std::move(f));
+  if (!o.report_path.empty()) files.push_back({o.report_path, option_name("--report")});
+  if (o.budget.max_files > 0 && long(files.size()) > o.budget.max_files)
+    throw ParamError(option_name("--max-files") + ": the run would write " + std::to_string(files.size()) +
+                     " files (" + std::to_string(objects.size()) + (in.labels() ? " labels" : " objects") +
+                     "), over the limit of " + std::to_string(o.budget.max_files) + "; select labels with " +
+                     option_name("--labels") + " or raise " + option_name("--max-files") + " (0 = no limit)");
+  std::map<std::string, const PlannedFile*> by_key;
+  for (const PlannedFile& f : files) {
+    const auto [it, fresh] = by_key.emplace(output_key(f.path), &f);
+    if (!fresh)
+      throw ParamError(f.path + ": " + it->second->what + " and " + f.what +
+                       " would both be written to this file; give them different names");
+  }
+}
+
+// Before any work: the outputs' own checks, the files they will write, the
+// labels, and the input's footprint through the contour stage.
 void check_run(const Inputs& in, const ReconstructParams& params, const RunOptions& o) {
   for (const auto& out : o.outputs) {
     out->check_format(in.format);
     out->check(in, params);
   }
+  check_planned_files(in, o);
   const SliceStack& st = in.first();
   check_budget(option_name("--max-memory"),
                "the contour stage of " + std::to_string(st.slices.size()) + " slices of " + std::to_string(st.width) +
@@ -158,9 +203,17 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   };
   // Per object, after its contour stage and before its fit: memory and files against the budget.
   const double in_bytes = input_bytes(in);
+  double held_mesh_bytes = 0;  // the meshes of the objects before this one: held until written
+  std::mutex held_mutex;
   auto check_object = [&](const Job& job, const WorkEstimate& e) {
     const std::string what = object_text(job, e);
     check_budget(option_name("--max-memory"), what, in_bytes + e.field_bytes + e.mesh_bytes, o.budget.max_memory);
+    {
+      std::lock_guard lock(held_mutex);
+      held_mesh_bytes += e.mesh_bytes;
+      check_budget(option_name("--max-memory"), "the meshes held up to " + what, in_bytes + held_mesh_bytes,
+                   o.budget.max_memory);
+    }
     double bytes = 0;
     std::string note;
     for (const auto& out : o.outputs) bytes += out->file_bytes(in, e), note += out->budget_note();

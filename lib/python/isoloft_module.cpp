@@ -327,7 +327,7 @@ PyInput from_volume(const py::array_t<float, py::array::c_style | py::array::for
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
                    const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
-                   const std::string& max_memory) {
+                   const std::string& max_memory, bool allow_external_data) {
   InputRequest r;
   r.paths = paths;
   r.kind = kind;
@@ -339,6 +339,7 @@ PyInput read_input(const std::vector<std::string>& paths, const std::string& kin
   r.voxel_size = voxel_size;
   r.space = space;
   r.max_memory = parse_size(max_memory, "max_memory");
+  r.allow_external_data = allow_external_data;
   if (paths.empty()) throw ParamError("path: no input given");
   const auto t0 = Clock::now();
   auto in = std::make_shared<Inputs>();
@@ -426,7 +427,7 @@ struct PyOutputs {
 
 PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<std::uint32_t>& labels,
              std::optional<int> threads, const py::object& progress, bool allow_empty, const PyOutputs& files,
-             const std::string& max_memory, const std::string& max_output) {
+             const std::string& max_memory, const std::string& max_output, long max_files) {
   const InputsPtr in = input.in;
   ReconstructParams params = params_from_json(to_json(params_kw, ""));
   if (threads && *threads < 1) throw ParamError("threads: must be >= 1, got " + std::to_string(*threads));
@@ -434,7 +435,8 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
     if (l == 0) throw ParamError("labels: 0 is the background, not a label");
   RunOptions o;
   o.labels = labels;
-  o.budget = {parse_size(max_memory, "max_memory"), parse_size(max_output, "max_output")};
+  if (max_files < 0) throw ParamError("max_files: must be >= 0 (0 = no limit), got " + std::to_string(max_files));
+  o.budget = {parse_size(max_memory, "max_memory"), parse_size(max_output, "max_output"), max_files};
   if (!files.volume.empty()) o.outputs.push_back(std::make_unique<VolumeOutput>(files.volume));
   if (!files.labelmap.empty()) o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
   if (!files.dump_stages.empty()) o.outputs.push_back(std::make_unique<StageDumpOutput>(files.dump_stages));
@@ -735,18 +737,20 @@ PYBIND11_MODULE(_isoloft, m) {
         py::arg("pixel_size"), py::arg("image_shape"), py::arg("binarize"));
   m.def("_from_volume", &from_volume, py::arg("data"), py::arg("spacing"), py::arg("origin"), py::arg("direction"),
         py::arg("integer"), py::arg("name"), py::arg("kind"), py::arg("axis"), py::arg("space"));
+  m.attr("_DEFAULT_MAX_FILES") = kDefaultMaxFiles;
   m.def("_read", &read_input, py::arg("paths"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"),
-        py::arg("max_memory"));
+        py::arg("max_memory"), py::arg("allow_external_data"));
   m.def("_reconstruct", [](const PyInput& input, const py::dict& params, const std::vector<std::uint32_t>& labels,
                            std::optional<int> threads, const py::object& progress, bool allow_empty,
                            const std::string& volume, const std::string& labelmap, const std::string& dump_stages,
-                           const std::string& report, const std::string& max_memory, const std::string& max_output) {
+                           const std::string& report, const std::string& max_memory, const std::string& max_output,
+                           long max_files) {
           return run(input, params, labels, threads, progress, allow_empty, {volume, labelmap, dump_stages, report},
-                     max_memory, max_output);
+                     max_memory, max_output, max_files);
         }, py::arg("input"), py::arg("params"), py::arg("labels"), py::arg("threads"), py::arg("progress"),
         py::arg("allow_empty"), py::arg("volume"), py::arg("labelmap"), py::arg("dump_stages"), py::arg("report"),
-        py::arg("max_memory"), py::arg("max_output"));
+        py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"));
   m.def("_synth", &synth, py::arg("shape"), py::arg("size"), py::arg("z_spacing"), py::arg("kind"));
   m.def("_evaluate", &evaluate, py::arg("mesh"), py::arg("truth"), py::arg("pixel_size"));
   m.def("shapes", &shape_names, "the analytic shapes isoloft.synth() makes");

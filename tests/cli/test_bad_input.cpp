@@ -1,7 +1,10 @@
-// The bad-input matrix of issue 17: every input fails fast with a one-line
-// error naming the flag, file or line and the problem, exit 1 (2 for a usage
-// error), and leaves no file behind; runs ended by SIGINT, SIGTERM or SIGHUP
-// leave no temp file; stale temps of killed runs are never input.
+// The bad-input matrix of issues 17 and 27: every input fails fast with a
+// one-line error naming the flag, file or line and the problem, exit 1 (2 for
+// a usage error), and leaves no file behind; runs ended by SIGINT, SIGTERM or
+// SIGHUP leave no temp file; stale temps of killed runs are never input.
+// Hostile files (issue 27): no hang (FIFOs, devices, teem's ZRL reader), no
+// file read from outside the header's folder, no silent wrong result (exact
+// labels, checksums, sizes), warnings for legal but suspicious annotations.
 #include <gtest/gtest.h>
 #include <zlib.h>
 #include <signal.h>
@@ -18,9 +21,13 @@
 #include <sstream>
 #include <thread>
 
+#include <nifti2_io.h>
+#include <sys/stat.h>
+
 #include "cli/cli_test_util.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
+#include "isoloft/io/volume.h"
 
 using namespace isoloft;
 using isoloft::test::Cli;
@@ -302,6 +309,245 @@ TEST_F(BadInput, SigintSigtermAndSighupRemoveEveryTempFile) {
     fs::create_directories(d);
     expect_signal_cleans_up(d, s, sig);
   }
+}
+
+// ---------------------------------------------------------------- issue 27
+
+// Label 3 (a ball) and label 7 (a box) drawn on every 3rd axial slice of a
+// 24 x 24 x 13 volume, 1 mm voxels.
+Volume small_labels() {
+  Volume v;
+  v.nx = 24, v.ny = 24, v.nz = 13;
+  v.integer = true;
+  v.data.assign(std::size_t(v.nx) * v.ny * v.nz, 0.0f);
+  for (int k = 0; k < v.nz; k += 3)
+    for (int j = 0; j < v.ny; ++j)
+      for (int i = 0; i < v.nx; ++i) {
+        if (std::hypot(i - 8.0, j - 12.0) < 6.0 - std::abs(k - 6.0) / 2) v.data[v.index(i, j, k)] = 3;
+        if (i > 16 && i < 22 && j > 6 && j < 18 && k > 0 && k < 12) v.data[v.index(i, j, k)] = 7;
+      }
+  return v;
+}
+
+std::string uchar_bytes(const Volume& v) {
+  std::string out;
+  for (const float x : v.data) out += char(std::uint8_t(x));
+  return out;
+}
+
+std::string nrrd_header(int nx, int ny, int nz, const std::string& encoding, const std::string& extra = "") {
+  return "NRRD0004\ntype: uchar\ndimension: 3\nsizes: " + std::to_string(nx) + " " + std::to_string(ny) + " " +
+         std::to_string(nz) + "\nencoding: " + encoding + "\n" + extra;
+}
+
+std::string mhd_header(const Volume& v, const std::string& data_file, const std::string& extra = "") {
+  return "ObjectType = Image\nNDims = 3\nDimSize = " + std::to_string(v.nx) + " " + std::to_string(v.ny) + " " +
+         std::to_string(v.nz) + "\nElementType = MET_UCHAR\n" + extra + "ElementDataFile = " + data_file + "\n";
+}
+
+std::string gzip(const std::string& data) {
+  z_stream z{};
+  deflateInit2(&z, 9, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);
+  std::string out(deflateBound(&z, uLong(data.size())), '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+  z.avail_in = uInt(data.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = uInt(out.size());
+  deflate(&z, Z_FINISH);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Once hung: teem's ZRL reader (32-bit index, short data padded with 255)
+// and a gzip member claiming more than it can hold; teem's reason is its
+// last line; checksums and sizes checked.
+TEST_F(BadInput, HostileVolumeHeadersFailFastNamingTheReason) {
+  const std::string m = " -o " + p("m.ply");
+  text("zrl.nrrd", nrrd_header(2100, 2100, 1000, "zrl") + "\n" + std::string("\x01\x02\x03\x04", 4));
+  expect_error("reconstruct " + p("zrl.nrrd") + m, 1, "zrl.nrrd: 4 bytes of zrl data cannot hold the 4410000000 bytes");
+  // 8 x 8 x 2 = 128 bytes declared; a run of 63 zeros and a 1 encode 64.
+  text("short.nrrd", nrrd_header(8, 8, 2, "zrl") + "\n" + std::string("\x00\x3f\x01", 3));
+  expect_error("reconstruct " + p("short.nrrd") + m, 1, "ZRL data run short: they decode to 64 of the 128 bytes");
+  text("bomb.nrrd", nrrd_header(2000, 2000, 2000, "gzip") + "\n" + gzip(std::string(1000, '\0')));
+  expect_error("reconstruct " + p("bomb.nrrd") + m + " --max-memory 100M", 1,
+               "bytes of gzip data cannot hold the 8000000000 bytes the header declares");
+  text("bad.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 four 2\nencoding: raw\n\n");
+  expect_error("reconstruct " + p("bad.nrrd") + m, 1, "not a readable NRRD: axis 1 size is zero");
+  // One flipped byte of a .nii.gz: its checksum (the last 8 bytes hold CRC and length).
+  write_volume(p("v.nii.gz"), small_labels());
+  std::string gz = slurp(p("v.nii.gz"));
+  gz[gz.size() - 6] ^= 0x10;
+  text("v.nii.gz", gz);
+  expect_error("reconstruct " + p("v.nii.gz") + m, 1, "v.nii.gz: corrupt gzip data (zlib: incorrect data check)");
+  // NIfTI-2: dim[1] = 2^32 + 64 once read as 64 (a 540-byte header, voxels at 544).
+  {
+    std::string n2(544, '\0');
+    auto put = [&](std::size_t at, auto value) { std::memcpy(&n2[at], &value, sizeof value); };
+    put(0, std::int32_t(540));
+    n2.replace(4, 8, std::string("n+2\0\r\n\x1a\n", 8));
+    put(12, std::int16_t(DT_UINT8));
+    put(14, std::int16_t(8));
+    const std::int64_t dims[8] = {3, (std::int64_t(1) << 32) + 64, 4, 4, 1, 1, 1, 1};
+    for (int d = 0; d < 8; ++d) put(16 + 8 * std::size_t(d), dims[d]);
+    for (int d = 0; d < 8; ++d) put(104 + 8 * std::size_t(d), 1.0);  // pixdim
+    put(168, std::int64_t(544));                                      // vox_offset
+    text("n2.nii", n2 + std::string(64 * 16, '\3'));
+    expect_error("reconstruct " + p("n2.nii") + m, 1, "n2.nii: dim[1] = 4294967360 is beyond the largest size read");
+  }
+  // A .hdr without its .img.
+  write_volume(p("pair.nii"), small_labels());
+  std::string hdr = slurp(p("pair.nii")).substr(0, 348);
+  hdr.replace(344, 4, std::string("ni1\0", 4));
+  text("pair.hdr", hdr);
+  fs::remove(p("pair.nii"));
+  expect_error("reconstruct " + p("pair.hdr") + m, 1, "pair.hdr: its data file pair.img is missing");
+  // MetaImage: a folder as data file, a header line after LOCAL, more data than declared.
+  const Volume v = small_labels();
+  fs::create_directories(p("dir.raw"));
+  text("d.mhd", mhd_header(v, "dir.raw"));
+  expect_error("reconstruct " + p("d.mhd") + m, 1, "d.mhd: data file 'dir.raw' (" + p("dir.raw") + "): is a directory");
+  text("late.mha", mhd_header(v, "LOCAL") + "ElementSpacing = 1 1 2\n" + uchar_bytes(v));
+  expect_error("reconstruct " + p("late.mha") + m, 1,
+               "header line 'ElementSpacing = 1 1 2' after ElementDataFile = LOCAL");
+  text("long.mha", mhd_header(v, "LOCAL") + uchar_bytes(v) + std::string(576, '\0'));
+  expect_error("reconstruct " + p("long.mha") + m, 1, "8064 bytes of voxel data, but DimSize 24 24 13 of MET_UCHAR declares 7488");
+}
+
+// A header names its data file: one outside the header's folder (a path up
+// or absolute, or a link inside pointing out) is not read.
+TEST_F(BadInput, DataFilesOutsideTheHeadersFolderAreNotRead) {
+  const std::string m = " -o " + p("m.ply");
+  const Volume v = small_labels();
+  fs::create_directories(p("hdr"));
+  fs::create_directories(p("secret"));
+  text("secret/v.raw", uchar_bytes(v));
+  const std::string secret = fs::canonical(p("secret/v.raw")).string();
+  text("hdr/up.nhdr", nrrd_header(v.nx, v.ny, v.nz, "raw", "data file: ../secret/v.raw\n"));
+  expect_error("reconstruct " + p("hdr/up.nhdr") + m, 1,
+               "up.nhdr: data file '../secret/v.raw' (" + secret + ") lies outside the header's folder");
+  text("hdr/abs.mhd", mhd_header(v, secret));
+  expect_error("reconstruct " + p("hdr/abs.mhd") + m, 1, "abs.mhd: data file '" + secret + "' (" + secret + ") lies outside");
+  fs::create_symlink(secret, p("hdr/link.raw"));
+  text("hdr/link.mhd", mhd_header(v, "link.raw"));
+  expect_error("reconstruct " + p("hdr/link.mhd") + m, 1, "lies outside the header's folder");
+  text("hdr/stdin.nhdr", nrrd_header(v.nx, v.ny, v.nz, "raw", "data file: -\n"));
+  expect_error("reconstruct " + p("hdr/stdin.nhdr") + m, 1, "data file '-' (standard input) is not read");
+  text("hdr/fmt.nhdr", nrrd_header(v.nx, v.ny, v.nz, "raw", "data file: x%s%d.raw 1 2 1\n"));
+  expect_error("reconstruct " + p("hdr/fmt.nhdr") + m, 1, "expected 'name%d.ext <min> <max> <step>' with one %d");
+  // Inside the folder, a name with a space (MetaIO reads it) and a subfolder are fine.
+  fs::create_directories(p("hdr/data"));
+  text("hdr/data/my data.raw", uchar_bytes(v));
+  text("hdr/in.mhd", mhd_header(v, "data/my data.raw"));
+  const CliRun r = run("reconstruct " + p("hdr/in.mhd") + m + " --method levin");
+  EXPECT_EQ(r.code, 0) << r.err;
+}
+
+// Opening a FIFO blocks until a writer comes; a device may never end.
+TEST_F(BadInput, FifosAndDevicesAreRefusedBeforeTheyAreOpened) {
+  const std::string m = " -o " + p("m.ply");
+  write_circle(p("a.png"));
+  ASSERT_EQ(::mkfifo(p("f.png").c_str(), 0600), 0);
+  expect_error("reconstruct " + p("a.png") + " " + p("f.png") + m, 1, "f.png: is a FIFO (named pipe)");
+  fs::create_directories(p("slices"));
+  write_circle(p("slices/a.png"));
+  write_circle(p("slices/c.png"));
+  ASSERT_EQ(::mkfifo(p("slices/b.png").c_str(), 0600), 0);
+  expect_error("reconstruct " + p("slices") + m, 1, "b.png: is a FIFO (named pipe)");
+  ASSERT_EQ(::mkfifo(p("v.nii.gz").c_str(), 0600), 0);
+  expect_error("reconstruct " + p("v.nii.gz") + m, 1, "v.nii.gz: is a FIFO (named pipe)");
+  ASSERT_EQ(::mkfifo(p("fifo.raw").c_str(), 0600), 0);
+  text("fifo.mhd", mhd_header(small_labels(), "fifo.raw"));
+  expect_error("reconstruct " + p("fifo.mhd") + m, 1, "fifo.mhd: data file 'fifo.raw' (" + p("fifo.raw") + "): is a FIFO");
+  expect_error("reconstruct /dev/zero" + m, 1, "/dev/zero: is a device");
+}
+
+// Once silently wrong (exit 0): int32 labels above 2^24 merged as float32.
+TEST_F(BadInput, Int32LabelsAbove2To24StayApart) {
+  Volume v = small_labels();
+  for (float& x : v.data) x = x == 3 ? 1.0f : x == 7 ? 2.0f : 0.0f;
+  v.value_table = {0, 16777216, 16777217};  // voxels hold indices into it
+  write_volume(p("big.nii.gz"), v);
+  const CliRun r = run("reconstruct " + p("big.nii.gz") + " -o " + p("m.ply") + " --method levin");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(p("m_label16777216.ply"))) << r.err;
+  EXPECT_TRUE(fs::exists(p("m_label16777217.ply"))) << r.err;
+}
+
+// Legal but suspicious annotations: a warning naming the slice and labels.
+TEST_F(BadInput, StrayVoxelsAndLabelsDrawnAlongAnotherAxisWarn) {
+  Volume v = small_labels();
+  v.data[v.index(19, 12, 4)] = 7;  // inside the box's range; slice k = 4 now counts as annotated
+  write_volume(p("stray.nii.gz"), v);
+  const CliRun r = run("reconstruct " + p("stray.nii.gz") + " -o " + p("m.ply") + " --method levin");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("annotated slice k = 4 holds 1 non-zero voxel(s), against 124 and 164 on the annotated slices "
+                       "either side (stray voxels?): label(s) 3 crossing it are cut there"),
+            std::string::npos)
+      << r.err;
+  const CliRun masks = run("reconstruct " + p("stray.nii.gz") + " -o " + p("mask.ply") + " --method levin --input masks");
+  EXPECT_NE(masks.err.find("(stray voxels?): the object is pinched to them there"), std::string::npos) << masks.err;
+  write_volume(p("clean.nii.gz"), small_labels());
+  const CliRun j = run("reconstruct " + p("clean.nii.gz") + " -o " + p("j.ply") + " --method levin --axis j");
+  EXPECT_NE(j.err.find("label(s) 3, 7: drawn on slices along k (5 of the 13 slices from k = 0 hold it), but the volume "
+                       "is sliced along j"),
+            std::string::npos)
+      << j.err;
+  const CliRun k = run("reconstruct " + p("clean.nii.gz") + " -o " + p("k.ply") + " --method levin");
+  EXPECT_EQ(k.code, 0) << k.err;
+  EXPECT_EQ(k.err.find("warning"), std::string::npos) << k.err;
+}
+
+// Errors that once did not say why, or failed for no reason.
+TEST_F(BadInput, NanPointsBrokenLinksAndLongOutputNames) {
+  text("nan.txt", "isoloft-polylines 1\nsize 64 64\nslice 0\ncontour\n10 10\nnan 3\n20 20\n");
+  expect_error("reconstruct " + p("nan.txt") + " -o " + p("m.ply"), 1, "nan.txt:6: point (nan, 3) is not finite");
+  fs::create_directories(p("s"));
+  for (const char* n : {"b.png", "c.png"}) write_circle(p(std::string("s/") + n));
+  fs::create_symlink(p("s/gone.png"), p("s/a.png"));  // sorts first: once skipped silently
+  expect_error("reconstruct " + p("s") + " -o " + p("m.ply"), 1, "a.png: broken symbolic link");
+  // 244 bytes is a valid name; its hidden staged name is shortened, not refused.
+  fs::remove(p("s/a.png"));
+  const std::string name = std::string(240, 'n') + ".ply";
+  const CliRun r = run("reconstruct " + p("s") + " -o " + p(name) + " --method levin");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(p(name)));
+}
+
+// One file by two names is one output; a failed run takes back the folders it made.
+TEST_F(BadInput, OneFileByTwoNamesAndNoFoldersLeftByAFailedRun) {
+  write_volume(p("v.nii.gz"), small_labels());
+  fs::create_directories(p("out"));
+  expect_error("reconstruct " + p("v.nii.gz") + " -o " + p("out/m.ply") + " --method levin --input masks --volume " +
+                   p("out/x.nrrd") + " --labelmap " + dir_.string() + "/./out/x.nrrd",
+               1, "x.nrrd: --volume of the object and --labelmap would both be written to this file");
+  fs::create_directories(p("m.ply"));  // the mesh's final path is a folder: the run fails at its end
+  expect_error("reconstruct " + p("v.nii.gz") + " -o " + p("m.ply") + " --method levin --labels 3 --volume " + p("new/sub/v.nrrd"), 1,
+               "m.ply: is a directory");
+  EXPECT_FALSE(fs::exists(p("new")));
+}
+
+// The files a run will write are counted before the work (a label map of
+// 65,535 labels once wrote 65,537 files over minutes): over --max-files is an
+// error naming the count, and nothing is written.
+TEST_F(BadInput, TooManyFilesStopTheRunBeforeTheWork) {
+  write_volume(p("v.nii.gz"), small_labels());
+  const CliRun all = run("reconstruct " + p("v.nii.gz") + " -o " + p("all/m.ply") + " --method levin");
+  ASSERT_EQ(all.code, 0) << all.err;
+  const auto meshes = std::distance(fs::directory_iterator(p("all")), fs::directory_iterator{});
+  ASSERT_GT(meshes, 2) << "small_labels() should give several label meshes and the combined one";
+  expect_error("reconstruct " + p("v.nii.gz") + " -o " + p("out/m.ply") + " --method levin --max-files " +
+                   std::to_string(meshes - 1),
+               1, "--max-files: the run would write " + std::to_string(meshes) + " files");
+  EXPECT_FALSE(fs::exists(p("out")));
+  const CliRun exact = run("reconstruct " + p("v.nii.gz") + " -o " + p("ok/m.ply") + " --method levin --max-files " +
+                           std::to_string(meshes));
+  EXPECT_EQ(exact.code, 0) << exact.err;
 }
 
 }  // namespace

@@ -108,6 +108,39 @@ TEST(MetaImage, RawTypesByteOrderAndHeaderSize) {
   EXPECT_EQ(read_metaimage(dir.file("c.mhd")).data, (std::vector<float>{1, 2}));
 }
 
+// MetaIO's text form (BinaryData = False) reads as its binary twin, values
+// checked against the ElementType; MET_INT labels beyond 2^24 stay exact.
+TEST(MetaImage, AsciiDataAndExactLargeLabels) {
+  TempDir dir;
+  const std::string head = "NDims = 3\nDimSize = 3 2 1\nElementType = MET_SHORT\nBinaryData = False\n";
+  isoloft::test::write_text(dir.file("a.mha"), head + "ElementDataFile = LOCAL\n-5 1000\n3\t-1 0 7\n");
+  EXPECT_EQ(read_metaimage(dir.file("a.mha")).data, (std::vector<float>{-5, 1000, 3, -1, 0, 7}));
+  isoloft::test::write_text(dir.file("t.txt"), "1 2 3 4 5 6");
+  isoloft::test::write_text(dir.file("t.mhd"), head + "ElementDataFile = t.txt\n");
+  EXPECT_EQ(read_metaimage(dir.file("t.mhd")).data, (std::vector<float>{1, 2, 3, 4, 5, 6}));
+  auto expect_error = [&](const std::string& data, const std::string& words) {
+    isoloft::test::write_text(dir.file("e.mha"), head + "ElementDataFile = LOCAL\n" + data);
+    try {
+      (void)read_metaimage(dir.file("e.mha"));
+      ADD_FAILURE() << "accepted " << data;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  expect_error("1 2 3 4     5", "ASCII data end after 5 of 6 samples");
+  expect_error("1 2 3 4 5 6 7", "ASCII data hold more than the 6 samples");
+  expect_error("1 2 3 40000 5 6", "ASCII sample 3 '40000' is not a valid value");
+  expect_error("1 2 x 4 5 6", "ASCII sample 2 'x'");
+
+  std::string ints = "NDims = 3\nDimSize = 4 1 1\nElementType = MET_INT\nElementDataFile = LOCAL\n";
+  for (std::int32_t x : {0, 16777216, 16777217, 16777216}) ints.append(reinterpret_cast<const char*>(&x), 4);
+  isoloft::test::write_text(dir.file("i.mha"), ints);
+  const Volume v = read_metaimage(dir.file("i.mha"));
+  ASSERT_EQ(v.value_table, (std::vector<std::int64_t>{0, 16777216, 16777217}));
+  EXPECT_EQ(v.data, (std::vector<float>{0, 1, 2, 1}));
+  EXPECT_EQ(v.value(2), 16777217.0);
+}
+
 TEST(MetaImage, BadFilesThrowInputError) {
   TempDir dir;
   const std::string head = "NDims = 3\nDimSize = 4 4 4\n";

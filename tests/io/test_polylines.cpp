@@ -141,7 +141,7 @@ TEST(Polylines, EachErrorNamesFileAndLine) {
   expect_error(p, head + "slice 0\ncontour\n1 2\n3\n", 6, "expected two numbers");
   expect_error(p, head + "slice 0\ncontour\n1 2 3\n", 5, "expected two numbers");
   expect_error(p, head + "slice 0\ncontour\n1 two\n", 5, "expected two numbers");
-  expect_error(p, head + "slice 0\ncontour\n1 inf\n", 5, "expected two numbers");
+  expect_error(p, head + "slice 0\ncontour\n1 inf\n", 5, "point (1, inf) is not finite");
   expect_error(p, head + "slice 0\ncontour\n1 1\n2 2\nslice 1\n", 4, "contour with 2 distinct points");
   expect_error(p, head + "slice 0\ncontour\n1 1\n2 2\n1 1\n", 4, "contour with 2 distinct points");
   expect_error(p, head + "slice 0\ncontour\n1 1\n2 2\n3 1\ncontour\n", 8, "contour with 0 distinct points");

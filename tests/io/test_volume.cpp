@@ -117,6 +117,31 @@ TEST(Volume, EveryFormatRoundTripsValuesAndGeometry) {
   for (const auto& e : dir.entries()) EXPECT_NE(e.front(), '.') << "temp file left: " << e;
 }
 
+// Labels beyond 2^24 (a float's exact integers) through every writer and
+// reader: the same values, table and voxels; uint32 beyond int32 too.
+TEST(Volume, LabelsBeyond2To24RoundTripExactly) {
+  TempDir dir;
+  Volume v = labels_volume(40, 30, 9, 2);  // labels 3 and 7
+  for (float& x : v.data) x = x == 3 ? 1.0f : x == 7 ? 2.0f : 0.0f;
+  for (const std::vector<std::int64_t>& table : {std::vector<std::int64_t>{0, 16777216, 16777217},
+                                                  std::vector<std::int64_t>{0, 16777217, 4294967295LL}}) {
+    v.value_table = table;
+    for (const char* name : {"v.nii.gz", "v.nrrd", "v.mha"}) {
+      write_volume(dir.file(name), v);
+      const Volume back = read_volume(dir.file(name));
+      EXPECT_EQ(back.value_table, v.value_table) << name;
+      expect_same_volume(back, v, name);
+      const VolumeStack vs = volume_stack(back, {}, name);
+      std::vector<std::uint32_t> seen;
+      for (const Slice& s : vs.stack.slices)
+        for (const std::uint32_t x : s.image.data)
+          if (x && std::find(seen.begin(), seen.end(), x) == seen.end()) seen.push_back(x);
+      std::sort(seen.begin(), seen.end());
+      EXPECT_EQ(seen, (std::vector<std::uint32_t>{std::uint32_t(table[1]), std::uint32_t(table[2])})) << name;
+    }
+  }
+}
+
 // NIfTI's RAS against the patient LPS of isoloft, from niftilib's own matrix.
 TEST(Volume, NiftiAffineIsPatientLpsOfItsSform) {
   TempDir dir;

@@ -1,15 +1,20 @@
 #include "isoloft/io/atomic_file.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <system_error>
@@ -35,13 +40,32 @@ namespace {
 // counter make it unique among concurrent writers in this and other
 // processes; the extension is kept (tools choose the format by it), both
 // parts of a compressed one (.nii.gz).
+std::string extension_of(const fs::path& p) {
+  std::string ext = p.extension().string();
+  if (ext == ".gz" || ext == ".bz2") ext = p.stem().extension().string() + ext;
+  return ext;
+}
+
+// The <name> part: the file name, or, where the hidden name would pass the
+// 255-byte limit of a file name (NAME_MAX), its start plus a hash of the
+// whole name. Deterministic, so the sweep of stale temps finds it again.
+std::string hidden_stem(const fs::path& p) {
+  constexpr std::size_t kNameMax = 255;
+  // ".", then ".<tag:3><pid:10>-<counter:20>" and the extension.
+  constexpr std::size_t kSuffix = 1 + 1 + 3 + 10 + 1 + 20;
+  const std::string name = p.filename().string(), ext = extension_of(p);
+  const std::size_t room = kNameMax > kSuffix + ext.size() + 16 ? kNameMax - kSuffix - ext.size() : 16;
+  if (name.size() <= room) return name;
+  char hash[17];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(std::hash<std::string>{}(name)));
+  return name.substr(0, room - 17) + "~" + hash;
+}
+
 std::string hidden_sibling(const std::string& path, const char* tag) {
   static std::atomic<unsigned long> counter{0};
   const fs::path p(path);
-  std::string ext = p.extension().string();
-  if (ext == ".gz" || ext == ".bz2") ext = p.stem().extension().string() + ext;
-  const std::string name = "." + p.filename().string() + "." + tag + std::to_string(::getpid()) + "-" +
-                           std::to_string(counter.fetch_add(1)) + ext;
+  const std::string name = "." + hidden_stem(p) + "." + tag + std::to_string(::getpid()) + "-" +
+                           std::to_string(counter.fetch_add(1)) + extension_of(p);
   return (p.parent_path() / name).string();
 }
 
@@ -113,7 +137,7 @@ std::size_t remove_stale_temp_files(const std::string& final_path) noexcept {
   try {
     const fs::path p(final_path);
     const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-    const std::string name = p.filename().string();
+    const std::string name = hidden_stem(p);
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::string f = e.path().filename().string();
@@ -157,11 +181,35 @@ void AtomicFile::commit() {
 
 OutputSet::~OutputSet() { discard(); }
 
+std::string output_key(const std::string& path) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  return ec ? fs::absolute(path).lexically_normal().string() : p.string();
+}
+
+void OutputSet::create_directories(const std::string& dir) {
+  if (dir.empty()) return;
+  // The missing ancestors, outermost first: what this run creates.
+  std::vector<fs::path> missing;
+  std::error_code ec;
+  for (fs::path d = fs::path(dir); !d.empty() && !fs::exists(d, ec); d = d.parent_path()) {
+    missing.insert(missing.begin(), d);
+    if (d == d.parent_path()) break;
+  }
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw Error(dir + ": cannot create output directory" + (ec ? " (" + ec.message() + ")" : ""));
+  for (const auto& d : missing) created_dirs_.push_back(d.string());
+}
+
 std::string OutputSet::stage(const std::string& final_path) {
   if (final_path.empty()) throw Error("output path is empty");
+  create_directories(fs::path(final_path).parent_path().string());
+  const std::string key = output_key(final_path);
   for (const auto& f : files_)
-    if (f.final_path == final_path) throw Error(final_path + ": the run writes this file twice");
-  ensure_parent_dir(final_path);
+    if (f.key == key)
+      throw Error(final_path + ": the run writes this file twice" +
+                  (f.final_path == final_path ? "" : " (also as " + f.final_path + ")"));
   {
     // Leftovers of killed runs, once per directory and process.
     static std::mutex m;
@@ -169,10 +217,59 @@ std::string OutputSet::stage(const std::string& final_path) {
     const std::lock_guard lock(m);
     if (swept.insert(fs::path(final_path).parent_path().string()).second) remove_stale_temp_files(final_path);
   }
-  File f{final_path, hidden_sibling(final_path, "run"), -1};
+  File f{final_path, hidden_sibling(final_path, "run"), key, -1};
   f.slot = register_temp(f.staged);
   files_.push_back(std::move(f));
   return files_.back().staged;
+}
+
+void OutputSet::lock(const std::string& output) {
+  if (lock_fd_ >= 0) return;
+  const fs::path p(output);
+  create_directories(p.parent_path().string());
+  const std::string path = (p.parent_path() / ("." + hidden_stem(p) + ".lock")).string();
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+    if (fd < 0) throw Error(path + ": cannot create the lock file of " + output + " (" + std::strerror(errno) + ")");
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      const int err = errno;
+      if (err == EWOULDBLOCK) {
+        char pid[32] = {};
+        const ssize_t n = ::pread(fd, pid, sizeof pid - 1, 0);
+        ::close(fd);
+        const std::string who = n > 0 ? " (pid " + std::string(pid, std::size_t(n)) + ")" : "";
+        throw Error(output + ": another isoloft run" + who + " is writing this output (it holds " + path +
+                    "): wait for it to end, or give another output name");
+      }
+      ::close(fd);
+      if (err == ENOLCK || err == EOPNOTSUPP || err == ENOSYS) return;  // no locks here: unlocked, as before
+      throw Error(path + ": cannot lock (" + std::strerror(err) + ")");
+    }
+    // The holder before us may have removed the file after we opened it:
+    // ours must still be the file at `path`, or we lock a ghost.
+    struct stat mine {}, there {};
+    if (::fstat(fd, &mine) != 0 || ::stat(path.c_str(), &there) != 0 || mine.st_ino != there.st_ino ||
+        mine.st_dev != there.st_dev) {
+      ::close(fd);
+      continue;
+    }
+    const std::string pid = std::to_string(::getpid());
+    if (::ftruncate(fd, 0) != 0 || ::pwrite(fd, pid.data(), pid.size(), 0) != ssize_t(pid.size())) {
+    }  // the pid is for the message only
+    lock_fd_ = fd;
+    lock_path_ = path;
+    lock_slot_ = register_temp(path);
+    return;
+  }
+  throw Error(path + ": cannot lock (the file keeps changing)");
+}
+
+void OutputSet::unlock() noexcept {
+  if (lock_fd_ < 0) return;
+  ::unlink(lock_path_.c_str());  // while still held: the next run makes a new one
+  ::close(lock_fd_);
+  lock_fd_ = -1;
+  unregister_temp(lock_slot_);
 }
 
 void OutputSet::commit() {
@@ -199,6 +296,8 @@ void OutputSet::commit() {
     unregister_temp(f.slot);
   }
   files_.clear();
+  created_dirs_.clear();
+  unlock();
 }
 
 void OutputSet::discard() noexcept {
@@ -208,6 +307,13 @@ void OutputSet::discard() noexcept {
     unregister_temp(f.slot);
   }
   files_.clear();
+  unlock();
+  // Deepest first; fs::remove leaves a directory that is not empty.
+  for (auto d = created_dirs_.rbegin(); d != created_dirs_.rend(); ++d) {
+    std::error_code ec;
+    fs::remove(*d, ec);
+  }
+  created_dirs_.clear();
 }
 
 std::vector<std::string> OutputSet::staged() const {

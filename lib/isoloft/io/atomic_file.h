@@ -16,6 +16,10 @@ namespace isoloft {
 /// Creates the parent directories of path. \throw Error naming the directory.
 void ensure_parent_dir(const std::string& path);
 
+/// One file, one key: `path` absolute, with "." and ".." and symbolic links
+/// resolved as far as it exists ("out/x.nrrd" and "./out/x.nrrd" meet).
+[[nodiscard]] std::string output_key(const std::string& path);
+
 /// `AtomicFile f(out); write(f.temp_path()); f.commit();`: the destructor
 /// removes the temp file unless committed.
 class AtomicFile {
@@ -58,9 +62,10 @@ std::size_t remove_stale_temp_files(const std::string& final_path) noexcept;
 
 /// The outputs of one run, appearing together or not at all: each is written
 /// (atomically) to a hidden staged sibling, and commit() renames them all into
-/// place at the end; destroying the set uncommitted removes the staged files.
-/// Staged names keep the extension (a writer may pick its format by it) and
-/// start with '.', so a killed run's leftovers are never taken for input.
+/// place at the end; destroying the set uncommitted removes the staged files
+/// and the directories it created (when empty). Staged names keep the
+/// extension (a writer may pick its format by it) and start with '.', so a
+/// killed run's leftovers are never taken for input.
 class OutputSet {
  public:
   OutputSet() = default;
@@ -68,12 +73,27 @@ class OutputSet {
   OutputSet(const OutputSet&) = delete;
   OutputSet& operator=(const OutputSet&) = delete;
 
-  /// The path to write `final_path` to. \throw Error if its directory cannot be created.
+  /// Takes the lock of the run's outputs: a hidden ".<name>.lock" beside
+  /// `output` (its directory created), held (flock) until commit() or
+  /// discard(), so a second run to the same output fails at once instead of
+  /// mixing its files with this one's. On a file system without locks the
+  /// run goes on unlocked.
+  /// \throw Error naming the output and the other run's pid if one holds it.
+  void lock(const std::string& output);
+  /// The path to write `final_path` to.
+  /// \throw Error if its directory cannot be created, or if the run already
+  ///        writes that file (by this name or another: "out/x", "./out/x").
   std::string stage(const std::string& final_path);
+  /// Creates directory `dir` (and its parents) as an output: removed again
+  /// by discard() if the run fails and it is still empty.
+  /// \throw Error naming the directory if it cannot be created.
+  void create_directories(const std::string& dir);
   /// Renames every staged file that exists into place; the others (never
-  /// written) are ignored. \throw Error naming the file that cannot be moved.
+  /// written) are ignored; releases the lock. \throw Error naming the file
+  /// that cannot be moved.
   void commit();
-  /// Removes the staged files (also called by the destructor).
+  /// Removes the staged files and the directories created for them (when
+  /// empty), releases the lock (also called by the destructor).
   void discard() noexcept;
   /// The staged paths not yet committed (e.g. for a signal handler).
   [[nodiscard]] std::vector<std::string> staged() const;
@@ -81,9 +101,15 @@ class OutputSet {
  private:
   struct File {
     std::string final_path, staged;
-    int slot;  // in the signal registry
+    std::string key;  // the final path, absolute with links resolved: one file, one key
+    int slot;         // in the signal registry
   };
+  void unlock() noexcept;
   std::vector<File> files_;
+  std::vector<std::string> created_dirs_;  // deepest last
+  std::string lock_path_;
+  int lock_fd_ = -1;
+  int lock_slot_ = -1;
 };
 
 }  // namespace isoloft

@@ -7,10 +7,13 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <fstream>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <limits>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 
 namespace isoloft::detail {
 
@@ -24,29 +27,96 @@ void advise_huge_pages(void* p, std::size_t bytes) {
 #endif
 }
 
+namespace {
+
+// What a non-regular file is, for the error.
+std::string file_kind(mode_t mode) {
+  if (S_ISDIR(mode)) return "is a directory, not a file";
+  if (S_ISFIFO(mode)) return "is a FIFO (named pipe), not a regular file: reading it could wait for ever";
+  if (S_ISCHR(mode) || S_ISBLK(mode)) return "is a device, not a regular file";
+  if (S_ISSOCK(mode)) return "is a socket, not a regular file";
+  return "is not a regular file";
+}
+
+}  // namespace
+
+void check_regular_file(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    const int err = errno;
+    struct stat link {};
+    if (err == ENOENT && ::lstat(path.c_str(), &link) == 0 && S_ISLNK(link.st_mode))
+      throw InputError(path, "broken symbolic link (its target does not exist)");
+    throw InputError(path, std::string("cannot open file (") + std::strerror(err) + ")");
+  }
+  if (!S_ISREG(st.st_mode)) throw InputError(path, file_kind(st.st_mode));
+}
+
+int open_regular_file(const std::string& path) {
+  check_regular_file(path);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw InputError(path, std::string("cannot open file (") + std::strerror(errno) + ")");
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw InputError(path, file_kind(st.st_mode));
+  }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  return fd;
+}
+
 std::vector<unsigned char> read_file_bytes(const std::string& path, std::uint64_t offset) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open file");
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) throw InputError(path, "cannot read file");
-  if (std::uint64_t(size) < offset) throw InputError(path, "file is shorter than its header");
+  const int fd = open_regular_file(path);
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw InputError(path, "cannot read file");
+  const auto size = std::uint64_t(st.st_size);
+  if (size < offset) throw InputError(path, "file is shorter than its header");
   std::vector<unsigned char> bytes;
-  resize_large(bytes, std::size_t(std::uint64_t(size) - offset));
-  in.seekg(std::streamoff(offset));
-  if (!bytes.empty() && !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size())))
-    throw InputError(path, "read error");
+  resize_large(bytes, std::size_t(size - offset));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t got = ::pread(fd, bytes.data() + done, bytes.size() - done, off_t(offset + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) throw InputError(path, std::string("read error (") + std::strerror(errno) + ")");
+    if (got == 0) throw InputError(path, "read error (the file shrank while it was read)");
+    done += std::size_t(got);
+  }
   return bytes;
 }
 
+void check_data_file(const std::string& header, const std::string& name, const std::string& resolved,
+                     bool allow_external) {
+  namespace fs = std::filesystem;
+  if (!allow_external) {
+    const fs::path folder = fs::path(header).parent_path();
+    std::error_code ec;
+    const fs::path root = fs::weakly_canonical(folder.empty() ? fs::path(".") : folder, ec);
+    const fs::path real = ec ? fs::path() : fs::weakly_canonical(resolved, ec);
+    const bool inside = !ec && std::mismatch(root.begin(), root.end(), real.begin(), real.end()).first == root.end();
+    if (!inside)
+      throw InputError(header, "data file '" + name + "' (" + (ec ? resolved : real.string()) +
+                                   ") lies outside the header's folder: only files in its folder or below are read "
+                                   "unless " + option_given("--allow-external-data") + " is given");
+  }
+  try {
+    check_regular_file(resolved);
+  } catch (const InputError& e) {
+    throw InputError(header, "data file '" + name + "' (" + resolved + "): " + e.problem);
+  }
+}
+
 FileBytes::FileBytes(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  const int fd = open_regular_file(path);
   struct stat st {};
-  if (fd >= 0 && ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+  if (::fstat(fd, &st) == 0 && st.st_size > 0) {
     void* p = ::mmap(nullptr, std::size_t(st.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
     if (p != MAP_FAILED) map_ = p, size_ = std::size_t(st.st_size);
   }
-  if (fd >= 0) ::close(fd);
+  ::close(fd);
   if (map_) return;
   copy_ = read_file_bytes(path);  // its errors, for files that cannot be mapped (or are empty)
   size_ = copy_.size();

@@ -7,6 +7,9 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <memory>
+#include <string_view>
+#include <bit>
 #include <sstream>
 #include <vector>
 
@@ -50,9 +53,62 @@ bool is_true(const std::string& v) {
   return l == "true" || l == "1";
 }
 
+// ASCII samples (BinaryData = False): count whitespace-separated numbers,
+// each checked against the element type, as native-endian elements of it.
+std::vector<unsigned char> ascii_samples(const std::string& file, const unsigned char* p, std::size_t size,
+                                         std::size_t count, detail::ScalarType type) {
+  using detail::ScalarType;
+  const std::size_t sample = detail::scalar_size(type);
+  if (double(count) > double(size + 1) / 2)  // a digit and a separator each at least
+    throw InputError(file, std::to_string(size) + " bytes of ASCII data cannot hold " + std::to_string(count) + " samples");
+  std::vector<unsigned char> out;
+  detail::resize_large(out, count * sample);
+  const char* c = reinterpret_cast<const char*>(p);
+  const char* const end = c + size;
+  for (std::size_t i = 0; i < count; ++i) {
+    while (c < end && detail::is_space(*c)) ++c;
+    const char* b = c;
+    while (c < end && !detail::is_space(*c)) ++c;
+    const std::string_view tok(b, std::size_t(c - b));
+    if (tok.empty())
+      throw InputError(file, "ASCII data end after " + std::to_string(i) + " of " + std::to_string(count) + " samples");
+    auto bad = [&] { return InputError(file, "ASCII sample " + std::to_string(i) + " '" + std::string(tok) + "' is not a valid value of the ElementType"); };
+    unsigned char* dst = out.data() + i * sample;
+    if (type == ScalarType::F32 || type == ScalarType::F64) {
+      double d;
+      if (!detail::parse_number(tok, d)) throw bad();
+      if (type == ScalarType::F32) {
+        const float f = float(d);
+        std::memcpy(dst, &f, 4);
+      } else {
+        std::memcpy(dst, &d, 8);
+      }
+      continue;
+    }
+    long long x;
+    if (!detail::parse_number(tok, x)) throw bad();
+    auto put = [&](auto typed, long long lo, long long hi) {
+      if (x < lo || x > hi) throw bad();
+      typed = decltype(typed)(x);
+      std::memcpy(dst, &typed, sizeof typed);
+    };
+    switch (type) {
+      case ScalarType::U8: put(std::uint8_t{}, 0, 255); break;
+      case ScalarType::I8: put(std::int8_t{}, -128, 127); break;
+      case ScalarType::U16: put(std::uint16_t{}, 0, 65535); break;
+      case ScalarType::I16: put(std::int16_t{}, -32768, 32767); break;
+      case ScalarType::U32: put(std::uint32_t{}, 0, 4294967295LL); break;
+      default: put(std::int32_t{}, -2147483648LL, 2147483647LL); break;
+    }
+  }
+  while (c < end && detail::is_space(*c)) ++c;
+  if (c != end) throw InputError(file, "ASCII data hold more than the " + std::to_string(count) + " samples DimSize declares");
+  return out;
+}
+
 }  // namespace
 
-Volume read_metaimage(const std::string& mhd) {
+Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) {
   const detail::FileBytes header(mhd);  // a .mha's data too (LOCAL)
   std::map<std::string, std::string> kv;
   std::size_t pos = 0, local_offset = 0;
@@ -149,32 +205,59 @@ Volume read_metaimage(const std::string& mhd) {
   if (const auto* b = get("BinaryDataByteOrderMSB")) big = is_true(*b);
   if (const auto* b = get("ElementByteOrderMSB")) big = is_true(*b);
   const bool compressed = get("CompressedData") && is_true(*get("CompressedData"));
+  const bool binary = !get("BinaryData") || is_true(*get("BinaryData"));  // MetaIO's default: binary
+  if (!binary && compressed) throw InputError(mhd, "ASCII data (BinaryData = False) cannot be compressed");
 
   const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, mhd);
-  const std::size_t nbytes = count * detail::scalar_size(type);
+  const std::size_t sample = detail::scalar_size(type), nbytes = count * sample;
   std::string data_name = mhd;
-  std::vector<unsigned char> file;  // the data file's bytes; LOCAL data stay in `header`
+  std::unique_ptr<detail::FileBytes> file;  // the data file; LOCAL data stay in `header`
   const unsigned char* bytes = header.data() + local_offset;
   std::size_t size = header.size() - local_offset;
-  if (!local) {
+  if (local) {
+    // MetaIO ends the header at ElementDataFile: a "Key = value" line after
+    // it would be read as voxels, every voxel shifted.
+    const std::string_view rest(reinterpret_cast<const char*>(bytes), std::min<std::size_t>(size, 256));
+    const std::string_view first = rest.substr(0, rest.find('\n'));
+    const std::size_t eq = first.find(" = ");
+    if (eq != std::string_view::npos && eq > 0 &&
+        std::all_of(first.begin(), first.begin() + std::ptrdiff_t(eq), [](char c) { return std::isalnum((unsigned char)c) || c == '_'; }))
+      throw InputError(mhd, "header line '" + std::string(detail::trim(first)) +
+                                "' after ElementDataFile = LOCAL: ElementDataFile must be the last header line (the "
+                                "data start on the line after it)");
+  } else {
     const std::string& df = *get("ElementDataFile");
-    if (df == "LIST" || df.find('%') != std::string::npos || df.find(' ') != std::string::npos)
-      throw InputError(mhd, "multi-file MetaImage data '" + df + "' is not supported");
+    // MetaIO's multi-file forms: "LIST" (names on the lines after) and a
+    // printf template ("slice%03d.raw 1 40 1"); any other name, spaces and
+    // all, is one file.
+    if (df.rfind("LIST", 0) == 0 || df.find('%') != std::string::npos)
+      throw InputError(mhd, "multi-file MetaImage data '" + df + "' is not supported (one data file, or LOCAL)");
     std::filesystem::path dp(df);
     if (dp.is_relative()) dp = std::filesystem::path(mhd).parent_path() / dp;
     data_name = dp.string();
-    file = detail::read_file_bytes(data_name);
-    bytes = file.data();
-    size = file.size();
+    detail::check_data_file(mhd, df, data_name, options.allow_external_data);
+  }
+  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample});
+  if (!local) {
+    file = std::make_unique<detail::FileBytes>(data_name);
+    bytes = file->data();
+    size = file->size();
   }
   const unsigned char* data = bytes;
-  std::vector<unsigned char> inflated;
+  std::vector<unsigned char> decoded;
+  if (!binary) {
+    decoded = ascii_samples(data_name, bytes, size, count, type);
+    detail::resize_large(v.data, count);
+    detail::decode_volume(decoded.data(), type, std::endian::native == std::endian::big, v, mhd);
+    return v;
+  }
   if (compressed) {
-    inflated = detail::inflate_exact(bytes, size, nbytes, data_name);
-    data = inflated.data();
+    decoded = detail::inflate_exact(bytes, size, nbytes, data_name);
+    data = decoded.data();
   } else {
     long long skip = 0;
-    if (const auto* hs = get("HeaderSize")) {
+    const auto* hs = get("HeaderSize");
+    if (hs) {
       const auto h = numbers(mhd, "HeaderSize", *hs);
       if (h.size() != 1 || h[0] < -1 || h[0] != std::floor(h[0])) throw InputError(mhd, "bad HeaderSize");
       skip = (long long)h[0];
@@ -183,10 +266,16 @@ Volume read_metaimage(const std::string& mhd) {
     if (skip < 0 || std::size_t(skip) + nbytes > size)
       throw InputError(data_name, "data truncated: " + std::to_string(size) + " bytes, need " +
                                       std::to_string(nbytes + std::size_t(std::max(skip, 0LL))));
+    // Without HeaderSize the data are the whole rest: more bytes than the
+    // header declares means a wrong DimSize or ElementType, not padding.
+    if (!hs && size != nbytes)
+      throw InputError(data_name, std::to_string(size) + " bytes of voxel data, but DimSize " + *get("DimSize") + " of " +
+                                      type_name + " declares " + std::to_string(nbytes) +
+                                      " (a wrong DimSize or ElementType? HeaderSize skips a leading header)");
     data = bytes + skip;
   }
   detail::resize_large(v.data, count);
-  detail::decode_scalars(data, count, type, big, v.data.data());
+  detail::decode_volume(data, type, big, v, mhd);
   return v;
 }
 
@@ -198,7 +287,8 @@ void write_metaimage(const std::string& path, const Volume& v) {
   if (ext != ".mha") throw ParamError(path + ": MetaImage is written as one .mha file");
   const detail::ScalarType stored = detail::storage_type(v);
   const char* type = stored == detail::ScalarType::U8 ? "MET_UCHAR" : stored == detail::ScalarType::U16 ? "MET_USHORT"
-                     : stored == detail::ScalarType::I32 ? "MET_INT" : "MET_FLOAT";
+                     : stored == detail::ScalarType::I32 ? "MET_INT" : stored == detail::ScalarType::U32 ? "MET_UINT"
+                     : "MET_FLOAT";
   const std::vector<unsigned char> raw = detail::encode_scalars(v, stored);
   uLongf packed_size = compressBound(uLong(raw.size()));
   std::vector<unsigned char> packed(packed_size);

@@ -5,9 +5,11 @@
 #include <zlib.h>
 
 #include <algorithm>
-
+#include <bit>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -20,9 +22,14 @@ namespace isoloft {
 
 namespace {
 
-
-
+namespace fs = std::filesystem;
 using detail::kOrthogonalityTolerance;
+
+bool has_suffix(const std::string& path, const std::string& suffix) {
+  std::string name = fs::path(path).filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
 
 struct NiftiImageDeleter {
   void operator()(nifti_image* n) const { nifti_image_free(n); }
@@ -41,6 +48,16 @@ void decode(const unsigned char* src, std::size_t n, double slope, double inter,
   }
 }
 
+// zlib's reason for a failed read of `f` (gzerror without the path it prefixes), or "".
+std::string gz_reason(gzFile f, const std::string& path) {
+  int zerr = Z_OK;
+  const char* why = gzerror(f, &zerr);
+  if (zerr == Z_OK || zerr == Z_BUF_ERROR || !why) return "";
+  std::string s = why;
+  if (s.rfind(path + ": ", 0) == 0) s.erase(0, path.size() + 2);
+  return s;
+}
+
 // The header, checked before niftilib sees the file (it prints its own
 // complaints): NIfTI-1 (348 bytes) or NIfTI-2 (540), either byte order, and
 // the voxel sizes of the dimensions in use, as stored (niftilib turns a
@@ -50,7 +67,9 @@ void check_header(const std::string& path) {
   if (!f) return;  // niftilib names the problem
   unsigned char h[540];
   const int got = gzread(f, h, sizeof h);
+  const std::string zmsg = gz_reason(f, path);
   gzclose(f);
+  if (!zmsg.empty()) throw InputError(path, "corrupt gzip data (zlib: " + zmsg + ")");  // a small .gz is read whole here
   auto get32 = [&](std::size_t off, bool swap) {
     std::uint32_t v;
     std::memcpy(&v, h + off, 4);
@@ -61,14 +80,32 @@ void check_header(const std::string& path) {
   if (!v1 && !v2) throw InputError(path, "not a readable NIfTI file (no NIfTI-1 or NIfTI-2 header)");
   const bool swap = v1 ? get32(0, false) != 348 : get32(0, false) != 540;
   if (got < (v1 ? 348 : 540)) throw InputError(path, "not a readable NIfTI file (truncated header)");
-  if (!v1) return;  // NIfTI-2 stores doubles; niftilib reports their sizes as read
-  std::int16_t ndim;
-  std::memcpy(&ndim, h + 40, 2);
-  if (swap) ndim = std::int16_t(__builtin_bswap16(std::uint16_t(ndim)));
-  for (int d = 1; d <= std::clamp<int>(ndim, 0, 3); ++d) {
-    const std::uint32_t bits = get32(76 + 4 * std::size_t(d), swap);
-    float dx;
-    std::memcpy(&dx, &bits, 4);
+  // niftilib converts the header before it checks it: a dim[0] beyond 7
+  // overruns its arrays (a NIfTI-2 one of 12885442562 overflowed the stack,
+  // found by fuzzing). So dim[0], the magic and the sizes in use are checked here.
+  auto get64 = [&](std::size_t off) {
+    std::uint64_t v;
+    std::memcpy(&v, h + off, 8);
+    return swap ? __builtin_bswap64(v) : v;
+  };
+  std::uint16_t ndim1;
+  std::memcpy(&ndim1, h + 40, 2);
+  const std::int64_t ndim = v1 ? std::int16_t(swap ? __builtin_bswap16(ndim1) : ndim1) : std::int64_t(get64(16));
+  if (ndim < 1 || ndim > 7)
+    throw InputError(path, "not a readable NIfTI file (dim[0] = " + std::to_string(ndim) + ", must be 1 to 7)");
+  if (v2 && std::memcmp(h + 4, "n+2\0\r\n\032\n", 8) != 0 && std::memcmp(h + 4, "ni2\0\r\n\032\n", 8) != 0)
+    throw InputError(path, "not a readable NIfTI file (bad NIfTI-2 magic)");
+  for (int d = 1; d <= std::min<int>(int(ndim), 3); ++d) {
+    double dx;
+    if (v1) {
+      const std::uint32_t bits = get32(76 + 4 * std::size_t(d), swap);
+      float f;
+      std::memcpy(&f, &bits, 4);
+      dx = f;
+    } else {
+      const std::uint64_t bits = get64(104 + 8 * std::size_t(d));
+      std::memcpy(&dx, &bits, 8);
+    }
     if (!(std::isfinite(dx) && dx > 0))
       throw InputError(path, "voxel size (pixdim[" + std::to_string(d) + "] = " + std::to_string(dx) + ") is not finite and > 0");
   }
@@ -76,9 +113,18 @@ void check_header(const std::string& path) {
 
 }  // namespace
 
-Volume read_nifti(const std::string& path) {
-  (void)detail::read_file_bytes(path, 0);  // a missing or unreadable file named as such
+Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
+  detail::check_regular_file(path);
   check_header(path);
+  if (has_suffix(path, ".hdr") || has_suffix(path, ".hdr.gz")) {
+    // An analyze-style pair: the voxels are in the .img beside it.
+    char* img = nifti_findimgname(path.c_str(), NIFTI_FTYPE_NIFTI1_2);
+    const std::string data = img ? img : "";
+    std::free(img);
+    if (data.empty())
+      throw InputError(path, "its data file " + fs::path(path).stem().string() + ".img is missing (a .hdr needs the .img beside it)");
+    detail::check_regular_file(data);
+  }
   nifti_set_debug_level(0);  // its own stderr messages; we say what is wrong
   nifti_image* raw = nullptr;
   znzFile fp = nifti_image_open(path.c_str(), const_cast<char*>("rb"), &raw);
@@ -87,10 +133,7 @@ Volume read_nifti(const std::string& path) {
     if (!znz_isnull(fp)) znzclose(fp);
     throw InputError(path, "not a readable NIfTI file (bad or truncated header)");
   }
-  struct Closer {
-    znzFile& f;
-    ~Closer() { znzclose(f); }
-  } closer{fp};
+  znzclose(fp);  // the header is all we take from niftilib; the voxels are read below
 
   // One 3D volume: dimensions beyond z must all be 1.
   for (int d = 4; d <= std::min<int>(int(nim->dim[0]), 7); ++d)
@@ -98,6 +141,11 @@ Volume read_nifti(const std::string& path) {
       throw InputError(path, std::to_string(nim->dim[0]) + "D image (dim[" + std::to_string(d) + "] = " +
                                  std::to_string(nim->dim[d]) + "): one 3D label volume is needed");
   if (nim->dim[0] < 2) throw InputError(path, "fewer than 2 dimensions");
+  // NIfTI-2 sizes are 64-bit: one beyond int would wrap (2^32 + 64 read as 64).
+  for (int d = 1; d <= std::min<int>(int(nim->dim[0]), 3); ++d)
+    if (nim->dim[d] > std::numeric_limits<int>::max())
+      throw InputError(path, "dim[" + std::to_string(d) + "] = " + std::to_string(nim->dim[d]) +
+                                 " is beyond the largest size read (2^31 - 1)");
   Volume v;
   v.nx = int(nim->nx);
   v.ny = int(nim->ny);
@@ -140,18 +188,42 @@ Volume read_nifti(const std::string& path) {
   if (!integer && dt != DT_FLOAT32 && dt != DT_FLOAT64)
     throw InputError(path, std::string("unsupported NIfTI datatype ") + nifti_datatype_string(dt) +
                                " (need a scalar 8/16/32-bit integer or float32/64)");
+  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, std::size_t(nim->nbyper)});
   const std::size_t nbytes = count * std::size_t(nim->nbyper);
+  // The voxels through zlib (plain files read as they are), so a .gz's
+  // checksum can be checked and a failure named with zlib's reason.
+  const std::string data_file = nim->iname ? nim->iname : path;
+  detail::check_regular_file(data_file);
+  const gzFile g = gzopen(data_file.c_str(), "rb");
+  if (!g) throw InputError(data_file, "cannot open file");
+  struct GzCloser {
+    gzFile f;
+    ~GzCloser() { gzclose(f); }
+  } gz_closer{g};
+  auto short_read = [&](std::size_t got) {
+    if (const std::string why = gz_reason(g, data_file); !why.empty())
+      return InputError(data_file, "corrupt gzip data (zlib: " + why + ")");
+    return InputError(data_file, "voxel data truncated (" + std::to_string(got) + " of " + std::to_string(nbytes) + " bytes)");
+  };
   // Read in chunks, so memory follows the data the file really holds: a
   // header that claims 4 GB of a 350-byte file fails before allocating it.
   constexpr std::size_t kChunkBytes = std::size_t(16) << 20;
   std::vector<unsigned char> bytes;
-  if (znzseek(fp, long(nim->iname_offset), SEEK_SET) < 0)
-    throw InputError(path, "voxel data truncated (expected " + std::to_string(nbytes) + " bytes)");
+  if (gzseek(g, z_off_t(nim->iname_offset), SEEK_SET) < 0) throw short_read(0);
   while (bytes.size() < nbytes) {
     const std::size_t at = bytes.size(), want = std::min(kChunkBytes, nbytes - at);
     bytes.resize(at + want);
-    if (znzread(bytes.data() + at, 1, want, fp) != want)
-      throw InputError(path, "voxel data truncated (expected " + std::to_string(nbytes) + " bytes)");
+    const int got = gzread(g, bytes.data() + at, unsigned(want));
+    if (got < 0 || std::size_t(got) != want) throw short_read(at + std::size_t(std::max(got, 0)));
+  }
+  if (gzdirect(g) == 0) {
+    // gzip checks its CRC and length only at the end of the stream: read to
+    // it, or one flipped byte gives another mesh without a word.
+    std::vector<unsigned char> sink(std::size_t(1) << 16);
+    int got;
+    while ((got = gzread(g, sink.data(), unsigned(sink.size()))) > 0) {
+    }
+    if (got < 0) throw short_read(nbytes);
   }
   if (nim->byteorder != nifti_short_order() && nim->swapsize > 1)
     nifti_swap_Nbytes(int64_t(count), nim->swapsize, bytes.data());
@@ -160,15 +232,20 @@ Volume read_nifti(const std::string& path) {
   const double slope = scaled ? nim->scl_slope : 1.0, inter = scaled ? nim->scl_inter : 0.0;
   detail::resize_large(v.data, count);
   float* out = v.data.data();
-  switch (dt) {
-    case DT_UINT8: decode<std::uint8_t>(bytes.data(), count, slope, inter, out); break;
-    case DT_INT8: decode<std::int8_t>(bytes.data(), count, slope, inter, out); break;
-    case DT_UINT16: decode<std::uint16_t>(bytes.data(), count, slope, inter, out); break;
-    case DT_INT16: decode<std::int16_t>(bytes.data(), count, slope, inter, out); break;
-    case DT_UINT32: decode<std::uint32_t>(bytes.data(), count, slope, inter, out); break;
-    case DT_INT32: decode<std::int32_t>(bytes.data(), count, slope, inter, out); break;
-    case DT_FLOAT32: decode<float>(bytes.data(), count, slope, inter, out); break;
-    default: decode<double>(bytes.data(), count, slope, inter, out); break;
+  if (!scaled && (dt == DT_INT32 || dt == DT_UINT32)) {
+    detail::decode_volume(bytes.data(), dt == DT_INT32 ? detail::ScalarType::I32 : detail::ScalarType::U32,
+                          std::endian::native == std::endian::big, v, path);
+  } else {
+    switch (dt) {
+      case DT_UINT8: decode<std::uint8_t>(bytes.data(), count, slope, inter, out); break;
+      case DT_INT8: decode<std::int8_t>(bytes.data(), count, slope, inter, out); break;
+      case DT_UINT16: decode<std::uint16_t>(bytes.data(), count, slope, inter, out); break;
+      case DT_INT16: decode<std::int16_t>(bytes.data(), count, slope, inter, out); break;
+      case DT_UINT32: decode<std::uint32_t>(bytes.data(), count, slope, inter, out); break;
+      case DT_INT32: decode<std::int32_t>(bytes.data(), count, slope, inter, out); break;
+      case DT_FLOAT32: decode<float>(bytes.data(), count, slope, inter, out); break;
+      default: decode<double>(bytes.data(), count, slope, inter, out); break;
+    }
   }
   v.integer = integer && (!scaled || (slope == std::floor(slope) && inter == std::floor(inter)));
   return v;
@@ -178,7 +255,7 @@ void write_nifti(const std::string& path, const Volume& v) {
   detail::checked_voxel_count(v.nx, v.ny, v.nz, path);
   const detail::ScalarType type = detail::storage_type(v);
   const int dt = type == detail::ScalarType::U8 ? DT_UINT8 : type == detail::ScalarType::U16 ? DT_UINT16
-                 : type == detail::ScalarType::I32 ? DT_INT32 : DT_FLOAT32;
+                 : type == detail::ScalarType::I32 ? DT_INT32 : type == detail::ScalarType::U32 ? DT_UINT32 : DT_FLOAT32;
   const int64_t dims[8] = {3, v.nx, v.ny, v.nz, 1, 1, 1, 1};
   const NiftiImage nim(nifti_make_new_nim(dims, dt, 0));
   if (!nim) throw Error(path + ": cannot create a NIfTI image");

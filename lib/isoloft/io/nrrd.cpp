@@ -15,11 +15,13 @@
 #include <string_view>
 #include <vector>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/file_util.h"
 #include "isoloft/io/atomic_file.h"
+#include "isoloft/io/text.h"
 
 namespace isoloft {
 
@@ -173,16 +175,21 @@ namespace {
 struct NrrdDeleter {
   void operator()(Nrrd* n) const { nrrdNuke(n); }
 };
+struct IoStateDeleter {
+  void operator()(NrrdIoState* io) const { nrrdIoStateNix(io); }
+};
 
-// teem's biff message for NRRD, first line only (the rest is the call stack).
+// teem's biff message for NRRD: its last line, the innermost call's reason
+// (the first only says "trouble reading FILE").
 std::string teem_error() {
   char* e = biffGetDone(NRRD);
-  std::string s = e ? e : "unknown error";
+  std::string s = e ? e : "";
   std::free(e);
-  const std::size_t nl = s.find('\n');
-  if (nl != std::string::npos) s.resize(nl);
-  const std::size_t colon = s.find(": ");  // "[nrrd] _nrrdRead: ..." -> the message
-  return colon != std::string::npos && colon + 2 < s.size() ? s.substr(colon + 2) : s;
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  s = s.substr(s.rfind('\n') == std::string::npos ? 0 : s.rfind('\n') + 1);
+  const std::size_t colon = s.find(": ");  // "[nrrd] _nrrdReadNrrdParse_sizes: ..." -> the message
+  s = colon != std::string::npos && colon + 2 < s.size() ? s.substr(colon + 2) : s;
+  return s.empty() ? "unknown error" : s;
 }
 
 using detail::kOrthogonalityTolerance;
@@ -201,20 +208,104 @@ bool lps_flip(int space, Eigen::Vector3d& flip) {
   }
 }
 
+// What the header text says about where the data are, read before teem
+// opens anything: teem opens every data file the header names (a FIFO blocks
+// there, "-" is standard input) even when asked for the header only.
+struct DataLayout {
+  std::size_t attached_at = 0;          // attached data: its first byte in the file
+  std::vector<std::string> files;       // detached data: every data file, resolved
+};
 
-// teem stops reading gzip data once it has the bytes it needs, so a damaged
-// member passes unnoticed; this inflates the attached member to its end,
-// which checks the gzip CRC and length.
-void check_attached_gzip(const std::string& path, const std::vector<unsigned char>& bytes) {
-  const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-  const std::size_t end = text.find("\n\n");
-  if (end == std::string_view::npos || text.substr(0, end).find("\ndata file:") != std::string_view::npos ||
-      text.substr(0, end).find("\ndatafile:") != std::string_view::npos)
-    return;  // detached data: teem's own checks only
+// "%d", "%03d": the one integer directive of a data file template ("%%" aside).
+bool one_int_directive(const std::string& f) {
+  int directives = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f[i] != '%') continue;
+    if (i + 1 < f.size() && f[i + 1] == '%') {
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j < f.size() && f[j] >= '0' && f[j] <= '9') ++j;
+    if (j >= f.size() || f[j] != 'd') return false;
+    ++directives;
+    i = j;
+  }
+  return directives == 1;
+}
+
+DataLayout data_layout(const std::string& path, const detail::FileBytes& file, const VolumeReadOptions& options) {
+  const std::string_view text(reinterpret_cast<const char*>(file.data()), file.size());
+  DataLayout out;
+  std::vector<std::string> names;
+  std::size_t pos = 0;
+  // Lines as teem reads them: up to '\n', a trailing '\r' dropped.
+  auto next_line = [&] {
+    const std::size_t nl = text.find('\n', pos);
+    const std::size_t end = nl == std::string_view::npos ? text.size() : nl;
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + (nl == std::string_view::npos ? 0 : 1);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return line;
+  };
+  bool found = false;
+  while (pos < text.size()) {
+    const std::string_view line = next_line();
+    if (line.empty()) break;  // the blank line: attached data follow
+    // "<field>: <info>", the field named case-blind, as teem's airEnum does.
+    const std::size_t colon = line.find(": ");
+    if (line[0] == '#' || colon == std::string_view::npos) continue;
+    std::string key(line.substr(0, colon));
+    std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (key != "data file" && key != "datafile") continue;
+    found = true;
+    const std::string info(detail::trim(line.substr(colon + 2)));
+    if (info.find('%') != std::string::npos && info.find('d', info.find('%')) != std::string::npos) {
+      // "name%03d.raw <min> <max> <step> [<dim>]"
+      std::istringstream in(info);
+      std::string format;
+      int lo = 0, hi = 0, step = 0;
+      if (!(in >> format >> lo >> hi >> step) || !one_int_directive(format) || step == 0 ||
+          ((long long)hi - lo) * step < 0)
+        throw InputError(path, "data file template '" + info + "': expected 'name%d.ext <min> <max> <step>' with one %d");
+      constexpr long long kMaxFiles = 1 << 20;
+      if (((long long)hi - lo) / step + 1 > kMaxFiles)
+        throw InputError(path, "data file template '" + info + "' names more than " + std::to_string(kMaxFiles) + " files");
+      for (long long i = lo; step > 0 ? i <= hi : i >= hi; i += step) {
+        char name[4096];
+        std::snprintf(name, sizeof name, format.c_str(), int(i));
+        names.emplace_back(name);
+      }
+    } else if (info.rfind("LIST", 0) == 0) {
+      while (pos < text.size()) names.emplace_back(next_line());  // every further line names a data file
+    } else {
+      names.push_back(info);
+    }
+  }
+  if (!found) {
+    out.attached_at = std::min(pos, text.size());
+    return out;
+  }
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  for (const std::string& name : names) {
+    if (name == "-") throw InputError(path, "data file '-' (standard input) is not read");
+    // As teem resolves it: names starting with '/' or "X:" as they are, the others from the header's folder.
+    const bool as_is = !name.empty() && (name[0] == '/' || (name.size() > 1 && name[1] == ':'));
+    const std::string resolved = as_is ? name : (folder.empty() ? "." : folder) + "/" + name;
+    detail::check_data_file(path, name, resolved, options.allow_external_data);
+    out.files.push_back(resolved);
+  }
+  return out;
+}
+
+// gzip checks its CRC and length at the end of the stream, which teem never
+// reads (it stops once it has the bytes it needs), so a damaged member passes
+// unnoticed; this inflates the member to its end.
+void check_gzip_stream(const std::string& path, const unsigned char* data, std::size_t size) {
   z_stream zs{};
   if (inflateInit2(&zs, 15 + 16) != Z_OK) return;
-  zs.next_in = const_cast<unsigned char*>(bytes.data() + end + 2);
-  zs.avail_in = uInt(bytes.size() - end - 2);
+  zs.next_in = const_cast<unsigned char*>(data);
+  zs.avail_in = uInt(std::min<std::size_t>(size, std::numeric_limits<uInt>::max()));
   std::vector<unsigned char> sink(1 << 16);
   int rc = Z_OK;
   while (rc == Z_OK) {
@@ -223,21 +314,83 @@ void check_attached_gzip(const std::string& path, const std::vector<unsigned cha
     rc = inflate(&zs, Z_NO_FLUSH);
     if (rc == Z_BUF_ERROR && zs.avail_in == 0) break;
   }
+  const std::string why = zs.msg ? zs.msg : rc == Z_STREAM_END ? "" : "the stream ends early";
   inflateEnd(&zs);
-  if (rc != Z_STREAM_END) throw InputError(path, "corrupt or truncated gzip data (its checksum does not match)");
+  if (rc != Z_STREAM_END) throw InputError(path, "corrupt or truncated gzip data (zlib: " + why + ")");
+}
+
+// Bytes the data can decode to at most, per encoding: deflate 1032:1, ZRL
+// 16384:1 (a 4-byte run of up to 65535 zeros), raw 1:1, text about 2 bytes a
+// sample (a digit and a separator), hex 2 characters a byte; bzip2 unbounded.
+double max_decoded_bytes(const ::NrrdEncoding* e, double stored, std::size_t sample_bytes) {
+  if (e == nrrdEncodingGzip) return 1032.0 * stored + 1024.0;
+  if (e == nrrdEncodingZRL) return 16384.0 * stored + 65536.0;
+  if (e == nrrdEncodingRaw) return stored;
+  if (e == nrrdEncodingAscii) return (stored + 1) / 2 * double(sample_bytes);
+  if (e == nrrdEncodingHex) return stored / 2;
+  return std::numeric_limits<double>::infinity();
+}
+
+// teem's ZRL reader counts in 32 bits (a volume of 2^32 bytes or more loops
+// for ever) and pads data that run short with 255: decoded here instead.
+// Stream: a non-zero byte stands for itself; 0, n (n > 0) for n zeros;
+// 0, 0, lo, hi for lo + 256 hi zeros.
+std::vector<unsigned char> decode_zrl(const std::string& file, const unsigned char* p, const unsigned char* end,
+                                      std::size_t need) {
+  std::vector<unsigned char> out;
+  detail::resize_large(out, need);
+  std::size_t j = 0;
+  auto next = [&]() -> int { return p < end ? *p++ : -1; };
+  while (j < need) {
+    const int c = next();
+    if (c < 0) break;
+    if (c != 0) {
+      out[j++] = static_cast<unsigned char>(c);
+      continue;
+    }
+    const int d = next();
+    std::size_t run = 0;
+    if (d > 0) {
+      run = std::size_t(d);
+    } else if (d == 0) {
+      const int lo = next(), hi = next();
+      if (lo < 0 || hi < 0) break;
+      run = std::size_t(lo) + 256 * std::size_t(hi);
+    } else {
+      break;
+    }
+    if (run > need - j)
+      throw InputError(file, "ZRL data run past the end: " + std::to_string(j + run) + " bytes, the header declares " +
+                                 std::to_string(need));
+    std::fill_n(out.begin() + std::ptrdiff_t(j), run, 0);
+    j += run;
+  }
+  if (j < need)
+    throw InputError(file, "ZRL data run short: they decode to " + std::to_string(j) + " of the " + std::to_string(need) +
+                               " bytes the header declares");
+  return out;
+}
+
+// `skip` lines, then `bytes` bytes, from p: where the data start.
+const unsigned char* skip_to_data(const unsigned char* p, const unsigned char* end, unsigned lines, long bytes) {
+  for (unsigned l = 0; l < lines && p < end; ++l) {
+    const void* nl = std::memchr(p, '\n', std::size_t(end - p));
+    p = nl ? static_cast<const unsigned char*>(nl) + 1 : end;
+  }
+  return bytes > 0 ? p + std::min<std::size_t>(std::size_t(bytes), std::size_t(end - p)) : p;
 }
 
 }  // namespace
 
-Volume read_nrrd(const std::string& path) {
-  // A missing or unreadable file named as such, not by teem.
-  const std::vector<unsigned char> bytes = detail::read_file_bytes(path, 0);
+Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
+  const detail::FileBytes file(path);  // a missing, unreadable or non-regular file named as such, not by teem
+  const DataLayout layout = data_layout(path, file, options);
+
+  // The header alone (data skipped), checked before any data is read.
   std::unique_ptr<Nrrd, NrrdDeleter> n(nrrdNew());
-  if (nrrdLoad(n.get(), path.c_str(), nullptr)) throw InputError(path, "not a readable NRRD: " + teem_error());
-  if (n->dim >= 1 && nrrdEncodingGzip->available() && std::string_view(reinterpret_cast<const char*>(bytes.data()),
-                                                                         std::min<std::size_t>(bytes.size(), 4096))
-                                                            .find("encoding: gz") != std::string_view::npos)
-    check_attached_gzip(path, bytes);
+  const std::unique_ptr<NrrdIoState, IoStateDeleter> nio(nrrdIoStateNew());
+  nio->skipData = 1;
+  if (nrrdLoad(n.get(), path.c_str(), nio.get())) throw InputError(path, "not a readable NRRD: " + teem_error());
   if (n->dim != 2 && n->dim != 3)
     throw InputError(path, "NRRD of dimension " + std::to_string(n->dim) + " (need one 2D or 3D scalar volume)");
   for (unsigned a = 0; a < n->dim; ++a)
@@ -257,6 +410,10 @@ Volume read_nrrd(const std::string& path) {
     case nrrdTypeDouble: type = ScalarType::F64; break;
     default: throw InputError(path, std::string("unsupported NRRD type ") + airEnumStr(nrrdType, n->type));
   }
+  for (unsigned a = 0; a < n->dim; ++a)
+    if (n->axis[a].size > std::size_t(std::numeric_limits<int>::max()))
+      throw InputError(path, "size of axis " + std::to_string(a) + " (" + std::to_string(n->axis[a].size) +
+                                 ") is beyond the largest read (2^31 - 1)");
   Volume v;
   v.nx = int(n->axis[0].size);
   v.ny = int(n->axis[1].size);
@@ -295,9 +452,51 @@ Volume read_nrrd(const std::string& path) {
       if (std::abs(v.direction.col(a).dot(v.direction.col(b))) > kOrthogonalityTolerance)
         throw InputError(path, "sheared voxel axes (space directions not orthogonal): not supported");
   v.integer = type != ScalarType::F32 && type != ScalarType::F64;
+  const std::size_t sample = detail::scalar_size(type), need = count * sample;
+
+  // What the data files can hold against what the header declares: a 1 KB
+  // gzip member cannot hold 4 GB, so nothing is allocated for it.
+  std::vector<std::unique_ptr<detail::FileBytes>> data_files;
+  double stored = 0;
+  if (layout.files.empty()) {
+    stored = double(file.size() - std::min(layout.attached_at, file.size()));
+  } else {
+    for (const std::string& f : layout.files) {
+      data_files.push_back(std::make_unique<detail::FileBytes>(f));
+      stored += double(data_files.back()->size());
+    }
+  }
+  const std::string data_name = layout.files.size() == 1 ? layout.files[0] : path;
+  if (double(need) > max_decoded_bytes(nio->encoding, stored, sample))
+    throw InputError(data_name, std::to_string(std::uint64_t(stored)) + " bytes of " + nio->encoding->name +
+                                    " data cannot hold the " + std::to_string(need) + " bytes the header declares (" +
+                                    std::to_string(v.nx) + "x" + std::to_string(v.ny) + "x" + std::to_string(v.nz) +
+                                    " samples)");
+  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample});  // the budget: for data that can exist
+
   detail::resize_large(v.data, count);
-  detail::decode_scalars(static_cast<const unsigned char*>(n->data), count, type,
-                         std::endian::native == std::endian::big, v.data.data());
+  if (nio->encoding == nrrdEncodingZRL) {
+    if (layout.files.size() > 1) throw InputError(path, "ZRL data in several data files is not supported");
+    const unsigned char* begin = layout.files.empty() ? file.data() + layout.attached_at : data_files[0]->data();
+    const unsigned char* end = layout.files.empty() ? file.data() + file.size() : begin + data_files[0]->size();
+    if (nio->byteSkip < 0) throw InputError(path, "byte skip -1 with ZRL data is not supported");
+    begin = skip_to_data(begin, end, nio->lineSkip, nio->byteSkip);
+    const std::vector<unsigned char> bytes = decode_zrl(data_name, begin, end, need);
+    detail::decode_volume(bytes.data(), type, nio->endian == airEndianBig, v, path);
+    return v;
+  }
+  if (nio->encoding == nrrdEncodingGzip && nio->lineSkip == 0) {
+    if (layout.files.empty())
+      check_gzip_stream(path, file.data() + layout.attached_at, file.size() - std::min(layout.attached_at, file.size()));
+    for (std::size_t f = 0; f < data_files.size(); ++f)
+      check_gzip_stream(layout.files[f], data_files[f]->data(), data_files[f]->size());
+  }
+  std::unique_ptr<Nrrd, NrrdDeleter> full(nrrdNew());
+  if (nrrdLoad(full.get(), path.c_str(), nullptr)) throw InputError(path, "not a readable NRRD: " + teem_error());
+  if (nrrdElementNumber(full.get()) != count || full->type != n->type)
+    throw InputError(path, "the file changed while it was being read");
+  detail::decode_volume(static_cast<const unsigned char*>(full->data), type, std::endian::native == std::endian::big, v,
+                        path);
   return v;
 }
 
@@ -306,7 +505,8 @@ void write_nrrd_volume(const std::string& path, const Volume& v) {
   if (v.data.size() != count) throw ParamError(path + ": volume data size does not match its sizes");
   const detail::ScalarType stored = detail::storage_type(v);
   const int type = stored == detail::ScalarType::U8 ? nrrdTypeUChar : stored == detail::ScalarType::U16 ? nrrdTypeUShort
-                   : stored == detail::ScalarType::I32 ? nrrdTypeInt : nrrdTypeFloat;
+                   : stored == detail::ScalarType::I32 ? nrrdTypeInt : stored == detail::ScalarType::U32 ? nrrdTypeUInt
+                   : nrrdTypeFloat;
   std::vector<unsigned char> bytes = detail::encode_scalars(v, stored);
   std::unique_ptr<Nrrd, NrrdDeleter> n(nrrdNew());
   if (nrrdWrap_va(n.get(), bytes.data(), type, 3, std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)))

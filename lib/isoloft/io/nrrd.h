@@ -62,16 +62,24 @@ void write_nrrd(const std::string& path, const Volume& v, NrrdEncoding encoding 
 
 /// Reads a 2D (nz = 1) or 3D scalar NRRD with teem: every encoding and type
 /// teem reads (integers up to 32 bit, float, double), attached or detached
-/// data; geometry from `space directions` and `space origin` (LPS, RAS, LAS
-/// and unnamed spaces, taken to patient LPS) or from `spacings`.
-/// \throw InputError naming the file and teem's reason for a corrupt or
-///        truncated file, or for attached gzip data that fails its checksum
-///        (teem reads only the bytes it needs); for 4D data, non-scalar axes,
-///        sheared axes. NaN samples are kept as they are.
-Volume read_nrrd(const std::string& path);
+/// data (in the header's folder or below unless
+/// options.allow_external_data); geometry from `space directions` and
+/// `space origin` (LPS, RAS, LAS and unnamed spaces, taken to patient LPS)
+/// or from `spacings`. The header is read first (teem, data skipped) and
+/// checked before any data is: sizes against what the data files can hold,
+/// options.on_header. ZRL data is decoded here, bounded (teem's own ZRL
+/// reader counts in 32 bits and pads short data with 255).
+/// 32-bit integer labels stay exact (Volume::value_table).
+/// \throw InputError naming the file and teem's reason (its innermost
+///        message) for a corrupt or truncated file, or for gzip data that
+///        fails its checksum (teem reads only the bytes it needs); for a data
+///        file outside the header's folder, not a regular file, or stdin
+///        ("-"); for 4D data, non-scalar axes, sheared axes. NaN samples are
+///        kept as they are.
+Volume read_nrrd(const std::string& path, const VolumeReadOptions& options = {});
 
 /// Writes `v` with teem (gzip), its geometry in patient LPS; integer volumes
-/// as uint8, uint16 or int32, else float32; atomically.
+/// as uint8, uint16, int32 or uint32, else float32; atomically.
 /// \throw Error naming the path on failure.
 void write_nrrd_volume(const std::string& path, const Volume& v);
 

@@ -1,6 +1,7 @@
 #include "isoloft/io/png.h"
 
 #include <png.h>
+#include <unistd.h>
 
 #include <csetjmp>
 #include <cstdio>
@@ -9,6 +10,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/atomic_file.h"
+#include "isoloft/io/file_util.h"
 
 namespace isoloft {
 namespace {
@@ -126,8 +128,12 @@ void write_rows(const std::string& path, PngCtx& c, int color_type, std::size_t 
 
 // Opens and decodes `path` into c (its header only if c.header_only).
 void read_into(const std::string& path, PngCtx& c) {
-  c.fp = std::fopen(path.c_str(), "rb");
-  if (!c.fp) throw InputError(path, std::string("cannot open file (") + std::strerror(errno) + ")");
+  const int fd = detail::open_regular_file(path);  // a FIFO or device refused, never waited on
+  c.fp = ::fdopen(fd, "rb");
+  if (!c.fp) {
+    ::close(fd);
+    throw InputError(path, std::string("cannot open file (") + std::strerror(errno) + ")");
+  }
   if (std::fseek(c.fp, 0, SEEK_END) == 0) c.file_size = std::ftell(c.fp);
   std::rewind(c.fp);
   png_byte sig[8];

@@ -100,11 +100,14 @@ SliceStack read_polylines(const std::string& path) {
       contour = &stack.slices.back().polygons.back();
       contour_line = line_no;
     } else {
-      const bool numeric = key[0] == '-' || key[0] == '+' || key[0] == '.' || (key[0] >= '0' && key[0] <= '9');
+      double x = 0, y = 0;  // "nan" and "inf" parse too: named below, not as keywords
+      const bool numeric = detail::parse_number(key, x) || key[0] == '-' || key[0] == '+' || key[0] == '.' ||
+                           (key[0] >= '0' && key[0] <= '9');
       if (!numeric) throw fail(line_no, "unknown keyword '" + std::string(key) + "'");
-      double x = 0, y = 0;
-      if (tok.size() != 2 || !to_double(tok[0], x) || !to_double(tok[1], y))
+      if (tok.size() != 2 || !detail::parse_number(tok[0], x) || !detail::parse_number(tok[1], y))
         throw fail(line_no, "expected two numbers");
+      if (!std::isfinite(x) || !std::isfinite(y))
+        throw fail(line_no, "point (" + std::string(tok[0]) + ", " + std::string(tok[1]) + ") is not finite");
       if (!contour) throw fail(line_no, "point outside a 'contour'");
       if (x < -0.5 || y < -0.5 || x > stack.width - 0.5 || y > stack.height - 0.5)
         throw fail(line_no, "point (" + shortest_text(x) + ", " + shortest_text(y) + ") outside the " + std::to_string(stack.width) + "x" +

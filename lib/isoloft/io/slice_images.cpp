@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "isoloft/core/error.h"
+#include "isoloft/io/file_util.h"
 #include "isoloft/io/png.h"
 
 namespace isoloft {
@@ -66,7 +67,12 @@ std::vector<std::string> list_slice_files(const std::vector<std::string>& inputs
       const fs::path& p = entry.path();
       const std::string name = p.filename().string();
       if (name.empty() || name[0] == '.') continue;  // hidden, e.g. our own atomic temp files
-      if (!has_png_extension(p) || !entry.is_regular_file(ec)) continue;
+      if (!has_png_extension(p)) continue;
+      std::error_code dir_ec;
+      if (entry.is_directory(dir_ec)) continue;  // a folder named x.png is not a slice
+      // Any other .png that is not a regular file (a broken link, a FIFO, a
+      // device) is an error wherever it sorts, never skipped.
+      detail::check_regular_file(p.string());
       names.push_back(name);
     }
     if (ec) throw InputError(inputs[0], "cannot list directory (" + ec.message() + ")");
@@ -80,7 +86,7 @@ std::vector<std::string> list_slice_files(const std::vector<std::string>& inputs
   for (const auto& f : inputs) {
     if (fs::is_directory(f, ec))
       throw InputError(f, "a directory must be the only input (got " + std::to_string(inputs.size()) + " inputs)");
-    if (!fs::exists(f, ec)) throw InputError(f, "no such file");
+    detail::check_regular_file(f);  // missing, a FIFO or a device: refused before it is opened
   }
   return inputs;
 }

@@ -38,11 +38,11 @@ VolumeFormat volume_format(const std::string& path) {
 
 bool is_volume_path(const std::string& path) { return volume_format(path) != VolumeFormat::None; }
 
-Volume read_volume(const std::string& path) {
+Volume read_volume(const std::string& path, const VolumeReadOptions& options) {
   switch (volume_format(path)) {
-    case VolumeFormat::Nifti: return read_nifti(path);
-    case VolumeFormat::Nrrd: return read_nrrd(path);
-    case VolumeFormat::MetaImage: return read_metaimage(path);
+    case VolumeFormat::Nifti: return read_nifti(path, options);
+    case VolumeFormat::Nrrd: return read_nrrd(path, options);
+    case VolumeFormat::MetaImage: return read_metaimage(path, options);
     case VolumeFormat::None: break;
   }
   throw InputError(path, "not a volume file name (.nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd)");
@@ -69,9 +69,18 @@ namespace detail {
 
 ScalarType storage_type(const Volume& v) {
   if (!v.integer) return ScalarType::F32;
-  float lo = 0, hi = 0;
-  for (float x : v.data) lo = std::min(lo, x), hi = std::max(hi, x);
-  return lo >= 0 && hi <= 255 ? ScalarType::U8 : lo >= 0 && hi <= 65535 ? ScalarType::U16 : ScalarType::I32;
+  double lo = 0, hi = 0;
+  if (v.value_table.empty()) {
+    float flo = 0, fhi = 0;
+    for (float x : v.data) flo = std::min(flo, x), fhi = std::max(fhi, x);
+    lo = flo, hi = fhi;
+  } else {
+    for (const std::int64_t x : v.value_table) lo = std::min(lo, double(x)), hi = std::max(hi, double(x));
+  }
+  if (lo >= 0 && hi <= 255) return ScalarType::U8;
+  if (lo >= 0 && hi <= 65535) return ScalarType::U16;
+  if (lo >= 0 && hi > std::numeric_limits<std::int32_t>::max()) return ScalarType::U32;
+  return ScalarType::I32;
 }
 
 std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t) {
@@ -79,10 +88,12 @@ std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t) {
   auto put = [&](std::size_t i, auto value) { std::memcpy(&out[i * sizeof value], &value, sizeof value); };
   for (std::size_t i = 0; i < v.data.size(); ++i) {
     const float x = v.data[i];
+    const double exact = v.value_table.empty() ? double(x) : double(v.value_table[std::size_t(x)]);
     switch (t) {
-      case ScalarType::U8: put(i, std::uint8_t(x)); break;
-      case ScalarType::U16: put(i, std::uint16_t(x)); break;
-      case ScalarType::I32: put(i, std::int32_t(x)); break;
+      case ScalarType::U8: put(i, std::uint8_t(exact)); break;
+      case ScalarType::U16: put(i, std::uint16_t(exact)); break;
+      case ScalarType::I32: put(i, std::int32_t(exact)); break;
+      case ScalarType::U32: put(i, std::uint32_t(exact)); break;
       default: put(i, x); break;
     }
   }
@@ -174,6 +185,59 @@ void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, b
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
     decode_serial(src + r.begin() * size, r.size(), t, swap, dst + r.begin());
   });
+}
+
+namespace {
+
+// The 32-bit integers of src as int64 (either byte order).
+template <class T>
+std::vector<std::int64_t> integers(const unsigned char* src, std::size_t count, bool swap) {
+  std::vector<std::int64_t> out(count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, std::size_t(1) << 20), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      unsigned char b[sizeof(T)];
+      std::memcpy(b, src + i * sizeof(T), sizeof(T));
+      if (swap) std::reverse(b, b + sizeof(T));
+      T x;
+      std::memcpy(&x, b, sizeof(T));
+      out[i] = std::int64_t(x);
+    }
+  });
+  return out;
+}
+
+}  // namespace
+
+void decode_volume(const unsigned char* src, ScalarType t, bool big_endian, Volume& v, const std::string& file) {
+  const std::size_t count = v.data.size();
+  decode_scalars(src, count, t, big_endian, v.data.data());
+  v.value_table.clear();
+  if (t != ScalarType::I32 && t != ScalarType::U32) return;
+  // Beyond 2^24 a float no longer holds every integer: the exact values go
+  // to a table. Decoded floats at or beyond 2^24 in magnitude mark the case.
+  constexpr float kExact = float(1 << 24);
+  int beyond = 0;
+  for (const float x : v.data) beyond |= int(std::abs(x) >= kExact);  // branch-free: vectorises
+  if (!beyond) return;
+  const bool swap = big_endian != (std::endian::native == std::endian::big);
+  std::vector<std::int64_t> exact =
+      t == ScalarType::I32 ? integers<std::int32_t>(src, count, swap) : integers<std::uint32_t>(src, count, swap);
+  // 0 first, then the other distinct values ascending.
+  std::vector<std::int64_t> table = exact;
+  table.push_back(0);
+  std::sort(table.begin(), table.end());
+  table.erase(std::unique(table.begin(), table.end()), table.end());
+  table.erase(std::find(table.begin(), table.end(), 0));
+  table.insert(table.begin(), 0);
+  if (table.size() > std::size_t(1 << 24))
+    throw InputError(file, std::to_string(table.size()) + " distinct integer values, some beyond 2^24: more than the " +
+                               std::to_string(1 << 24) + " that can be told apart exactly");
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, std::size_t(1) << 20), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i)
+      v.data[i] = exact[i] == 0 ? 0.0f
+                                : float(std::lower_bound(table.begin() + 1, table.end(), exact[i]) - table.begin());
+  });
+  v.value_table = std::move(table);
 }
 
 }  // namespace detail

@@ -12,6 +12,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,11 @@ struct Volume {
   Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();
   bool integer = false;                          ///< the file holds integers (a label map), not floats
   std::vector<float> data;                       ///< x fastest, then y, then z; size nx*ny*nz
+  /// Integer volumes with values a float cannot hold exactly (beyond 2^24 in
+  /// magnitude, e.g. int32 labels 16777216 and 16777217): 0, then the other
+  /// distinct values ascending, and `data` holds each voxel's index into this
+  /// table (0 stays 0; labels stay exact). Empty otherwise: `data` holds the values.
+  std::vector<std::int64_t> value_table;
   std::vector<std::string> warnings;             ///< what the reader assumed (e.g. an unknown orientation)
 
   /// Patient position of the (fractional) voxel index ijk.
@@ -40,15 +46,36 @@ struct Volume {
     return (std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x);
   }
   [[nodiscard]] float at(int x, int y, int z) const { return data[index(x, y, z)]; }
+  /// The value of sample i (data[i], or its value_table entry).
+  [[nodiscard]] double value(std::size_t i) const {
+    return value_table.empty() ? double(data[i]) : double(value_table[std::size_t(data[i])]);
+  }
   [[nodiscard]] Grid2f plane(int z) const;
+};
+
+/// What a volume file holds, from its header alone.
+struct VolumeHeader {
+  int nx = 0, ny = 0, nz = 0;
+  std::size_t sample_bytes = 0;  ///< bytes of one sample in the file
+};
+
+/// How to read a volume.
+struct VolumeReadOptions {
+  /// Data files a header names (NRRD `data file`, MetaImage `ElementDataFile`)
+  /// may lie outside the header's folder (else an error names them).
+  bool allow_external_data = false;
+  /// Called once the header is read and checked, before any voxel is
+  /// allocated or decoded (a budget check throws from here).
+  std::function<void(const VolumeHeader&)> on_header;
 };
 
 /// The extension names a volume format this library reads.
 [[nodiscard]] bool is_volume_path(const std::string& path);
 
 /// Reads a volume by extension (.nii .nii.gz .hdr .nrrd .nhdr .mha .mhd).
-/// \throw InputError naming the file and the problem (each reader's list).
-Volume read_volume(const std::string& path);
+/// \throw InputError naming the file and the problem (each reader's list),
+///        and what options.on_header throws.
+Volume read_volume(const std::string& path, const VolumeReadOptions& options = {});
 
 /// Writes a volume by extension (.nii .nii.gz .nrrd .mha), with its geometry;
 /// integer volumes as the smallest unsigned/int32 type that holds them;
@@ -67,16 +94,22 @@ void check_finite_voxels(const Volume& v, const std::string& file);
 /// Element types of the files.
 enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
 
-/// How a volume's samples are written: uint8, uint16 or int32 for an integer
-/// volume (the smallest that holds its range), else float32.
+/// How a volume's samples are written: uint8, uint16, int32 or uint32 for an
+/// integer volume (the smallest that holds its range), else float32.
 ScalarType storage_type(const Volume& v);
-/// The samples as native-endian bytes of type t (U8, U16, I32 or F32).
+/// The samples (their values, through value_table) as native-endian bytes of
+/// type t (U8, U16, I32, U32 or F32).
 std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t);
 
 std::size_t scalar_size(ScalarType t);
 
 /// count elements of type t (either byte order) to floats. \pre src, dst hold them.
 void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst);
+
+/// v.data (sized to v's voxel count) from elements of type t, with
+/// v.value_table when 32-bit integers exceed a float's exact range.
+/// \throw InputError naming `file` if more than 2^24 distinct values need the table.
+void decode_volume(const unsigned char* src, ScalarType t, bool big_endian, Volume& v, const std::string& file);
 
 }  // namespace detail
 }  // namespace isoloft

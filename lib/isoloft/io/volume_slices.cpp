@@ -6,6 +6,9 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <string>
+#include <unordered_map>
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
@@ -84,19 +87,215 @@ VoxelScan scan_voxels(const Volume& v, bool labels) {
   return out;
 }
 
+// The share of empty slices between the first and the last occupied one.
+double sparsity(const std::vector<std::uint8_t>& occ) {
+  const auto first = std::find(occ.begin(), occ.end(), 1);
+  if (first == occ.end()) return 0;
+  const auto last = std::find(occ.rbegin(), occ.rend(), 1).base();
+  const double extent = double(last - first), annotated = double(std::count(first, last, 1));
+  return 1.0 - annotated / extent;
+}
+
 int sparse_axis_of(const Occupancy& occupancy) {
   int best = 2;
   double best_sparsity = 0;
   for (int a : {2, 1, 0}) {  // ties go to k, then j
-    const auto& occ = occupancy[std::size_t(a)];
-    const auto first = std::find(occ.begin(), occ.end(), 1);
-    if (first == occ.end()) continue;
-    const auto last = std::find(occ.rbegin(), occ.rend(), 1).base();
-    const double extent = double(last - first), annotated = double(std::count(first, last, 1));
-    const double sparsity = 1.0 - annotated / extent;
-    if (sparsity > best_sparsity + 1e-12) best = a, best_sparsity = sparsity;
+    const double s = sparsity(occupancy[std::size_t(a)]);
+    if (s > best_sparsity + 1e-12) best = a, best_sparsity = s;
   }
   return best;
+}
+
+const char* const kAxisNames = "ijk";
+
+// A label or mask drawn on slices along another axis than the one sliced:
+// along the sliced one it is a stack of one-voxel lines.
+std::string off_axis_warning(const std::string& path, const std::string& what, int drawn, int sliced,
+                             const std::vector<std::uint8_t>& occ_drawn) {
+  const auto first = std::find(occ_drawn.begin(), occ_drawn.end(), 1);
+  const auto last = std::find(occ_drawn.rbegin(), occ_drawn.rend(), 1).base();
+  return path + ": " + what + ": drawn on slices along " + kAxisNames[drawn] + " (" +
+         std::to_string(std::count(first, last, 1)) + " of the " + std::to_string(last - first) + " slices from " +
+         kAxisNames[drawn] + " = " + std::to_string(first - occ_drawn.begin()) + " hold it), but the volume is sliced along " +
+         kAxisNames[sliced] + ", across which it is thin lines: the surface will be wrong (give " +
+         option_given("--axis", std::string(1, kAxisNames[drawn])) +
+         (what == "the mask" ? "" : " with " + option_name("--labels") + " for it") + ")";
+}
+
+// An annotated slice with under kStrayFraction of the non-zero voxels of the
+// annotated slices either side, next to a slice that is not annotated: a
+// stray voxel made it "annotated", and every object crossing it is cut or
+// pinched there. (A dense run of slices is data throughout: not checked.)
+constexpr double kStrayFraction = 0.01;
+
+std::size_t nonzero(const Grid2u32& g) {
+  return std::size_t(std::count_if(g.data.begin(), g.data.end(), [](std::uint32_t x) { return x != 0; }));
+}
+
+// Annotated slice s borders a slice that is not.
+bool borders_gap(const VolumeStack& vs, std::size_t s) {
+  const int t = vs.annotated[s];
+  const bool before = s > 0 && vs.annotated[s - 1] == t - 1, after = s + 1 < vs.annotated.size() && vs.annotated[s + 1] == t + 1;
+  return !(before && after);
+}
+
+// The stray slices (stack indices) and their non-zero voxel counts.
+std::vector<std::size_t> stray_slices(const VolumeStack& vs, std::vector<std::size_t>& count) {
+  const auto& sl = vs.stack.slices;
+  count.assign(sl.size(), 0);
+  for (std::size_t s = 0; s < sl.size(); ++s) count[s] = nonzero(sl[s].image);
+  std::vector<std::size_t> out;
+  for (std::size_t s = 1; s + 1 < sl.size(); ++s)
+    if (borders_gap(vs, s) && double(count[s]) < kStrayFraction * double(std::min(count[s - 1], count[s + 1])))
+      out.push_back(s);
+  return out;
+}
+
+std::string stray_text(const std::string& path, const VolumeStack& vs, std::size_t s, const std::vector<std::size_t>& count) {
+  return path + ": annotated slice " + kAxisNames[vs.axis] + " = " + std::to_string(vs.annotated[s]) + " holds " +
+         std::to_string(count[s]) + " non-zero voxel(s), against " + std::to_string(count[s - 1]) + " and " +
+         std::to_string(count[s + 1]) + " on the annotated slices either side (stray voxels?)";
+}
+
+// Per label (a voxel value, or its value-table index; with `binary`, one
+// object of every non-zero voxel): the slices along each axis that hold it,
+// as bitmaps (label l's words for axis a at bits[a][l * words[a] ...]), its
+// voxels, and its voxels whose neighbour at +1 along each axis is the same
+// label. Empty when the volume holds more than kMaxCheckedLabels labels (the
+// checks' memory would grow with them).
+constexpr std::size_t kMaxCheckedLabels = std::size_t(1) << 16;
+
+struct LabelOccupancy {
+  std::vector<float> keys;  // voxel values, in order of first appearance
+  std::array<std::size_t, 3> words{};
+  std::array<std::vector<std::uint64_t>, 3> bits;
+  std::vector<std::uint64_t> voxels;
+  std::vector<std::array<std::uint64_t, 3>> pairs;
+  [[nodiscard]] bool test(std::size_t label, int axis, std::size_t t) const {
+    return (bits[std::size_t(axis)][label * words[std::size_t(axis)] + t / 64] >> (t % 64)) & 1;
+  }
+  [[nodiscard]] std::vector<std::uint8_t> slices(std::size_t label, int axis, std::size_t n) const {
+    std::vector<std::uint8_t> o(n);
+    for (std::size_t t = 0; t < n; ++t) o[t] = test(label, axis, t);
+    return o;
+  }
+};
+
+LabelOccupancy label_occupancy(const Volume& v, bool binary) {
+  LabelOccupancy out;
+  std::unordered_map<float, std::size_t> id;
+  out.words = {(std::size_t(v.nx) + 63) / 64, (std::size_t(v.ny) + 63) / 64, (std::size_t(v.nz) + 63) / 64};
+  auto set = [&](std::size_t l, int a, std::size_t t) {
+    out.bits[std::size_t(a)][l * out.words[std::size_t(a)] + t / 64] |= std::uint64_t(1) << (t % 64);
+  };
+  auto same = [binary](float x, float y) { return binary ? y != 0 : x == y; };  // x != 0
+  std::size_t last = 0;
+  bool have_last = false;
+  float last_key = 0;
+  for (int k = 0; k < v.nz; ++k)
+    for (int j = 0; j < v.ny; ++j) {
+      const float* row = v.data.data() + v.index(0, j, k);
+      const float* below = j > 0 ? row - v.nx : nullptr;                               // (i, j - 1, k)
+      const float* behind = k > 0 ? row - std::size_t(v.nx) * std::size_t(v.ny) : nullptr;  // (i, j, k - 1)
+      for (int i = 0; i < v.nx;) {
+        const float x = row[i];
+        int e = i + 1;
+        while (e < v.nx && (binary ? (row[e] != 0) == (x != 0) : row[e] == x)) ++e;  // a run of one label
+        if (x != 0) {
+          const float key = binary ? 1.0f : x;
+          if (!have_last || key != last_key) {
+            auto [it, added] = id.emplace(key, out.keys.size());
+            if (added) {
+              if (out.keys.size() == kMaxCheckedLabels) return {};
+              out.keys.push_back(key);
+              for (std::size_t a = 0; a < 3; ++a) out.bits[a].resize(out.keys.size() * out.words[a], 0);
+              out.voxels.push_back(0);
+              out.pairs.push_back({});
+            }
+            last = it->second, last_key = key, have_last = true;
+          }
+          auto& p = out.pairs[last];
+          out.voxels[last] += std::uint64_t(e - i);
+          p[0] += std::uint64_t(e - i - 1);
+          for (int t = i; t < e; ++t) {
+            set(last, 0, std::size_t(t));
+            if (below) p[1] += same(x, below[t]);
+            if (behind) p[2] += same(x, behind[t]);
+          }
+          set(last, 1, std::size_t(j));
+          set(last, 2, std::size_t(k));
+        }
+        i = e;
+      }
+    }
+  return out;
+}
+
+// Drawn slice by slice along axis b, seen across axis `sliced`: on at least 3
+// slices along b, almost no voxel has a neighbour of its label along b (the
+// slices are one voxel thick), while most have one along `sliced` (the label
+// is not drawn along that one too). A real object, even a thin one, is more
+// than one voxel thick along some slices' normal; a speck is neither.
+constexpr double kDrawnPairs = 0.05, kDensePairs = 0.5;
+
+int other_drawn_axis(const LabelOccupancy& occ, std::size_t l, int sliced, const std::array<std::size_t, 3>& n) {
+  const double voxels = double(occ.voxels[l]);
+  if (!(double(occ.pairs[l][std::size_t(sliced)]) >= kDensePairs * voxels)) return -1;
+  for (int b : {2, 1, 0}) {
+    if (b == sliced || double(occ.pairs[l][std::size_t(b)]) > kDrawnPairs * voxels) continue;
+    const auto o = occ.slices(l, b, n[std::size_t(b)]);
+    if (std::count(o.begin(), o.end(), 1) >= 3) return b;
+  }
+  return -1;
+}
+
+// Labels: (1) a label drawn along another axis than the one sliced; (2) a
+// stray slice, with the labels it cuts.
+void label_warnings(const Volume& v, VolumeStack& vs, const std::string& path) {
+  constexpr std::size_t kNamed = 5;  // labels named per warning; the rest counted
+  const LabelOccupancy occ = label_occupancy(v, false);
+  const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
+  const int a = vs.axis;
+  auto label_of = [&](float key) {
+    return v.value_table.empty() ? std::int64_t(key) : v.value_table[std::size_t(key)];
+  };
+  std::vector<std::size_t> order(occ.keys.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return label_of(occ.keys[x]) < label_of(occ.keys[y]); });
+  // (1) drawn axis -> the labels drawn along it, and one's slices.
+  std::map<int, std::vector<std::string>> off_axis;
+  std::map<int, std::vector<std::uint8_t>> example;
+  // (2) per annotated slice (stack index), the labels cut there.
+  std::vector<std::size_t> count;
+  const std::vector<std::size_t> stray = stray_slices(vs, count);
+  std::vector<std::vector<std::string>> cut(stray.size());
+  for (const std::size_t l : order) {
+    if (const int drawn = other_drawn_axis(occ, l, a, n); drawn >= 0) {
+      off_axis[drawn].push_back(std::to_string(label_of(occ.keys[l])));
+      example.emplace(drawn, occ.slices(l, drawn, n[std::size_t(drawn)]));
+      continue;  // cut everywhere along the sliced axis: (2) would only repeat it
+    }
+    const auto mine = occ.slices(l, a, n[std::size_t(a)]);
+    const auto first = std::find(mine.begin(), mine.end(), 1) - mine.begin();
+    const auto last = std::find(mine.rbegin(), mine.rend(), 1).base() - mine.begin();
+    for (std::size_t i = 0; i < stray.size(); ++i) {
+      const int t = vs.annotated[stray[i]];
+      if (t > first && t < last - 1 && !mine[std::size_t(t)]) cut[i].push_back(std::to_string(label_of(occ.keys[l])));
+    }
+  }
+  auto listed = [&](const auto& labels) {
+    std::string out;
+    for (std::size_t i = 0; i < labels.size() && i < kNamed; ++i) out += (i ? ", " : "") + std::string(labels[i]);
+    if (labels.size() > kNamed) out += " and " + std::to_string(labels.size() - kNamed) + " more";
+    return out;
+  };
+  for (const auto& [drawn, labels] : off_axis)
+    vs.warnings.push_back(off_axis_warning(path, "label(s) " + listed(labels), drawn, a, example[drawn]));
+  for (std::size_t i = 0; i < stray.size() && i < kNamed; ++i)
+    vs.warnings.push_back(stray_text(path, vs, stray[i], count) +
+                          (cut[i].empty() ? "" : ": label(s) " + listed(cut[i]) + " crossing it are cut there"));
+  if (stray.size() > kNamed)
+    vs.warnings.push_back(path + ": " + std::to_string(stray.size() - kNamed) + " more annotated slice(s) like that");
 }
 
 }  // namespace
@@ -117,17 +316,23 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
   const int a = out.axis;
   const auto [u, w] = in_plane(a);
   const double su = v.spacing[std::size_t(u)], sw = v.spacing[std::size_t(w)], sa = v.spacing[std::size_t(a)];
-  static const char* kAxis = "ijk";
+  const char* const kAxis = kAxisNames;
   if (scan.first_nonfinite_row != kNoRow) detail::check_finite_voxels(v, path);
   if (std::abs(su - sw) > kSquareTolerance * std::max(su, sw))
     throw InputError(path, std::string("voxels are not square across axis ") + kAxis[a] + " (" + std::to_string(su) +
                                " x " + std::to_string(sw) + " mm): resample the volume, or give another " + option_name("--axis"));
-  if (scan.first_nonlabel_row != kNoRow)
+  const bool labels = slicing.kind == InputKind::Labels;
+  if (labels && scan.first_nonlabel_row != kNoRow)
     for (std::size_t i = scan.first_nonlabel_row * std::size_t(v.nx); i < v.data.size(); ++i)
       if (v.data[i] < 0 || v.data[i] != std::floor(v.data[i]) || v.data[i] > float(1 << 24))
         throw InputError(path, "not a label map: value " + std::to_string(v.data[i]) + " at voxel " + std::to_string(i) +
                                    " is not a non-negative integer (use " + option_given("--input", "masks") +
                                    " for any non-zero voxel as inside)");
+  if (labels)  // exact values beyond 2^24 (the voxels hold indices into the table)
+    for (const std::int64_t x : v.value_table)
+      if (x < 0 || x > std::int64_t(std::numeric_limits<std::uint32_t>::max()))
+        throw InputError(path, "not a label map: value " + std::to_string(x) + " is not a label (0 .. 2^32 - 1; use " +
+                                   option_given("--input", "masks") + " for any non-zero voxel as inside)");
   const auto& occ = scan.occupied[std::size_t(a)];
   for (int t = 0; t < int(occ.size()); ++t)
     if (occ[std::size_t(t)]) out.annotated.push_back(t);
@@ -156,15 +361,27 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
     const std::size_t step_x = stride[std::size_t(u)], step_y = stride[std::size_t(w)];
     const float* plane = v.data.data() + std::size_t(t) * stride[std::size_t(a)];
     const bool masks = slicing.kind == InputKind::Masks;
+    const std::int64_t* table = v.value_table.empty() ? nullptr : v.value_table.data();
     for (int y = 0; y < st.height; ++y) {
       const float* src = plane + std::size_t(y) * step_y;
       std::uint32_t* dst = &s.image(0, y);
       for (int x = 0; x < st.width; ++x) {
         const float val = src[std::size_t(x) * step_x];
-        dst[x] = masks ? (val != 0 ? 255u : 0u) : std::uint32_t(val);
+        dst[x] = masks ? (val != 0 ? 255u : 0u) : std::uint32_t(table ? table[std::size_t(val)] : std::int64_t(val));
       }
     }
     st.slices.push_back(std::move(s));
+  }
+  if (labels) {
+    label_warnings(v, out, path);
+  } else {
+    const LabelOccupancy occ = label_occupancy(v, true);
+    const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
+    if (const int drawn = occ.keys.empty() ? -1 : other_drawn_axis(occ, 0, a, n); drawn >= 0)
+      out.warnings.push_back(off_axis_warning(path, "the mask", drawn, a, scan.occupied[std::size_t(drawn)]));
+    std::vector<std::size_t> count;
+    for (const std::size_t i : stray_slices(out, count))
+      out.warnings.push_back(stray_text(path, out, i, count) + ": the object is pinched to them there");
   }
   return out;
 }
@@ -179,6 +396,7 @@ LabelmapBuilder::LabelmapBuilder(const Volume& input, const VolumeStack& vs)
   annotated_.assign(std::size_t(n[std::size_t(axis_)]), 0);
   for (int t : vs.annotated) annotated_[std::size_t(t)] = 1;
   const bool masks = vs.stack.kind == InputKind::Masks;
+  if (masks) out_.value_table.clear();  // labels 0 and 1
   best_.assign(out_.data.size(), 0.0f);
   for (std::size_t i = 0; i < out_.data.size(); ++i) {
     const std::size_t t = axis_ == 0 ? i % std::size_t(n[0]) : axis_ == 1 ? i / std::size_t(n[0]) % std::size_t(n[1])
@@ -197,7 +415,11 @@ std::vector<double> LabelmapBuilder::sample_z() const {
 void LabelmapBuilder::add(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z) {
   const long t = std::lround(z / z_per_index_);
   if (t < 0 || t >= long(annotated_.size()) || annotated_[std::size_t(t)]) return;
-  const float value = label == 0 ? 1.0f : float(label);  // masks: one object, label 1
+  // Masks: one object, label 1; exact labels beyond 2^24 by their table index.
+  const auto& table = out_.value_table;
+  const float value = label == 0 ? 1.0f
+                      : table.empty() ? float(label)
+                                      : float(std::lower_bound(table.begin() + 1, table.end(), std::int64_t(label)) - table.begin());
   for (int y = 0; y < field.height; ++y)
     for (int x = 0; x < field.width; ++x) {
       const float f = field(x, y);

@@ -39,6 +39,15 @@ struct VolumeStack {
 ///        non-integer or negative values with Labels; in-plane voxels that are
 ///        not square along the axis; fewer than 2 annotated slices.
 /// @warning A volume annotated on every slice of every axis is sliced along k.
+/// @warning Legal but suspicious annotations become VolumeStack::warnings:
+///          a label (or the mask) whose own sparse axis is not the one sliced
+///          (along the sliced one it is thin lines: `--axis j` on k-annotated
+///          data); an annotated slice inside a label's range that lacks it
+///          (a stray voxel of another label made the slice annotated: the
+///          label is cut there); a mask slice with under 1 % of the voxels of
+///          the annotated slices either side (pinched to a stray voxel). Both
+///          only next to a slice that is not annotated: a dense run of
+///          slices is data throughout, its gaps real.
 VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path);
 
 /// The dense label map on the volume's grid: the annotated slices as they

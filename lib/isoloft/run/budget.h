@@ -7,8 +7,10 @@
 // Checked: the slice images' size from their headers, before decoding
 // (read_inputs); the input's footprint through the contour stage, after
 // reading; per object after its contour stage and before its fit, its
-// fields and mesh (memory) and the bytes of every file the run writes for
-// it (output; each RunOutput counts its own).
+// fields and mesh (memory; the meshes of all objects so far count too, as
+// the run holds them until it writes them) and the bytes of every file the
+// run writes for it (output; each RunOutput counts its own); before the
+// work, the number of files the run will write and that no two share a name.
 #pragma once
 
 #include <string>
@@ -19,10 +21,15 @@ namespace isoloft {
 
 struct Inputs;
 
-/// Byte limits, 0 = no limit.
+/// Most files one run writes by default (--max-files): a label map of 65,535
+/// labels would otherwise write 65,537 files over minutes of work.
+inline constexpr long kDefaultMaxFiles = 4096;
+
+/// Limits, 0 = no limit.
 struct Budget {
-  double max_memory = 0;  ///< --max-memory
-  double max_output = 0;  ///< --max-output
+  double max_memory = 0;  ///< --max-memory, bytes: per object and, for the meshes held until written, per run
+  double max_output = 0;  ///< --max-output, bytes
+  long max_files = 0;     ///< --max-files: files planned before the work (meshes, volumes, label map, report)
 };
 
 /// The CLI's default for both (4 GiB).

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <sstream>
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/io/file_util.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/io/slice_images.h"
@@ -98,7 +100,18 @@ Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& 
   return in;
 }
 
-Inputs read_volume_input(const InputRequest& r) { return slice_volume(read_volume(r.paths[0]), r.paths[0], r); }
+Inputs read_volume_input(const InputRequest& r) {
+  VolumeReadOptions ro;
+  ro.allow_external_data = r.allow_external_data;
+  ro.on_header = [&](const VolumeHeader& h) {  // before any voxel is read: the file's samples and our floats
+    const double voxels = double(h.nx) * double(h.ny) * double(h.nz);
+    check_budget(option_name("--max-memory"),
+                 "reading the " + std::to_string(h.nx) + "x" + std::to_string(h.ny) + "x" + std::to_string(h.nz) +
+                     " volume",
+                 voxels * double(h.sample_bytes + sizeof(float)), r.max_memory);
+  };
+  return slice_volume(read_volume(r.paths[0], ro), r.paths[0], r);
+}
 
 Inputs read_rtstruct_input(const InputRequest& r) {
   Inputs in;
@@ -155,6 +168,32 @@ void check_request(InputFormat format, const InputRequest& r) {
     throw ParamError(option_name("--space") + ": unknown value '" + r.space + "' (expected lps or ras)");
 }
 
+// The meshes are written in 32-bit floats in patient mm: far from the origin
+// a float's step passes the pixel and every vertex snaps to a few values
+// (at x = 1e9 mm all get one x, and the mesh still checks "closed manifold",
+// its check being in working pixels).
+void check_float_precision(const Inputs& in) {
+  for (const Job& job : in.jobs) {
+    const SliceStack& st = job.stack;
+    if (!st.patient || st.slices.empty()) continue;
+    double reach = 0;
+    for (const double x : {0.0, double(st.width)})
+      for (const double y : {0.0, double(st.height)})
+        for (const double z : {st.slices.front().z, st.slices.back().z})
+          reach = std::max(reach, st.patient->to_patient(Vec3d(x, y, z)).cwiseAbs().maxCoeff());
+    const double pixel = st.patient->axes.col(0).norm();
+    const double step = reach > 0 ? std::ldexp(1.0, std::ilogb(reach) - 23) : 0;  // float32 spacing at `reach`
+    if (step > kFloatPrecisionFraction * pixel) {
+      std::ostringstream o;
+      o << (job.name.empty() ? "" : "ROI '" + job.name + "': ") << "patient coordinates reach " << reach
+        << " mm, where the meshes' 32-bit floats step by " << step << " mm, more than 1/"
+        << 1 / kFloatPrecisionFraction << " of the " << pixel
+        << " mm pixel: the surface would lose its shape (move the origin nearer 0, e.g. in the file's header)";
+      throw InputError(in.files.empty() ? "input" : in.files.front(), o.str());
+    }
+  }
+}
+
 }  // namespace
 
 Inputs volume_input(Volume volume, const std::string& name, const InputRequest& r) {
@@ -163,6 +202,7 @@ Inputs volume_input(Volume volume, const std::string& name, const InputRequest& 
   in.format = InputFormat::Volume;
   in.files = {name};
   in.ras = r.space == "ras";
+  check_float_precision(in);
   return in;
 }
 
@@ -177,6 +217,9 @@ InputFormat detect_input(const std::vector<std::string>& paths) {
 }
 
 Inputs read_inputs(const InputRequest& r) {
+  // Opening a FIFO blocks until a writer comes, and detecting the format opens the file.
+  for (const std::string& p : r.paths)
+    if (std::error_code ec; !fs::is_directory(p, ec)) detail::check_regular_file(p);
   const InputFormat format = detect_input(r.paths);
   check_request(format, r);
   Inputs in;
@@ -190,6 +233,7 @@ Inputs read_inputs(const InputRequest& r) {
   in.format = format;
   in.files = r.paths;
   in.ras = r.space == "ras";
+  check_float_precision(in);
   return in;
 }
 

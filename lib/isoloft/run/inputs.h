@@ -50,6 +50,8 @@ struct InputRequest {
   std::optional<double> voxel_size;  ///< RT Structure Sets, mm
   std::string space;                 ///< lps or ras
   double max_memory = 0;             ///< bytes (--max-memory), 0 = no limit: checked before decoding
+  /// Volumes: data files named by a header may lie outside its folder (--allow-external-data).
+  bool allow_external_data = false;
 };
 
 struct Inputs {
@@ -74,14 +76,24 @@ inline constexpr const char* kVolumeInputOnly = "only with a volume input (NIfTI
 InputFormat detect_input(const std::vector<std::string>& paths);
 
 /// Reads the input into jobs, applying and checking the input options: an
-/// option the input cannot use is an error naming it.
-/// \throw InputError / ParamError naming the file or the option.
+/// option the input cannot use is an error naming it. A path that is neither
+/// a folder nor a regular file (a FIFO, a device) is refused before it is
+/// opened; a volume's size is checked against max_memory from its header,
+/// before its voxels are read.
+/// \throw InputError / ParamError naming the file or the option; InputError
+///        for patient coordinates so far from the origin that the meshes'
+///        32-bit floats cannot keep their shape (see kFloatPrecisionFraction).
 Inputs read_inputs(const InputRequest& request);
 
 /// A volume already in memory (an image object in Python) read as
 /// read_inputs() reads a volume file; `name` stands for its path in messages
 /// and the report. \throw as read_inputs().
 Inputs volume_input(Volume volume, const std::string& name, const InputRequest& request);
+
+/// Patient coordinates are refused where a 32-bit float (the mesh files'
+/// type) steps by more than this share of the pixel: at 1e9 mm it steps by
+/// 64 mm. With 0.5 mm pixels the limit is about 65 m from the origin.
+inline constexpr double kFloatPrecisionFraction = 0.01;
 
 /// \throw ParamError (naming `option`) if labels are selected but the input is not a label input.
 void check_labels(const Inputs& in, const std::vector<std::uint32_t>& labels, const std::string& option);

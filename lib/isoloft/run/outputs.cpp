@@ -37,6 +37,11 @@ std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label
   return in.jobs.size() > 1 ? "_" + file_safe(in.jobs[job].name) : "";
 }
 
+std::string object_text(const Inputs& in, const PlannedObject& o) {
+  if (in.labels()) return "label " + std::to_string(o.label);
+  return in.jobs[o.job].name.empty() ? "the object" : "ROI '" + in.jobs[o.job].name + "'";
+}
+
 MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii) {
   MeshWriteOptions mo;
   mo.ascii = ascii;
@@ -120,6 +125,15 @@ double MeshOutput::file_bytes(const Inputs&, const WorkEstimate& e) const {
   return e.triangles * (ascii_ ? kAsciiMeshFileBytesPerTriangle : kMeshFileBytesPerTriangle);
 }
 
+std::vector<PlannedFile> MeshOutput::planned_files(const Inputs& in, const std::vector<PlannedObject>& objects) const {
+  if (!in.labels() && objects.size() <= 1) return {{path_, option()}};
+  std::vector<PlannedFile> out;
+  for (const PlannedObject& o : objects)
+    out.push_back({with_suffix(path_, object_suffix(in, o.job, o.label)), "the mesh of " + object_text(in, o)});
+  out.push_back({path_, option() + " (all objects)"});
+  return out;
+}
+
 void MeshOutput::finish(const RunContext& ctx, RunResult& r) {
   write_run_meshes(path_, ctx.in, r, run_mesh_options(ctx.in, ascii_), [&](const std::string& p) { return ctx.files.stage(p); });
   files_.clear();
@@ -169,6 +183,13 @@ void VolumeOutput::start_job(const RunContext& ctx, std::size_t job, JobHooks& h
 
 double VolumeOutput::file_bytes(const Inputs&, const WorkEstimate& e) const { return e.planes * e.plane_bytes; }
 
+std::vector<PlannedFile> VolumeOutput::planned_files(const Inputs& in, const std::vector<PlannedObject>& objects) const {
+  std::vector<PlannedFile> out;
+  for (const PlannedObject& o : objects)
+    out.push_back({with_suffix(path_, object_suffix(in, o.job, o.label)), option() + " of " + object_text(in, o)});
+  return out;
+}
+
 std::string VolumeOutput::budget_note() const { return " with " + option_name("--volume"); }
 
 void VolumeOutput::report(nlohmann::json& report) const { report["volume_files"] = files_; }
@@ -217,7 +238,7 @@ void StageDumpOutput::check(const Inputs&, const ReconstructParams& params) cons
 }
 
 void StageDumpOutput::start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) {
-  fs::create_directories(dir_);
+  ctx.files.create_directories(dir_);  // taken back if the run fails
   const SliceStack& stack = ctx.in.jobs[job].stack;
   hooks.on_slice_fields([this, &ctx, &stack](const SliceStageFields& sf) {
     char stem[64];

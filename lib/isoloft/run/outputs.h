@@ -46,6 +46,21 @@ std::string with_suffix(const std::string& path, const std::string& suffix);
 /// (several ROIs), else "".
 std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label);
 
+/// One object a run will make, known before the work: a volume's label, an
+/// RT Structure Set's ROI (its job), or a single object's job.
+struct PlannedObject {
+  std::size_t job = 0;
+  std::uint32_t label = 0;
+};
+
+/// "label 3", "ROI 'Heart'" or "the object": how messages name it.
+std::string object_text(const Inputs& in, const PlannedObject& o);
+
+/// A file a run will write and what writes it ("the mesh of label 3").
+struct PlannedFile {
+  std::string path, what;
+};
+
 /// How the run's meshes are written: patient mm with the space named, or
 /// pixels times the stack's pixel size.
 MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii = false);
@@ -118,6 +133,12 @@ class RunOutput {
   virtual void start_job(const RunContext&, std::size_t /*job*/, JobHooks&) {}
   /// Bytes this output writes for one object (the --max-output check).
   [[nodiscard]] virtual double file_bytes(const Inputs&, const WorkEstimate&) const { return 0; }
+  /// The files it will write for these objects, before any work (the
+  /// --max-files count; no two outputs may share a file). Per-slice dumps
+  /// are not listed.
+  [[nodiscard]] virtual std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const {
+    return {};
+  }
   /// Said after the object in a --max-output error (" with --volume").
   [[nodiscard]] virtual std::string budget_note() const { return {}; }
   /// After every job, the surfaces checked: writes what it holds (staged).
@@ -136,6 +157,7 @@ class MeshOutput final : public RunOutput {
   [[nodiscard]] std::string option() const override { return "-o"; }
   [[nodiscard]] std::string target() const override { return path_; }
   [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;
+  [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs& in, const std::vector<PlannedObject>& objects) const override;
   void finish(const RunContext& ctx, RunResult& r) override;
   [[nodiscard]] std::vector<std::string> files() const override { return files_; }
 
@@ -156,6 +178,7 @@ class VolumeOutput final : public RunOutput {
   [[nodiscard]] std::string target() const override { return path_; }
   void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
   [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;
+  [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs& in, const std::vector<PlannedObject>& objects) const override;
   [[nodiscard]] std::string budget_note() const override;
   void report(nlohmann::json& report) const override;
   [[nodiscard]] std::vector<std::string> files() const override { return files_; }
@@ -178,6 +201,9 @@ class LabelmapOutput final : public RunOutput {
   void check_format(InputFormat format) const override;
   void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
   [[nodiscard]] double file_bytes(const Inputs& in, const WorkEstimate&) const override;
+  [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const override {
+    return {{path_, option()}};
+  }
   void finish(const RunContext& ctx, RunResult& r) override;
   void report(nlohmann::json& report) const override;
   [[nodiscard]] std::vector<std::string> files() const override;

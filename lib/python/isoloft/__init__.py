@@ -30,6 +30,7 @@ __all__ = ["reconstruct", "read", "synth", "evaluate", "batch", "progress_bars",
 
 _KINDS = ("contours", "masks", "labels", "polylines")
 _BUDGET = "4G"  # the CLI's --max-memory and --max-output default
+_MAX_FILES = _isoloft._DEFAULT_MAX_FILES  # the CLI's --max-files default
 
 
 def _is_path(x):
@@ -87,7 +88,7 @@ def _image_volume(img):
 
 
 def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
-         voxel_size=None, space=None, max_memory=_BUDGET):
+         voxel_size=None, space=None, max_memory=_BUDGET, allow_external_data=False):
     """Reads what `isoloft reconstruct` reads, as an Input for reconstruct().
 
     path: a directory of PNG slices or a list of PNG files (input: contours,
@@ -98,7 +99,8 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
     object is read as a volume file is (its voxels and its geometry).
     Options the input cannot use are a ParamError naming them. max_memory:
     the budget checked from the image headers before decoding ("4G",
-    "512M", bytes; 0 = no limit).
+    "512M", bytes; 0 = no limit). allow_external_data: a NRRD or MetaImage
+    header may name a data file outside its own folder (refused by default).
     """
     if _is_image(path):
         given = [n for n, v in (("z_spacing", z_spacing), ("slice_z", slice_z), ("pixel_size", pixel_size),
@@ -112,7 +114,8 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
                                      integer, f"slices ({type(path).__name__})", input or "", axis or "",
                                      space or "")
     return _isoloft._read(_paths(path), input or "", z_spacing, None if slice_z is None else list(slice_z),
-                          pixel_size, axis or "", _rois(roi), voxel_size, space or "", str(max_memory))
+                          pixel_size, axis or "", _rois(roi), voxel_size, space or "", str(max_memory),
+                          bool(allow_external_data))
 
 
 def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
@@ -125,7 +128,7 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
 def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
                 voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
                 progress=None, allow_empty=False, volume=None, labelmap=None, dump_stages=None, report=None,
-                max_memory=_BUDGET, max_output=_BUDGET, **params):
+                max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
     slices, one of:
@@ -154,13 +157,15 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     labelmap (a volume's dense label map, .nii.gz/.nii/.nrrd/.mha),
     dump_stages (a directory: per-slice fields), report (the JSON of
     .report). max_memory, max_output: the work budget ("4G", "512M", bytes;
-    0 = no limit), checked before the work. **params: reconstruction
+    0 = no limit), checked before the work; max_files: the most files the run
+    writes (0 = no limit). allow_external_data: as for read(). **params: reconstruction
     parameters by their --print-params names.
     """
     if method is not None:
         params["method"] = method
     read_options = {"input": input, "z_spacing": z_spacing, "slice_z": slice_z, "pixel_size": pixel_size,
                     "axis": axis, "roi": roi, "voxel_size": voxel_size, "space": space}
+    external = {"allow_external_data": True} if allow_external_data else {}
     if isinstance(slices, Input):
         given = [n for n, v in read_options.items() if v is not None] + (["image_shape"] if image_shape else [])
         if given:
@@ -169,7 +174,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     elif _is_path(slices) or _is_image(slices):
         if image_shape is not None:
             raise ParamError("image_shape: only with input='polylines' arrays")
-        stack = read(slices, max_memory=max_memory, **read_options)
+        stack = read(slices, max_memory=max_memory, **read_options, **external)
     else:
         given = [n for n in ("axis", "roi", "voxel_size", "space") if read_options[n] is not None]
         if given:
@@ -185,7 +190,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
         labels = [int(l) for l in labels]
     return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
                                  _path_or_empty(volume), _path_or_empty(labelmap), _path_or_empty(dump_stages),
-                                 _path_or_empty(report), str(max_memory), str(max_output))
+                                 _path_or_empty(report), str(max_memory), str(max_output), int(max_files))
 
 
 def evaluate(mesh, truth, *, pixel_size=1.0):
