@@ -193,8 +193,17 @@ int Commands::reconstruct() {
     list_rois(o.inputs[0], std::cout);
     return 0;
   }
+  // -o OUT.dcm: the RT Structure Set is the output, no mesh.
+  const bool dcm_output = fs::path(o.output).extension() == ".dcm";
+  const std::string rtstruct_out = dcm_output ? o.output : o.rtstruct;
+  if (dcm_output && !o.rtstruct.empty()) throw ParamError("give either -o OUT.dcm or --rtstruct OUT.dcm, not both");
   if (o.output.empty()) throw ParamError("reconstruct: no output given (-o OUT.ply)");
-  (void)mesh_format_from_path(o.output);  // unknown extension -> error before any work
+  if (!dcm_output) (void)mesh_format_from_path(o.output);  // unknown extension -> error before any work
+  if (!o.rtstruct.empty() && fs::path(o.rtstruct).extension() != ".dcm")
+    throw ParamError("--rtstruct: '" + o.rtstruct + "' must end in .dcm");
+  const std::string volumes_ext = fs::path(o.volumes).extension().string();
+  if (!o.volumes.empty() && volumes_ext != ".csv" && volumes_ext != ".json")
+    throw ParamError("--volumes: '" + o.volumes + "' must end in .csv or .json");
   if (!o.volume.empty() && fs::path(o.volume).extension() != ".nrrd")
     throw ParamError("--volume: '" + o.volume + "' must end in .nrrd");
   if (!o.labelmap.empty() && !is_volume_path(o.labelmap))
@@ -212,6 +221,10 @@ int Commands::reconstruct() {
   Inputs in = read_inputs(request);
   const double read_seconds = seconds_since(t0);
   reject_unused_flags(param_flags_, o, params.method, in.format, in.jobs.front().stack.kind);
+  if (!rtstruct_out.empty() && in.format != InputFormat::RtStruct)
+    throw ParamError(std::string(dcm_output ? "-o " : "--rtstruct ") + rtstruct_out +
+                     ": an RT Structure Set out needs an RT Structure Set input (its patient, study and frame of "
+                     "reference are written back)");
   // The input's own footprint through the contour stage, before the work.
   const double input_bytes = isoloft::input_bytes(in);
   {
@@ -296,7 +309,13 @@ int Commands::reconstruct() {
 
   // Meshes: one object -> OUT; several -> OUT_<label or ROI> each and OUT with a colour per object.
   t0 = Clock::now();
-  write_run_meshes(o.output, in, run, run_mesh_options(in, o.ascii), [&](const std::string& p) { return outputs.stage(p); });
+  if (!dcm_output)
+    write_run_meshes(o.output, in, run, run_mesh_options(in, o.ascii), [&](const std::string& p) { return outputs.stage(p); });
+  if (!rtstruct_out.empty()) write_run_rtstruct(outputs.stage(rtstruct_out), in, run);
+  const std::vector<VolumeRow> table = volume_table(in, run);
+  if (!o.volumes.empty())
+    write_text_atomic(outputs.stage(o.volumes),
+                      volumes_ext == ".csv" ? volume_table_csv(table) : volume_table_json(table).dump(2) + "\n");
   if (labelmap) write_volume(outputs.stage(o.labelmap), labelmap->finish());
   const double write_seconds = seconds_since(t0);
 
@@ -307,12 +326,14 @@ int Commands::reconstruct() {
     write_text_atomic(outputs.stage(o.report), report.dump(2) + "\n");
   }
   outputs.commit();
+  if (in.format == InputFormat::RtStruct) std::cout << volume_table_text(table, true) << std::flush;
   if (!o.quiet) {
+    if (!rtstruct_out.empty()) std::cerr << "isoloft: wrote " << rtstruct_out << " (RT Structure Set)\n";
     for (const auto& ob : run.objects)
-      std::cerr << "isoloft: wrote " << ob.file << " (" << ob.object.mesh.triangles.size() << " triangles"
+      if (!dcm_output) std::cerr << "isoloft: wrote " << ob.file << " (" << ob.object.mesh.triangles.size() << " triangles"
                 << (ob.object.check.closed && ob.object.check.manifold ? ", closed manifold" : ", NOT closed manifold")
                 << ")\n";
-    if (several_outputs(in, run)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
+    if (!dcm_output && several_outputs(in, run)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
     if (labelmap) std::cerr << "isoloft: wrote " << o.labelmap << " (dense label map)\n";
   }
   return 0;

@@ -67,7 +67,8 @@ struct ReconstructParams {
   NarrowBandParams band;        ///< field/: paper 2.2
   ExtendParams extend;          ///< field/: paper 2.2
   FilterParams filter;          ///< field/: paper 2.3
-  InterpParams interp{.spline = SplineKind::ExtremumPreserving};  ///< interp/: paper 2.4 (spline: isoloft's)
+  /// interp/: paper 2.4 (spline and end caps: isoloft's)
+  InterpParams interp{.spline = SplineKind::ExtremumPreserving, .cap_shape = CapShape::Slab};
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
@@ -175,7 +176,8 @@ constexpr bool fits_curves(Method m) { return m != Method::Levin; }
 
 /// A method's parameters: the stages' defaults (the paper's) with what the
 /// method changes. isoloft (== ReconstructParams{}): the extremum-preserving
-/// z spline; marker2006 and levin: Hyman's (docs/decisions.md: the isoloft method).
+/// z spline and slab end caps; marker2006 and levin: Hyman's spline and dome
+/// caps (docs/decisions.md: the isoloft method, end caps).
 ReconstructParams method_defaults(Method m);
 
 /// Reconstructs one object, or one per label with InputKind::Labels.

@@ -23,6 +23,7 @@
 #include "isoloft/core/params.h"
 #include "isoloft/core/slice_stack.h"
 #include "isoloft/io/mesh_io.h"
+#include "isoloft/io/rtstruct.h"
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
 #include "isoloft/pipeline.h"
@@ -44,6 +45,7 @@ struct Job {
   SliceStack stack;
   std::string name;          ///< "" (one object), or the ROI name (RT Structure Set)
   std::optional<Rgb> color;  ///< the ROI's display colour, if any
+  const RtRoi* roi = nullptr;  ///< RT Structure Sets: the ROI (in Inputs::rtstruct)
 };
 
 /// What to read and the input options given (std::nullopt / "" = not given).
@@ -74,6 +76,8 @@ struct Inputs {
   /// Volume input: the volume and how it was sliced (for a label map and the report).
   std::unique_ptr<Volume> volume;
   std::unique_ptr<VolumeStack> slicing;
+  /// RT Structure Set input: the set as read (ROI numbers, names, colours).
+  std::unique_ptr<RtStructureSet> rtstruct;
 };
 
 /// The input's format, from its name and first bytes.
@@ -86,6 +90,10 @@ Inputs read_inputs(const InputRequest& request);
 
 /// `name` made safe as a file name part (letters, digits, '-', '_'; others '_').
 std::string file_safe(const std::string& name);
+
+/// The file name part of job `job`'s ROI: file_safe(name), with "_<number>"
+/// if another job's name gives the same (ROIs selected by number).
+std::string roi_file_tag(const Inputs& in, std::size_t job);
 
 /// Distinct colours per object: golden-ratio hue steps at full saturation.
 Rgb label_colour(std::size_t i);
@@ -134,6 +142,31 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
 /// The report's "objects": per object its label, file, ROI, counts, checks,
 /// volume and area (output units) and MPU statistics (marker2006).
 nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method method);
+
+/// One row of the volume table: an object's closed-surface volume beside
+/// the slab volume (contour area x slice spacing, the planning systems' and
+/// dicompyler's convention), in output units (patient mm for RT Structure
+/// Sets and volumes).
+struct VolumeRow {
+  std::string name;       ///< ROI name, "label <L>", or "object"
+  int number = 0;         ///< ROI number, or the label
+  double volume = 0;      ///< of the closed surface, output units^3
+  double area = 0;        ///< surface area, output units^2
+  double slab = 0;        ///< sum over contour planes of the contour area (even-odd) x the ROI's typical plane step; 0 if the input has no polygons
+  int planes = 0;         ///< slices with contours
+  bool closed = false;    ///< closed oriented 2-manifold
+};
+std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r);
+/// The table as aligned text (cc and cm^2 for patient mm), CSV, or JSON (mm^3, mm^2).
+std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_mm);
+std::string volume_table_csv(const std::vector<VolumeRow>& rows);
+nlohmann::json volume_table_json(const std::vector<VolumeRow>& rows);
+
+/// Writes the run's surfaces as an RT Structure Set (io/rtstruct.h,
+/// write_rtstruct): each ROI's mesh cut at its input contour planes
+/// (mesh/plane_cut.h), its number, name and colour and the input's header
+/// kept. \throw ParamError unless the input is an RT Structure Set.
+void write_run_rtstruct(const std::string& path, const Inputs& in, const RunResult& r);
 
 /// The report's "input": files, format, kind, slices, size, slice z, pixel size, space, axis, ROIs.
 nlohmann::json input_report(const Inputs& in);

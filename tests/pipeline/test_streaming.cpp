@@ -54,7 +54,7 @@ Resident resident_oracle(const SliceStack& st, const ReconstructParams& p, const
     fields[k] = detail::marker_slice(masks[k], st.slices[k], box, p, st.kind, st.width, false).field;
     if (p.filter.enabled) fields[k] = distance_filter(fields[k], p.filter);
   }
-  detail::fill_empty_slices(fields, box, p.interp);
+  detail::fill_empty_slices(fields, z, box, p.interp);
   add_end_caps(fields, z, p.interp);
   const ZInterpolator field(std::move(fields), z, p.interp.spline);
   Resident r;
