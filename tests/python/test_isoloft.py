@@ -186,6 +186,11 @@ def test_rtstruct_gives_the_cli_mesh_bytes(tmp_path, data_dir):
     assert res.objects[0].roi == "Heart"
     assert_same_files(res.save(tmp_path / "py.ply"), [cli_mesh])
     assert comparable(res.report["objects"]) == comparable(cli_report["objects"])
+    # The volume table (issue 25): the CLI's, with the slab volume beside the surface's.
+    assert res.report["volumes"] == cli_report["volumes"]
+    row = res.report["volumes"][0]
+    assert (row["name"], row["number"], row["planes"], row["closed"]) == ("Heart", 5, 33, True)
+    assert row["volume_mm3"] > 0 and row["slab_volume_mm3"] > 0
     # Patient mm, as the CLI test checks: inside the Heart's contour range.
     assert res.objects[0].vertices[:, 2].min() > -101 and res.objects[0].vertices[:, 2].max() < 1
 
