@@ -261,7 +261,7 @@ def test_options_the_input_cannot_use_raise(tmp_path, data_dir):
         isoloft.read(vol, z_spacing=2)
     with pytest.raises(isoloft.ParamError, match="roi/voxel_size: only with a DICOM RT Structure Set"):
         isoloft.read(vol, roi="Heart")
-    with pytest.raises(isoloft.InputError, match="no ROI named 'Liver'"):
+    with pytest.raises(isoloft.InputError, match="no ROI named or numbered 'Liver'"):
         isoloft.read(data_dir / "rtstruct" / "rtss.dcm", roi="Liver")
     with pytest.raises(isoloft.ParamError, match="z_spacing: the Input already holds"):
         isoloft.reconstruct(isoloft.read(vol), z_spacing=3)
