@@ -290,6 +290,8 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   std::vector<double> sorted_z = contour_z;
   std::sort(sorted_z.begin(), sorted_z.end());
   const double spacing = grid.plane_spacing > 0 ? grid.plane_spacing : own_spacing(sorted_z);
+  if (!std::isfinite(spacing))
+    throw InputError(path, what + ": its contour planes are too far apart to have a slice spacing");
   // Contours this close share a plane; a contour's points this close are planar.
   const double tolerance = std::max(kPlanarToleranceMm, kPlaneGroupFraction * spacing);
 
