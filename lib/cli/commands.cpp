@@ -9,16 +9,6 @@
 
 namespace isoloft::cli {
 
-void write_text_atomic(const std::string& path, const std::string& text) {
-  AtomicFile f(path);
-  {
-    std::ofstream out(f.temp_path(), std::ios::binary);
-    out << text;
-    if (!out) throw InputError(path, "cannot write file");
-  }
-  f.commit();
-}
-
 Commands::Commands(CLI::App& app, int argc, char** argv) {
   for (int i = 0; i < argc; ++i) command_line_ += (i ? " " : "") + std::string(argv[i]);
 

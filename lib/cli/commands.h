@@ -29,8 +29,7 @@ struct ReconstructArgs {
   std::string rtstruct;            ///< RT Structure Sets: the surfaces back as an RT Structure Set (or -o OUT.dcm)
   std::string volumes;             ///< the volume table as CSV or JSON
   int threads = 0;
-  std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output); parsed below
-  double max_memory_bytes = 0, max_output_bytes = 0;  ///< 0 = no limit
+  std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output)
   bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
@@ -89,8 +88,5 @@ class Commands {
   std::string command_line_;
   std::string activity_;
 };
-
-/// Writes text to `path` atomically (temp file + rename).
-void write_text_atomic(const std::string& path, const std::string& text);
 
 }  // namespace isoloft::cli

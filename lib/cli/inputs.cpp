@@ -44,7 +44,6 @@ InputRequest input_request(const ReconstructArgs& a) {
   r.rois = a.rois;
   if (a.voxel_size_opt->count()) r.voxel_size = a.voxel_size;
   r.space = a.space;
-  r.labelmap = !a.labelmap.empty();
   return r;
 }
 

@@ -11,27 +11,44 @@
 #include <exception>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/interp/z_stream.h"
+#include "isoloft/methods/method.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/pipeline/slice_fields.h"
 
 namespace isoloft {
+
+namespace {
+// The method and z scheme rows' docs: each registered one's own line.
+template <class Spec>
+std::string registry_doc(const std::vector<Spec>& specs, const std::string& what) {
+  std::string doc;
+  for (const Spec& s : specs) doc += (doc.empty() ? "" : "; ") + s.name + ": " + s.doc;
+  return doc + "; " + what;
+}
+std::string method_doc() { return registry_doc(methods(), "picks the defaults of the other keys"); }
+std::string z_scheme_doc() { return registry_doc(z_schemes(), "how the slice fields are interpolated in z (paper 2.4)"); }
+}  // namespace
+
+const Method Method::Isoloft{"isoloft"};
+const Method Method::Marker2006{"marker2006"};
+const Method Method::Levin{"levin"};
 
 template <>
 const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
   static const ParamTable<ReconstructParams> table = [] {
     using P = ReconstructParams;
     ParamTable<P>::Rows rows{
-        field("method", &P::method, "",
-              "isoloft (marker2006 with measured departures, docs/decisions.md), marker2006 (the paper) or levin "
-              "(per-slice exact EDT baseline, no fit, no filter); picks the defaults of the other keys")
-            .cli("--method"),
+        name_field("method", &P::method, method_doc(), method_names()).cli("--method"),
+        name_field("z_scheme", &P::z_scheme, z_scheme_doc(), z_scheme_names()).cli("--z-scheme"),
         field("binarize", &P::binarize, "",
               "threshold non-binary contour/mask images at half range instead of rejecting them")
             .cli("--binarize"),
@@ -62,6 +79,11 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
               "are removed before the contour points are taken, by an opening and a closing with a square of this side "
               "(not in the paper); 1 = the mask as it is",
               between(1, 16)),
+        field("label_partition", &P::label_partition, "",
+              "labels: every label's field and the background's (minus the field of the labels' union) compete, each "
+              "point going to the highest, so touching labels share their boundary and no point inside the union is "
+              "left unlabelled (not in the paper); false: each label reconstructed on its own")
+            .cli("--independent-labels", false),
         field("crop_margin", &P::crop_margin, "px",
               "each object is processed in the bounding box of its contours plus this margin (room for the filter's "
               "stencils)",
@@ -95,10 +117,12 @@ ReconstructParams params_from_json(const nlohmann::json& j, const ReconstructPar
   return params_table<ReconstructParams>().from_json(j, base);
 }
 
-ReconstructParams method_defaults(Method m) {
+bool fits_curves(const Method& m) { return method_spec(m.name()).fits_curves; }
+
+ReconstructParams method_defaults(const Method& m) {
   ReconstructParams p;
+  method_spec(m.name()).defaults(p);
   p.method = m;
-  if (m != Method::Isoloft) p.interp.spline = InterpParams{}.spline, p.interp.cap_shape = InterpParams{}.cap_shape;
   return p;
 }
 
@@ -115,7 +139,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-using detail::MarkerSlice;
 using detail::SliceMasks;
 
 // What every stage of one reconstruct() call shares.
@@ -124,10 +147,11 @@ struct Run {
   const ReconstructParams& params;
   const ReconstructOptions& options;
   ReconstructResult& result;
+  std::uint32_t label = 0;  ///< the object this part of the run is for (0: the only one, or every label)
 
   [[nodiscard]] std::size_t slices() const { return stack.slices.size(); }
   void progress(const char* stage, long done, long total) const {
-    if (options.progress) options.progress(stage, done, total);
+    if (options.progress) options.progress(label, stage, done, total);
   }
   void warn(std::string w) const { result.warnings.push_back(std::move(w)); }
 };
@@ -180,9 +204,10 @@ struct LabelStackMasks {
     std::vector<PixelBox> bounds;
   };
   std::map<std::uint32_t, Object> objects;
+  std::optional<Object> uni;  ///< the labels' union, if asked
 };
 
-LabelStackMasks label_stack_masks(const Run& run) {
+LabelStackMasks label_stack_masks(const Run& run, bool with_union) {
   const std::size_t n = run.slices();
   std::vector<std::vector<detail::LabelMasks>> per_slice(n);
   std::atomic<long> done{0};
@@ -190,6 +215,17 @@ LabelStackMasks label_stack_masks(const Run& run) {
     with_slice(run.stack, k, [&](const Slice& s) { per_slice[k] = detail::label_masks(s.image); });
   });
   LabelStackMasks out;
+  if (with_union) {
+    // The union's bounds and emptiness (its field comes from the labels': UnionStream).
+    out.uni.emplace();
+    for (const auto& slice : per_slice) {
+      PixelBox b{run.stack.width, run.stack.height, -1, -1};
+      for (const auto& m : slice)
+        b = {std::min(b.x0, m.bounds.x0), std::min(b.y0, m.bounds.y0), std::max(b.x1, m.bounds.x1), std::max(b.y1, m.bounds.y1)};
+      out.uni->masks.push_back(detail::PackedMasks{run.stack.width, run.stack.height, slice.empty(), {}, {}});
+      out.uni->bounds.push_back(slice.empty() ? PixelBox{} : b);
+    }
+  }
   for (std::size_t k = 0; k < n; ++k)
     for (auto& m : per_slice[k]) {
       auto [it, added] = out.objects.try_emplace(m.label);
@@ -258,7 +294,7 @@ std::vector<detail::PackedMasks> label_contours(const Run& run, LabelStackMasks:
   return std::move(labelled.masks);
 }
 
-void add_fit_stats(FitStats& s, const MarkerSlice& m) {
+void add_fit_stats(FitStats& s, const SliceField& m) {
   s.points += long(m.points.size());
   s.fallback_slices += m.fallback;
   s.sign_guarded_pixels += m.sign_guarded;
@@ -282,13 +318,18 @@ void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const F
            " slice(s) (spurious zero crossings of the fit, e.g. on thin features); those pixels keep the fill's sign");
 }
 
-// Stages (paper 2.1-2.3, or Levin) slice by slice from the packed masks: the
-// marker2006 MPU curve, distance and filter, or the Levin EDT. Computed
-// slice_window() slices at a time in parallel, handed out in slice order.
+// Stages (paper 2.1-2.3, or a baseline) slice by slice from the packed masks:
+// the method's slice field (MethodSpec::slice_field). Computed slice_window()
+// slices at a time in parallel, handed out in slice order.
 class SliceFields {
  public:
   SliceFields(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks>& masks, ResidentCount& count)
-      : run_(run), obj_(obj), masks_(masks), count_(count), window_(detail::slice_window()) {}
+      : run_(run),
+        obj_(obj),
+        masks_(masks),
+        count_(count),
+        window_(detail::slice_window()),
+        method_(method_spec(run.params.method.name())) {}
 
   // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
   // fit statistics and stage fields are recorded as it is handed out.
@@ -298,15 +339,16 @@ class SliceFields {
     Computed c = std::move(ready_.front());
     ready_.pop_front();
     ++next_;
-    for (const float v : c.field.data) top_ = std::max(top_, v);
-    if (!c.field.empty() && fits_curves(run_.params.method)) {
-      add_fit_stats(obj_.fit, c.fit);
-      if (c.fit.fallback) fallbacks_.push_back(k);
+    SliceField& f = c.slice;
+    for (const float v : f.field.data) top_ = std::max(top_, v);
+    if (!f.field.empty() && method_.fits_curves) {
+      add_fit_stats(obj_.fit, f);
+      if (f.fallback) fallbacks_.push_back(k);
       if (run_.options.on_slice_fields)
-        run_.options.on_slice_fields(SliceStageFields{obj_.label, int(k), obj_.box, std::move(c.fit.points),
-                                                      std::move(c.fit.mpu), std::move(c.fit.distance), c.field});
+        run_.options.on_slice_fields(SliceStageFields{obj_.label, int(k), obj_.box, std::move(f.points), std::move(f.mpu),
+                                                      std::move(f.distance), f.field});
     }
-    return std::move(c.field);
+    return std::move(f.field);
   }
 
   // Splits the wall time of the batches by each stage's share of the CPU time.
@@ -324,34 +366,21 @@ class SliceFields {
 
  private:
   struct Computed {
-    Grid2f field;     // filtered (marker2006) or the Levin field
-    MarkerSlice fit;  // marker2006: statistics, stage fields if asked; its field moved to `field`
-    double t_contour = 0, t_filter = 0;  // CPU seconds
+    SliceField slice;       // the method's field, statistics, stage fields if asked
+    double t_contour = 0;   // CPU seconds unpacking the masks
   };
 
   Computed one(std::size_t k) const {
     Computed c;
     if (masks_[k].empty) return c;
     const Run& run = run_;
-    auto t0 = Clock::now();
-    SliceMasks m = detail::unpack_masks(masks_[k]);
+    const auto t0 = Clock::now();
+    const SliceMasks m = detail::unpack_masks(masks_[k]);
     masks_[k] = {};
     c.t_contour = seconds_since(t0);
-    t0 = Clock::now();
-    if (run.params.method == Method::Levin) {
-      c.field = detail::levin_field(m, obj_.box, run.stack.kind);
-      c.fit.t_dist = seconds_since(t0);
-      return c;
-    }
-    c.fit = detail::marker_slice(m, run.stack.slices[k], obj_.box, run.params, run.stack.kind, run.stack.width,
-                                 bool(run.options.on_slice_fields));
-    c.field = std::move(c.fit.field);
-    m = SliceMasks{};  // release before the filter
-    if (run.params.filter.enabled) {
-      t0 = Clock::now();
-      c.field = distance_filter(c.field, run.params.filter);
-      c.t_filter = seconds_since(t0);
-    }
+    const SliceInput in{m, run.stack.slices[k], obj_.box, run.stack.kind, run.stack.width,
+                        bool(run.options.on_slice_fields)};
+    c.slice = method_.slice_field(in, run.params);
     return c;
   }
 
@@ -360,10 +389,11 @@ class SliceFields {
     const std::size_t k1 = std::min(run_.slices(), k0 + window_);
     ready_.resize(k1 - k0);
     count_.add(long(k1 - k0));  // in flight, then held until the knot feed drops them
-    const char* stage = run_.params.method == Method::Levin ? "distance" : "mpu+distance";
+    const char* stage = method_.fits_curves ? "mpu+distance" : "distance";
     for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { ready_[k - k0] = one(k); });
     for (const Computed& c : ready_) {
-      cpu_contour_ += c.t_contour, cpu_mpu_ += c.fit.t_mpu, cpu_dist_ += c.fit.t_dist, cpu_filter_ += c.t_filter;
+      const SliceField& f = c.slice;
+      cpu_contour_ += c.t_contour, cpu_mpu_ += f.t_mpu, cpu_dist_ += f.t_dist, cpu_filter_ += f.t_filter;
     }
     wall_ += seconds_since(t0);
   }
@@ -373,6 +403,7 @@ class SliceFields {
   std::vector<detail::PackedMasks>& masks_;  // slice k's dropped once computed
   ResidentCount& count_;
   std::size_t window_;
+  const MethodSpec& method_;
   std::deque<Computed> ready_;
   std::size_t next_ = 0;
   std::atomic<long> done_{0};
@@ -582,8 +613,8 @@ WorkEstimate estimate_work(const Run& run, const std::vector<detail::PackedMasks
   e.triangles += 2 * (area[1] + area[n]);
   const double pixels = double(obj.box.width()) * double(obj.box.height());
   e.plane_bytes = double(obj.box.width() + 2) * double(obj.box.height() + 2) * sizeof(float);
-  const std::optional<std::size_t> reach = tangent_reach(p.interp.spline);
-  const double window = double(detail::slice_window()) + (reach ? 2.0 * double(*reach + 1) : double(n)) + 2;
+  const std::optional<std::size_t> knots = z_scheme_spec(p.z_scheme).resident_knots(p);
+  const double window = double(detail::slice_window()) + (knots ? double(*knots) : double(n)) + 2;
   e.field_bytes = std::min(double(n + 2), window) * pixels * sizeof(float) * kFieldCopies;
   if (run.stack.kind == InputKind::Polylines && fits_curves(p.method) && p.polyline_raster_width > 0) {
     const double k = double(p.polyline_raster_width) / run.stack.width;
@@ -602,7 +633,7 @@ std::string empty_reason(const Run& run, float top, const ObjectResult& obj) {
       << " px): no surface crosses it";
   } else if (const double span = run.stack.slices.back().z - run.stack.slices.front().z; span < run.params.interp.z_step) {
     o << "the slices span " << span << " px in z, less than one plane step interp.z_step = " << run.params.interp.z_step
-      << " px (check --z-spacing / the slice z)";
+      << " px (check " << option_name("--z-spacing") << " / the slice z)";
   } else {
     o << "the object (" << obj.slices_with_contours << " slice(s) with contours, box " << obj.box.width() << "x"
       << obj.box.height() << " px) is smaller than the sampling grid (a pixel in the plane, interp.z_step = "
@@ -611,45 +642,359 @@ std::string empty_reason(const Run& run, float top, const ObjectResult& obj) {
   return o.str();
 }
 
-// Stages (paper 2.1-2.5 but decimation) streamed: the slice fields computed
-// a window at a time, the z splines through a window of knots, each plane
-// meshed and dropped; only the packed masks are kept for every slice.
-void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj) {
-  const ReconstructParams& p = run.params;
-  std::vector<char> empty(masks.size());
-  for (std::size_t k = 0; k < masks.size(); ++k) empty[k] = masks[k].empty;
-  ResidentCount count;
-  SliceFields slices(run, obj, masks, count);
-  const std::vector<double> z = knot_z(run);
-  KnotFeed feed(slices, empty, z, obj.box, p.interp, count);
-  if (plane_count(z, p.interp.z_step) < 2) {
-    std::ostringstream o;
-    o << "the slices span " << z.back() - z.front() << " px in z (end caps included), less than one plane step "
-      << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check --z-spacing / the slice z)";
-    throw InputError(run.stack.slices.front().source, o.str());
-  }
-  ZStream stream(z, p.interp.spline, obj.box.width(), obj.box.height(), [&] { return feed.next(); }, &count);
-  std::optional<Sampling> sampling;
-  if (run.options.on_sample) sampling.emplace(stream, run, obj, z);
-  PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : stream;
+// One object's interpolated field, streamed (paper 2.1-2.4): the slice fields
+// computed a window at a time, the knot feed, the z scheme's plane source;
+// only the packed masks are kept for every slice.
+class ObjectStream {
+ public:
+  /// Each knot the stream pulls, with its index, goes to `tap` too (if set).
+  using KnotTap = std::function<void(std::size_t, const Grid2f&)>;
 
+  ObjectStream(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks> masks, KnotTap tap = {})
+      : run_(run), obj_(obj), masks_(std::move(masks)), empty_(masks_.size()), z_(knot_z(run)), tap_(std::move(tap)) {
+    const ReconstructParams& p = run.params;
+    for (std::size_t k = 0; k < masks_.size(); ++k) empty_[k] = masks_[k].empty;
+    if (plane_count(z_, p.interp.z_step) < 2) {
+      std::ostringstream o;
+      o << "the slices span " << z_.back() - z_.front() << " px in z (end caps included), less than one plane step "
+        << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check " << option_name("--z-spacing")
+        << " / the slice z)";
+      throw InputError(run.stack.slices.front().source, o.str());
+    }
+    slices_.emplace(run, obj, masks_, count_);
+    feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_);
+    stream_ = z_scheme_spec(p.z_scheme).make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, p);
+  }
+  ObjectStream(const ObjectStream&) = delete;
+  ObjectStream& operator=(const ObjectStream&) = delete;
+
+  [[nodiscard]] PlaneSource& field() { return *stream_; }
+  [[nodiscard]] const std::vector<double>& knots() const { return z_; }
+  [[nodiscard]] std::vector<double> planes() const {
+    return sample_planes(z_.front(), z_.back(), run_.params.interp.z_step);
+  }
+  [[nodiscard]] const ObjectResult& object() const { return obj_; }
+
+  /// The object's mesh and the stream's statistics and times; `interp_seconds`
+  /// evaluating planes and samples.
+  void finish(StreamMeshResult r, double interp_seconds) {
+    const ReconstructParams& p = run_.params;
+    obj_.mesh = std::move(r.mesh);
+    if (obj_.mesh.triangles.empty()) obj_.empty_reason = empty_reason(run_, slices_->top(), obj_);
+    obj_.peak_resident_fields = count_.peak;
+    slices_->add_times(run_.result.times);
+    run_.result.times.interp += interp_seconds + stream_->setup_seconds();
+    run_.result.times.mesh += r.mesh_seconds;
+    if (fits_curves(p.method)) warn_fit(run_, slices_->fallbacks(), obj_.fit, object_name(obj_.label));
+  }
+
+ private:
+  Grid2f next() {
+    Grid2f f = feed_->next();
+    if (tap_) tap_(knots_pulled_, f);
+    ++knots_pulled_;
+    return f;
+  }
+
+  const Run& run_;
+  ObjectResult& obj_;
+  std::vector<detail::PackedMasks> masks_;
+  std::vector<char> empty_;
+  std::vector<double> z_;
+  KnotTap tap_;
+  std::size_t knots_pulled_ = 0;
+  ResidentCount count_;
+  std::optional<SliceFields> slices_;
+  std::optional<KnotFeed> feed_;
+  std::unique_ptr<PlaneSource> stream_;
+};
+
+// The mesher's options for an object: the pad outside the end caps' value,
+// --volume planes, progress.
+StreamMeshOptions mesh_options(const Run& run, const ObjectResult& obj) {
   StreamMeshOptions o;
-  o.outside = -float(p.interp.cap_depth);
+  o.outside = -float(run.params.interp.cap_depth);
   if (run.options.on_plane)
-    o.on_plane = [&](const Grid2f& plane, double x0, double y0, double zz, int index, int planes) {
-      run.options.on_plane(obj.label, plane, x0, y0, zz, index, planes);
+    o.on_plane = [&run, label = obj.label](const Grid2f& plane, double x0, double y0, double zz, int index, int planes) {
+      run.options.on_plane(label, plane, x0, y0, zz, index, planes);
     };
-  o.progress = [&](long done, long total) { run.progress("interpolate+mesh", done, total); };
-  StreamMeshResult r = mesh_interpolated_field(field, sample_planes(z.front(), z.back(), p.interp.z_step), obj.box.x0,
-                                               obj.box.y0, p.mc, o);
-  if (sampling) sampling->reach(z.size() - 2);  // any sample the planes did not pass
-  obj.mesh = std::move(r.mesh);
-  if (obj.mesh.triangles.empty()) obj.empty_reason = empty_reason(run, slices.top(), obj);
-  obj.peak_resident_fields = count.peak;
-  slices.add_times(run.result.times);
-  run.result.times.interp += r.interp_seconds + stream.tangent_seconds() + (sampling ? sampling->seconds() : 0.0);
-  run.result.times.mesh += r.mesh_seconds;
-  if (fits_curves(p.method)) warn_fit(run, slices.fallbacks(), obj.fit, object_name(obj.label));
+  o.progress = [&run](long done, long total) { run.progress("interpolate+mesh", done, total); };
+  return o;
+}
+
+// Stages (paper 2.1-2.5 but decimation) of one object: its stream meshed plane by plane.
+void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj) {
+  ObjectStream s(run, obj, std::move(masks));
+  std::optional<Sampling> sampling;
+  if (run.options.on_sample) sampling.emplace(s.field(), run, obj, s.knots());
+  PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : s.field();
+  StreamMeshResult r = mesh_interpolated_field(field, s.planes(), obj.box.x0, obj.box.y0, run.params.mc, mesh_options(run, obj));
+  if (sampling) sampling->reach(s.knots().size() - 2);  // any sample the planes did not pass
+  const double interp = r.interp_seconds + (sampling ? sampling->seconds() : 0.0);
+  s.finish(std::move(r), interp);
+}
+
+// What bounds a label's partition field psi_l = phi_l - max(phi_m (m != l),
+// -phi_union) over a knot interval, for cell skipping: the background's
+// competitor is -phi_union, so psi_l <= phi_l + phi_union, and a cell is
+// surely outside where both fields surely are (iso at most the margin);
+// nothing else is known (a label claims gaps where its own field is < 0).
+class PartitionSides final : public PlaneSource {
+ public:
+  // The union's sides of one interval, shared by every label (thread-safe).
+  class UnionSides {
+   public:
+    explicit UnionSides(const PlaneSource& uni) : uni_(uni) {}
+    const Grid2<std::int8_t>& of(std::size_t k, float iso, float margin) {
+      std::lock_guard lock(m_);
+      if (k != k_) {
+        uni_.sides(k, iso, margin, sides_);
+        k_ = k;
+      }
+      return sides_;
+    }
+
+   private:
+    const PlaneSource& uni_;
+    std::mutex m_;
+    std::size_t k_ = std::size_t(-1);
+    Grid2<std::int8_t> sides_;
+  };
+
+  PartitionSides(const PlaneSource& label, const PixelBox& box, UnionSides& uni, const PixelBox& ubox)
+      : label_(label), uni_(uni), dx_(box.x0 - ubox.x0), dy_(box.y0 - ubox.y0) {}
+  [[nodiscard]] int width() const override { return label_.width(); }
+  [[nodiscard]] int height() const override { return label_.height(); }
+  [[nodiscard]] std::size_t interval(double z) const override { return label_.interval(z); }
+  void reach(std::size_t) override {}
+  void evaluate(double, Grid2f&) const override { throw Error("PartitionSides: sides only"); }
+  void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override {
+    label_.sides(k, iso, margin, out);
+    if (!(iso <= margin)) {
+      std::fill(out.data.begin(), out.data.end(), std::int8_t(0));
+      return;
+    }
+    const Grid2<std::int8_t>& us = uni_.of(k, iso, margin);
+    for (int y = 0; y < out.height; ++y)
+      for (int x = 0; x < out.width; ++x) {
+        std::int8_t& o = out(x, y);
+        o = o == -1 && us(x + dx_, y + dy_) == -1 ? std::int8_t(-1) : std::int8_t(0);
+      }
+  }
+
+ private:
+  const PlaneSource& label_;
+  UnionSides& uni_;
+  int dx_, dy_;
+};
+
+// The highest and second-highest field over the union's box at one height:
+// the background's (-phi_union) and every label's over its own box (beyond
+// it a label is outside), and whose the highest is (-1: the background).
+struct Competition {
+  Grid2f top1, top2;
+  Grid2<std::int32_t> who;
+
+  // phi[l] over boxes[l] for the labels l < labels; phi[labels] the union's.
+  void compute(const std::vector<Grid2f>& phi, const std::vector<PixelBox>& boxes, std::size_t labels) {
+    const Grid2f& uni = phi[labels];
+    const PixelBox& ubox = boxes[labels];
+    top1 = uni;
+    for (float& v : top1.data) v = -v;
+    top2 = Grid2f(uni.width, uni.height, -std::numeric_limits<float>::infinity());
+    who = Grid2<std::int32_t>(uni.width, uni.height, -1);
+    for (std::size_t l = 0; l < labels; ++l) {
+      const PixelBox& b = boxes[l];
+      for (int y = 0; y < b.height(); ++y) {
+        const float* f = &phi[l](0, y);
+        const std::size_t row = std::size_t(y + b.y0 - ubox.y0) * std::size_t(uni.width) + std::size_t(b.x0 - ubox.x0);
+        float* t1 = top1.data.data() + row;
+        float* t2 = top2.data.data() + row;
+        std::int32_t* w = who.data.data() + row;
+        for (int x = 0; x < b.width(); ++x) {
+          const float v = f[x];
+          if (v > t1[x]) {
+            t2[x] = t1[x], t1[x] = v, w[x] = std::int32_t(l);
+          } else if (v > t2[x]) {
+            t2[x] = v;
+          }
+        }
+      }
+    }
+  }
+
+  // Label l's partition field over its box: its field minus the best other.
+  void psi(std::size_t l, const Grid2f& phi, const PixelBox& b, const PixelBox& ubox, Grid2f& out) const {
+    out = Grid2f(b.width(), b.height());
+    for (int y = 0; y < b.height(); ++y)
+      for (int x = 0; x < b.width(); ++x) {
+        const int ux = x + b.x0 - ubox.x0, uy = y + b.y0 - ubox.y0;
+        out(x, y) = phi(x, y) - (who(ux, uy) == std::int32_t(l) ? top2(ux, uy) : top1(ux, uy));
+      }
+  }
+};
+
+// One object of a label partition: its own Run (warnings, times), result and masks.
+struct PartitionObject {
+  Run run;
+  ObjectResult& obj;
+  std::vector<detail::PackedMasks> masks;
+};
+
+// The labels' union as a field, from the labels' own knots: knot i is the
+// highest label knot i at each pixel, plus, inside the union, how much
+// farther the union's edge is than the pixel's own label's edge
+// (detail::union_healing): zero wherever a label meets only the background, so
+// there the union's field is its label's, and deep across the boundaries
+// between labels, so the union does not dip to zero along them. The labels'
+// streams deposit each knot as they pull it (before the union pulls it: the
+// same knots, in lockstep).
+class UnionStream {
+ public:
+  UnionStream(const Run& run, ObjectResult& obj, std::size_t labels)
+      : run_(run), obj_(obj), labels_(labels), z_(knot_z(run)) {
+    stream_ = z_scheme_spec(run.params.z_scheme)
+                  .make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, run.params);
+  }
+  [[nodiscard]] PlaneSource& field() { return *stream_; }
+
+  // Label knot i over `box`, max-accumulated (thread-safe).
+  void deposit(std::size_t i, const Grid2f& f, const PixelBox& box) {
+    std::lock_guard lock(m_);
+    Pending& d = pending_[i];
+    if (d.field.empty()) d.field = Grid2f(obj_.box.width(), obj_.box.height(), -float(run_.params.crop_margin));
+    for (int y = 0; y < box.height(); ++y)
+      for (int x = 0; x < box.width(); ++x) {
+        float& u = d.field(x + box.x0 - obj_.box.x0, y + box.y0 - obj_.box.y0);
+        u = std::max(u, f(x, y));
+      }
+    ++d.labels;
+  }
+
+  void finish(double interp_seconds) {
+    obj_.peak_resident_fields = count_.peak;
+    run_.result.times.interp += interp_seconds + stream_->setup_seconds();
+  }
+
+ private:
+  struct Pending {
+    Grid2f field;
+    std::size_t labels = 0;
+  };
+
+  Grid2f next() {
+    const std::size_t i = next_++;
+    Pending d;
+    {
+      std::lock_guard lock(m_);
+      const auto it = pending_.find(i);
+      if (it == pending_.end() || it->second.labels != labels_) throw Error("UnionStream: knot pulled before every label's");
+      d = std::move(it->second);
+      pending_.erase(it);
+    }
+    // Knots 1..n are the slices (0 and n + 1 the end caps: no healing).
+    if (i >= 1 && i <= run_.slices())
+      with_slice(run_.stack, i - 1, [&](const Slice& s) {
+        const Grid2f h = detail::union_healing(s.image, obj_.box);
+        for (std::size_t j = 0; j < h.size(); ++j) d.field.data[j] += h.data[j];
+      });
+    return std::move(d.field);
+  }
+
+  const Run& run_;
+  ObjectResult& obj_;
+  std::size_t labels_;
+  std::vector<double> z_;
+  ResidentCount count_;
+  std::mutex m_;
+  std::map<std::size_t, Pending> pending_;
+  std::size_t next_ = 0;
+  std::unique_ptr<PlaneSource> stream_;
+};
+
+// Stages (paper 2.1-2.5 but decimation) of a label partition
+// (ReconstructParams::label_partition): every label's field and the union's
+// streamed in lockstep; at every plane and sample height label l's field
+// becomes psi_l = phi_l - max(phi_m (m != l), -phi_union), positive where l's
+// field is the highest of the labels' and the background's. So neighbours l
+// and m share the zero set of psi_l = -psi_m = phi_l - phi_m, a point inside
+// the union goes to its nearest label, and a label that meets only the
+// background keeps its own surface (there phi_union = phi_l). The union (the
+// last object) is not meshed.
+void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
+  const std::size_t labels = objects.size() - 1;
+  std::vector<PixelBox> boxes(labels + 1);
+  for (std::size_t i = 0; i <= labels; ++i) boxes[i] = objects[i].obj.box;
+  const PixelBox& ubox = boxes[labels];
+  UnionStream uni(objects[labels].run, objects[labels].obj, labels);
+  std::vector<std::unique_ptr<ObjectStream>> streams(labels);
+  for (std::size_t l = 0; l < labels; ++l)
+    streams[l] = std::make_unique<ObjectStream>(
+        objects[l].run, objects[l].obj, std::move(objects[l].masks),
+        [&uni, box = boxes[l]](std::size_t i, const Grid2f& f) { uni.deposit(i, f, box); });
+  const std::vector<double>& knots = streams[0]->knots();
+  // Heights in order: every plane, and every sample height within the knots.
+  struct Height {
+    double z;
+    bool sample;
+  };
+  std::vector<Height> heights;
+  const std::vector<double> planes = streams[0]->planes();
+  for (const double z : planes) heights.push_back({z, false});
+  if (run.options.on_sample)
+    for (const double z : run.options.sample_z)
+      if (z >= knots.front() && z <= knots.back()) heights.push_back({z, true});
+  std::stable_sort(heights.begin(), heights.end(), [](const Height& a, const Height& b) { return a.z < b.z; });
+
+  PartitionSides::UnionSides union_sides(uni.field());
+  std::vector<PartitionSides> bounds;
+  std::vector<std::unique_ptr<StreamMesher>> meshers(labels);
+  bounds.reserve(labels);
+  for (std::size_t l = 0; l < labels; ++l) {
+    bounds.emplace_back(streams[l]->field(), boxes[l], union_sides, ubox);
+    StreamMeshOptions o = mesh_options(objects[l].run, objects[l].obj);
+    o.progress = nullptr;  // once per plane for all labels, below
+    meshers[l] = std::make_unique<StreamMesher>(bounds[l], boxes[l].x0, boxes[l].y0, run.params.mc, std::move(o));
+  }
+  std::vector<Grid2f> phi(labels + 1), psi(labels);
+  std::vector<double> seconds(labels + 1, 0.0);
+  Competition c;
+  const bool serial_planes = bool(run.options.on_plane);
+  long done = 0;
+  const long count = long(planes.size());
+  for (const Height& h : heights) {
+    const std::size_t k = streams[0]->field().interval(h.z);
+    // The labels first: their knots feed the union's.
+    tbb::parallel_for(std::size_t(0), labels + 1, [&](std::size_t i) {
+      if (i == labels) return;
+      PlaneSource& f = streams[i]->field();
+      f.reach(k);
+      const auto t0 = Clock::now();
+      f.evaluate(h.z, phi[i]);
+      seconds[i] += seconds_since(t0);
+    });
+    uni.field().reach(k);
+    auto t0 = Clock::now();
+    uni.field().evaluate(h.z, phi[labels]);
+    seconds[labels] += seconds_since(t0);
+    t0 = Clock::now();
+    c.compute(phi, boxes, labels);
+    tbb::parallel_for(std::size_t(0), labels, [&](std::size_t l) {
+      c.psi(l, phi[l], boxes[l], ubox, psi[l]);
+      if (!h.sample && !serial_planes) meshers[l]->add(psi[l], h.z, k, count);
+    });
+    if (!h.sample && serial_planes)  // on_plane sees the labels' planes one label at a time, in label order
+      for (std::size_t l = 0; l < labels; ++l) meshers[l]->add(psi[l], h.z, k, count);
+    const double shared = seconds_since(t0) / double(labels);
+    for (std::size_t l = 0; l < labels; ++l) seconds[l] += shared;
+    if (h.sample) {
+      for (std::size_t l = 0; l < labels; ++l) run.options.on_sample(objects[l].obj.label, psi[l], boxes[l], h.z);
+    } else {
+      run.progress("interpolate+mesh", ++done, count);
+    }
+  }
+  for (std::size_t l = 0; l < labels; ++l) streams[l]->finish(meshers[l]->finish(), seconds[l]);
+  uni.finish(seconds[labels]);
 }
 
 // Stage (paper 2.5): bounded quadric error decimation.
@@ -678,28 +1023,37 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
   check_stack(stack);
   params_table<ReconstructParams>().validate(params);
   ReconstructResult result;
-  const Run run{stack, params, options, result};
+  const Run run{stack, params, options, result, 0};
   std::optional<LabelStackMasks> labelled;
   if (stack.kind == InputKind::Labels) {
     const auto t0 = Clock::now();
-    labelled = label_stack_masks(run);
+    labelled = label_stack_masks(run, params.label_partition);
     result.times.contour += seconds_since(t0);
   }
-  const std::vector<std::uint32_t> labels = objects_to_reconstruct(run, labelled ? &*labelled : nullptr);
+  const std::vector<std::uint32_t> asked = objects_to_reconstruct(run, labelled ? &*labelled : nullptr);
+  // A partition needs every label (asked or not) and their union (last).
+  const bool partition = labelled && params.label_partition && labelled->objects.size() >= 2 && !asked.empty();
+  std::vector<std::uint32_t> labels = asked;
+  if (partition) {
+    labels.clear();
+    for (const auto& [label, o] : labelled->objects) labels.push_back(label);
+  }
   // Each object's masks, then its stages: objects are independent, so they
   // run side by side unless a callback sees them object by object (stage
-  // fields, planes, samples); each keeps its own warnings and times, joined
-  // in label order, so the result is the serial one.
-  const std::size_t n = labels.size();
+  // fields, planes, samples) or they form a partition; each keeps its own
+  // warnings and times, joined in label order, so the result is the serial one.
+  const std::size_t n = labels.size() + (partition ? 1 : 0);
   std::vector<ObjectResult> objects(n);
   std::vector<std::vector<detail::PackedMasks>> masks(n);
   std::vector<ReconstructResult> parts(n);
   for (std::size_t l = 0; l < n; ++l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], l < labels.size() ? labels[l] : 0};
     ObjectResult& obj = objects[l];
-    obj.label = labels[l];
     const auto t0 = Clock::now();
-    if (labelled) {
+    if (l == labels.size()) {  // the union
+      masks[l] = label_contours(part, std::move(*labelled->uni), obj);
+    } else if (labelled) {
+      obj.label = labels[l];
       LabelStackMasks::Object& o = labelled->objects.at(obj.label);
       const bool again = std::find(labels.begin() + std::ptrdiff_t(l) + 1, labels.end(), obj.label) != labels.end();
       masks[l] = label_contours(part, again ? LabelStackMasks::Object(o) : std::move(o), obj);
@@ -711,8 +1065,33 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
     if (options.on_estimate && obj.slices_with_contours > 0) options.on_estimate(estimate_work(part, masks[l], obj));
   }
   std::vector<std::exception_ptr> errors(n);
+  auto finish = [&](std::size_t l) {
+    const Run part{stack, params, options, parts[l], objects[l].label};
+    try {
+      decimate_stage(part, objects[l]);
+      check_stage(part, objects[l]);
+    } catch (...) {
+      errors[l] = std::current_exception();
+    }
+  };
+  if (partition) {
+    std::vector<PartitionObject> po;
+    for (std::size_t l = 0; l < n; ++l) po.push_back({Run{stack, params, options, parts[l], objects[l].label}, objects[l], std::move(masks[l])});
+    partition_stages(run, po);
+    tbb::parallel_for(std::size_t(0), labels.size(), finish);
+    for (std::size_t l = 0; l < labels.size(); ++l)
+      if (errors[l]) std::rethrow_exception(errors[l]);
+    // The asked labels, in order; the other competitors' and the union's results are dropped.
+    for (std::size_t l = 0; l < n; ++l) {
+      for (auto& w : parts[l].warnings) result.warnings.push_back(std::move(w));
+      result.times += parts[l].times;
+    }
+    for (const std::uint32_t label : asked)
+      result.objects.push_back(objects[std::size_t(std::find(labels.begin(), labels.end(), label) - labels.begin())]);
+    return result;
+  }
   auto stages = [&](std::size_t l) {
-    const Run part{stack, params, options, parts[l]};
+    const Run part{stack, params, options, parts[l], labels[l]};
     ObjectResult& obj = objects[l];
     try {
       if (obj.slices_with_contours == 0) {
@@ -720,11 +1099,11 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
         return;
       }
       stream_stages(part, std::move(masks[l]), obj);
-      decimate_stage(part, obj);
-      check_stage(part, obj);
     } catch (...) {
       errors[l] = std::current_exception();
+      return;
     }
+    finish(l);
   };
   const bool side_by_side = n > 1 && !options.on_slice_fields && !options.on_plane && !options.on_sample;
   if (side_by_side) {

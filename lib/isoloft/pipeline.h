@@ -39,20 +39,29 @@
 
 namespace isoloft {
 
-enum class Method {
-  Isoloft,     ///< the default: marker2006 with the departures method_defaults() names (each measured)
-  Marker2006,  ///< the paper: MPU curve, distance extension, filter, Hyman's monotone z spline
-  Levin,       ///< baseline: exact EDT of the pixel contours (Levin 1986 style), no filter
-};
+/// A reconstruction method by its registered name (methods/method.h: how each
+/// slice becomes a field; registry.cpp lists them). The built-in ones are
+/// named below for code that picks one; a method needs no name here.
+class Method {
+ public:
+  Method() = default;  ///< the default method
+  explicit Method(std::string name) : name_(std::move(name)) {}
+  [[nodiscard]] const std::string& name() const { return name_; }
+  friend bool operator==(const Method&, const Method&) = default;
 
-inline constexpr std::array<EnumName<Method>, 3> kMethodNames{
-    {{Method::Isoloft, "isoloft"}, {Method::Marker2006, "marker2006"}, {Method::Levin, "levin"}}};
-constexpr std::span<const EnumName<Method>> enum_names(Method) { return kMethodNames; }
+  static const Method Isoloft;     ///< the default: marker2006 with the departures its spec names (each measured)
+  static const Method Marker2006;  ///< the paper: MPU curve, distance extension, filter, Hyman's monotone z spline
+  static const Method Levin;       ///< baseline: exact EDT of the pixel contours (Levin 1986 style), no filter
+
+ private:
+  std::string name_ = "isoloft";
+};
 
 /// The pipeline's own parameters, then one struct per stage; docs in the rows
 /// of params_table<ReconstructParams>() (pipeline.cpp).
 struct ReconstructParams {
-  Method method = Method::Isoloft;
+  Method method;                   ///< methods/method.h
+  std::string z_scheme = "columns";  ///< methods/method.h: how the slice fields are interpolated in z
   bool binarize = false;
   double mask_edge_offset = 0.5;
   double polyline_spacing = 0.5;
@@ -61,6 +70,7 @@ struct ReconstructParams {
   double mpu_band = 4.0;
   int mask_min_feature = 2;
   int crop_margin = 32;
+  bool label_partition = true;
   FillParams fill;              ///< contour/: even-odd fill, open contours
   NormalsParams normals;        ///< contour/: paper 2.1
   MpuParams mpu;                ///< fit/: paper 2.1
@@ -161,8 +171,9 @@ struct ReconstructOptions {
   std::vector<double> sample_z;
   /// Each object's field over its crop box at every sample_z it reaches.
   std::function<void(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z)> on_sample;
-  /// Stage name, items done, items total.
-  std::function<void(const std::string&, long, long)> progress;
+  /// The object's label (0: the only object, or the label scan shared by
+  /// every label), stage name, items done, items total; from worker threads.
+  std::function<void(std::uint32_t label, const std::string& stage, long done, long total)> progress;
 };
 
 struct ReconstructResult {
@@ -171,14 +182,16 @@ struct ReconstructResult {
   std::vector<std::string> warnings;
 };
 
-/// True for the methods that fit MPU curves (isoloft, marker2006).
-constexpr bool fits_curves(Method m) { return m != Method::Levin; }
+/// True for the methods that fit curves (MethodSpec::fits_curves: isoloft, marker2006).
+/// \throw ParamError for a method not registered.
+bool fits_curves(const Method& m);
 
-/// A method's parameters: the stages' defaults (the paper's) with what the
-/// method changes. isoloft (== ReconstructParams{}): the extremum-preserving
-/// z spline and slab end caps; marker2006 and levin: Hyman's spline and dome
-/// caps (docs/decisions.md: the isoloft method, end caps).
-ReconstructParams method_defaults(Method m);
+/// A method's parameters: ReconstructParams{} (the default method's:
+/// the extremum-preserving z spline, slab end caps) with what the method's
+/// spec changes (MethodSpec::defaults: marker2006 and levin take Hyman's z
+/// spline and dome caps; docs/decisions.md: the isoloft method, end caps).
+/// \throw ParamError for a method not registered.
+ReconstructParams method_defaults(const Method& m);
 
 /// Reconstructs one object, or one per label with InputKind::Labels.
 /// \throw InputError for < 2 slices, z not increasing, slices (end caps

@@ -17,6 +17,7 @@
 #include <optional>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/core/params.h"
 #include "isoloft/eval/metrics.h"
 #include "isoloft/io/mesh/format.h"
@@ -230,10 +231,10 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
 }
 
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
-             std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
-             const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space) {
+                   std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
+                   const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
+                   const std::string& max_memory) {
   InputRequest r;
-  r.keyword_names = true;
   r.paths = paths;
   r.kind = kind;
   r.z_spacing = z_spacing;
@@ -243,6 +244,7 @@ PyInput read_input(const std::vector<std::string>& paths, const std::string& kin
   r.rois = rois;
   r.voxel_size = voxel_size;
   r.space = space;
+  r.max_memory = parse_size(max_memory, "max_memory");
   if (paths.empty()) throw ParamError("path: no input given");
   const auto t0 = Clock::now();
   auto in = std::make_shared<Inputs>();
@@ -313,15 +315,33 @@ struct CallbackStopped : std::exception {
   [[nodiscard]] const char* what() const noexcept override { return "stopped by the progress callback"; }
 };
 
+// The outputs a reconstruct() call writes besides its meshes (save() writes those).
+struct PyOutputs {
+  std::string volume, labelmap, dump_stages, rtstruct, volumes, report;
+};
+
 PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<std::uint32_t>& labels,
-                     std::optional<int> threads, const py::object& progress, bool allow_empty) {
-  const auto t0 = Clock::now();
+             std::optional<int> threads, const py::object& progress, bool allow_empty, const PyOutputs& files,
+             const std::string& max_memory, const std::string& max_output) {
   const InputsPtr in = input.in;
   ReconstructParams params = params_from_json(to_json(params_kw, ""));
-  check_labels(*in, labels, "labels");
   if (threads && *threads < 1) throw ParamError("threads: must be >= 1, got " + std::to_string(*threads));
   for (std::uint32_t l : labels)
     if (l == 0) throw ParamError("labels: 0 is the background, not a label");
+  RunOptions o;
+  o.labels = labels;
+  o.budget = {parse_size(max_memory, "max_memory"), parse_size(max_output, "max_output")};
+  if (!files.volume.empty()) o.outputs.push_back(std::make_unique<VolumeOutput>(files.volume));
+  if (!files.labelmap.empty()) o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
+  if (!files.dump_stages.empty()) o.outputs.push_back(std::make_unique<StageDumpOutput>(files.dump_stages));
+  if (!files.rtstruct.empty()) o.outputs.push_back(std::make_unique<RtStructOutput>(files.rtstruct));
+  if (!files.volumes.empty()) o.outputs.push_back(std::make_unique<VolumeTableOutput>(files.volumes));
+  o.report_path = files.report;
+  o.allow_empty = allow_empty;
+  o.threads = threads.value_or(0);
+  o.git = ISOLOFT_GIT;
+  o.command = "isoloft.reconstruct (Python)";
+  o.read_seconds = o.seconds_before = input.read_seconds;
 
   auto data = std::make_shared<ResultData>();
   data->in = in;
@@ -331,7 +351,7 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
   // (each look waits for the GIL, up to a switch interval if Python is busy).
   constexpr auto kSignalCheck = std::chrono::milliseconds(100);
   std::atomic<Clock::rep> last_check{Clock::now().time_since_epoch().count()};
-  auto hook = [&](const std::string& stage, long done, long total) {
+  o.progress = [&](const RunProgress& p) {
     if (stop.load()) throw CallbackStopped{};
     if (progress.is_none()) {
       const auto now = Clock::now().time_since_epoch().count();
@@ -341,28 +361,22 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
     py::gil_scoped_acquire gil;
     try {
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-      if (!progress.is_none()) progress(stage, done, total);
+      if (!progress.is_none()) progress(std::string(p.stage), p.done, p.total);
     } catch (py::error_already_set& e) {
       if (!failed) failed = std::move(e);
       stop = true;
       throw CallbackStopped{};
     }
   };
-  tbb::task_arena arena(threads ? *threads : tbb::task_arena::automatic);
   try {
     py::gil_scoped_release release;
-    arena.execute([&] {
-      data->run = run_jobs(*in, params, labels, [&](const Job&, ReconstructOptions& o) { o.progress = hook; });
-    });
+    data->run = isoloft::run(*in, params, o);
   } catch (const CallbackStopped&) {
     throw *failed;
   }
-  data->run.threads = arena.max_concurrency();
-  check_surfaces(*in, data->run, allow_empty, "allow_empty=True");
   data->mesh_options = run_mesh_options(*in);
   data->method = params.method;
-  data->report = run_report(ISOLOFT_GIT, "isoloft.reconstruct (Python)", *in, params, data->run,
-                            {input.read_seconds, 0.0, input.read_seconds + seconds_since(t0)}, {});
+  data->report = std::move(data->run.report);
   PyResult r{data, py::list()};
   for (std::size_t i = 0; i < data->run.objects.size(); ++i) {
     auto o = std::make_shared<PyObjectResult>();
@@ -470,6 +484,8 @@ PYBIND11_MODULE(_isoloft, m) {
   m.doc() = "isoloft: closed surfaces from parallel planar contours (Marker et al. 2006); see the isoloft package";
   m.attr("__version__") = ISOLOFT_VERSION;
   m.attr("git") = ISOLOFT_GIT;
+  // Errors name Python keywords (z_spacing, input='labels'), not the CLI's flags.
+  set_option_style(OptionStyle::Keywords);
 
   g_error = new_exception(m, "Error", PyExc_Exception, "Base of all isoloft errors.");
   g_input_error = new_exception(m, "InputError", py::make_tuple(py::handle(g_error), py::handle(PyExc_ValueError)).release().ptr(),
@@ -599,9 +615,18 @@ PYBIND11_MODULE(_isoloft, m) {
   m.def("_from_arrays", &from_arrays, py::arg("slices"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("image_shape"));
   m.def("_read", &read_input, py::arg("paths"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
-        py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"));
-  m.def("_reconstruct", &run, py::arg("input"), py::arg("params"), py::arg("labels"), py::arg("threads"),
-        py::arg("progress"), py::arg("allow_empty"));
+        py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"),
+        py::arg("max_memory"));
+  m.def("_reconstruct", [](const PyInput& input, const py::dict& params, const std::vector<std::uint32_t>& labels,
+                           std::optional<int> threads, const py::object& progress, bool allow_empty,
+                           const std::string& volume, const std::string& labelmap, const std::string& dump_stages,
+                           const std::string& rtstruct, const std::string& volumes, const std::string& report,
+                           const std::string& max_memory, const std::string& max_output) {
+          return run(input, params, labels, threads, progress, allow_empty,
+                     {volume, labelmap, dump_stages, rtstruct, volumes, report}, max_memory, max_output);
+        }, py::arg("input"), py::arg("params"), py::arg("labels"), py::arg("threads"), py::arg("progress"),
+        py::arg("allow_empty"), py::arg("volume"), py::arg("labelmap"), py::arg("dump_stages"), py::arg("rtstruct"),
+        py::arg("volumes"), py::arg("report"), py::arg("max_memory"), py::arg("max_output"));
   m.def("_synth", &synth, py::arg("shape"), py::arg("size"), py::arg("z_spacing"), py::arg("kind"));
   m.def("_evaluate", &evaluate, py::arg("mesh"), py::arg("truth"), py::arg("pixel_size"));
   m.def("shapes", &shape_names, "the analytic shapes isoloft.synth() makes");

@@ -187,8 +187,9 @@ TEST_F(BadInput, ParametersAreRangeCheckedAndFlagsMustApply) {
   expect_error("reconstruct " + s + " -o " + p("m.ply") + " --pixel-size inf", 2, "--pixel-size: 'inf' is not a finite number > 0");
   expect_error("reconstruct " + s + " -o " + p("m.ply") + " --labels 1", 1, "--labels: only with label input");
   expect_error("reconstruct " + s + " -o " + p("m.ply") + " --raster-resolution 2000", 1,
-               "--raster-resolution: has no effect here, only with a curve-fitting method (isoloft, marker2006) and a polyline input");
-  expect_error("reconstruct " + s + " -o " + p("m.ply") + " --method levin --n-min 10", 1, "--n-min: has no effect here");
+               "--raster-resolution: has no effect here, only with a polyline input");
+  expect_error("reconstruct " + s + " -o " + p("m.ply") + " --method levin --n-min 10", 1,
+               "--n-min: has no effect here, only with --method isoloft, marker2006");
   expect_error("reconstruct " + s + " -o " + p("m.ply") + " --method levin --dump-stages " + p("st"), 1,
                "--dump-stages: has no effect here");
   text("circle.txt", circle_polylines(128, 30, {0, 1}));

@@ -172,12 +172,12 @@ TEST(Volume, FlippedAndObliqueAffinesGiveTheSameMeshInPatientSpace) {
     const TriMesh a = reconstruct_file(dir.file("id.nii.gz"), method);
     const TriMesh b = reconstruct_file(dir.file("flip.nii.gz"), method);
     ASSERT_FALSE(a.empty());
-    EXPECT_LE(vertex_hausdorff(a, b), kSameMeshMm) << "flipped, " << to_string(method);
+    EXPECT_LE(vertex_hausdorff(a, b), kSameMeshMm) << "flipped, " << method.name();
     TriMesh rotated = a;  // p -> o + R (p - o) for the identity grid's mesh
     const Vec3d origin(id.origin[0], id.origin[1], id.origin[2]);
     for (auto& v : rotated.vertices) v = (origin + oblique_rotation() * (v.cast<double>() - origin)).cast<float>();
     EXPECT_LE(vertex_hausdorff(rotated, reconstruct_file(dir.file("obl.nii.gz"), method)), kSameMeshMm)
-        << "oblique, " << to_string(method);
+        << "oblique, " << method.name();
   }
 }
 

@@ -330,7 +330,7 @@ TEST(MarkerSlice, LabelFeaturesTwoPixelsWideAreKept) {
       st.kind = InputKind::Labels;
       const ReconstructParams p;
       const detail::SliceMasks m = detail::slice_masks(st, st.slices[0], p, 1);
-      const detail::MarkerSlice r = detail::marker_slice(m, st.slices[0], PixelBox{0, 0, kN, kN}, p, st.kind, kN, false);
+      const SliceField r = detail::marker_slice(SliceInput{m, st.slices[0], PixelBox{0, 0, kN, kN}, st.kind, kN}, p);
       long pixels = 0, lost = 0;
       for (int y = 0; y < kN; ++y)
         for (int x = 0; x < kN; ++x)

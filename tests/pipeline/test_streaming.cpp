@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/pipeline/slice_fields.h"
 #include "isoloft/interp/z_stream.h"
@@ -47,12 +48,7 @@ Resident resident_oracle(const SliceStack& st, const ReconstructParams& p, const
   for (std::size_t k = 0; k < fields.size(); ++k) {
     z.push_back(st.slices[k].z);
     if (masks[k].empty) continue;
-    if (p.method == Method::Levin) {
-      fields[k] = detail::levin_field(masks[k], box, st.kind);
-      continue;
-    }
-    fields[k] = detail::marker_slice(masks[k], st.slices[k], box, p, st.kind, st.width, false).field;
-    if (p.filter.enabled) fields[k] = distance_filter(fields[k], p.filter);
+    fields[k] = method_spec(p.method.name()).slice_field(SliceInput{masks[k], st.slices[k], box, st.kind, st.width}, p).field;
   }
   detail::fill_empty_slices(fields, z, box, p.interp);
   add_end_caps(fields, z, p.interp);

@@ -179,10 +179,11 @@ def test_volume_file_gives_the_cli_meshes_in_patient_space(tmp_path):
 
 def test_rtstruct_gives_the_cli_mesh_bytes(tmp_path, data_dir):
     rtss = data_dir / "rtstruct" / "rtss.dcm"
-    cli_mesh, cli_report = cli_reconstruct(tmp_path, "heart", rtss, "--roi", "Heart", "--method", "levin")
-    inp = isoloft.read(rtss, roi="Heart")
+    cli_mesh, cli_report = cli_reconstruct(tmp_path, "heart", rtss, "--roi", "Heart", "--method", "levin",
+                                           "--volumes", tmp_path / "cli.csv")
+    inp = isoloft.read(rtss, roi=5)  # by number: the Heart
     assert inp.format == "rtstruct" and inp.names == ["Heart"] and inp.space == "LPS"
-    res = isoloft.reconstruct(inp, method="levin")
+    res = isoloft.reconstruct(inp, method="levin", volumes=tmp_path / "py.csv", rtstruct=tmp_path / "py.dcm")
     assert res.objects[0].roi == "Heart"
     assert_same_files(res.save(tmp_path / "py.ply"), [cli_mesh])
     assert comparable(res.report["objects"]) == comparable(cli_report["objects"])
@@ -191,6 +192,10 @@ def test_rtstruct_gives_the_cli_mesh_bytes(tmp_path, data_dir):
     row = res.report["volumes"][0]
     assert (row["name"], row["number"], row["planes"], row["closed"]) == ("Heart", 5, 33, True)
     assert row["volume_mm3"] > 0 and row["slab_volume_mm3"] > 0
+    assert read_bytes(tmp_path / "py.csv") == read_bytes(tmp_path / "cli.csv")
+    # The RT Structure Set out (its contents are checked in io/test_rtstruct.cpp): the Heart, by its number.
+    assert res.report["rtstruct"] == str(tmp_path / "py.dcm")
+    assert isoloft.read(tmp_path / "py.dcm", roi=5).names == ["Heart"]
     # Patient mm, as the CLI test checks: inside the Heart's contour range.
     assert res.objects[0].vertices[:, 2].min() > -101 and res.objects[0].vertices[:, 2].max() < 1
 
@@ -373,3 +378,37 @@ def test_no_leak_across_100_calls():
     leak_per_call = (obj.vertices.nbytes + obj.faces.nbytes + obj.vertices.nbytes / 2 + stack.slices.nbytes * 4) / 2**20
     assert leak_per_call * 100 > MAX_RSS_GROWTH_MIB
     assert growth < MAX_RSS_GROWTH_MIB, f"resident memory grew {growth:.1f} MiB over 100 calls"
+
+
+# ---------------------------------------------------------------- the CLI's other outputs, one run path
+
+def test_volume_labelmap_and_report_are_the_cli_files(tmp_path):
+    vol = tmp_path / "labels.mha"
+    write_sparse_label_volume(vol)
+    run_cli("reconstruct", vol, "-o", tmp_path / "cli.ply", "--volume", tmp_path / "cli.nrrd", "--labelmap",
+            tmp_path / "cli_map.nii.gz", "--report", tmp_path / "cli.json", "--quiet")
+    res = isoloft.reconstruct(vol, volume=tmp_path / "py.nrrd", labelmap=tmp_path / "py_map.nii.gz",
+                              report=tmp_path / "py.json")
+    for label in (4, 9):
+        assert read_bytes(tmp_path / f"py_label{label}.nrrd") == read_bytes(tmp_path / f"cli_label{label}.nrrd")
+    assert read_bytes(tmp_path / "py_map.nii.gz") == read_bytes(tmp_path / "cli_map.nii.gz")
+    written = json.loads((tmp_path / "py.json").read_text())
+    assert written["volume_files"] == [str(tmp_path / f"py_label{label}.nrrd") for label in (4, 9)]
+    assert written["labelmap"] == str(tmp_path / "py_map.nii.gz") and res.report["labelmap"] == written["labelmap"]
+    cli = json.loads((tmp_path / "cli.json").read_text())
+    assert comparable(written["objects"]) == comparable(cli["objects"])
+
+
+def test_output_options_refused_as_the_cli_refuses_them(tmp_path):
+    stack = isoloft.synth("sphere", size=64)
+    with pytest.raises(isoloft.ParamError, match="labelmap: only with a volume input"):
+        isoloft.reconstruct(stack, labelmap=tmp_path / "x.nii.gz")
+    with pytest.raises(isoloft.ParamError, match="volume: '.*x.vtk' must end in .nrrd"):
+        isoloft.reconstruct(stack, volume=tmp_path / "x.vtk")
+    with pytest.raises(isoloft.ParamError, match="dump_stages: has no effect here"):
+        isoloft.reconstruct(stack, method="levin", dump_stages=tmp_path / "d")
+    with pytest.raises(isoloft.ParamError, match="max_memory: .* needs about .* over the budget"):
+        isoloft.reconstruct(stack, max_memory="1K")
+    with pytest.raises(isoloft.ParamError, match="max_output: .* with volume needs about"):
+        isoloft.reconstruct(stack, volume=tmp_path / "v.nrrd", max_output="10K")
+    assert not list(tmp_path.iterdir())  # nothing half-written

@@ -24,6 +24,13 @@ std::string Range::text() const {
   return "any";
 }
 
+void throw_unknown_choice(const std::string& what, const std::string& name, const std::vector<std::string>& choices) {
+  std::string list;
+  for (std::size_t i = 0; i < choices.size(); ++i)
+    list += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
+  throw ParamError(what + ": unknown value '" + name + "' (expected " + list + ")");
+}
+
 namespace detail {
 
 std::string json_type_name(const nlohmann::json& j) {

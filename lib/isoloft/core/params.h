@@ -9,6 +9,7 @@
 // table each (enum_names(), found by ADL, beside the enum).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
@@ -55,17 +56,17 @@ std::string to_string(E value) {
   return "?";
 }
 
+/// \throw ParamError "<what>: unknown value 'x' (expected a, b or c)".
+[[noreturn]] void throw_unknown_choice(const std::string& what, const std::string& name,
+                                       const std::vector<std::string>& choices);
+
 /// The value named `name`.
 /// \throw ParamError "<what>: unknown value 'x' (expected a, b or c)".
 template <NamedEnum E>
 E enum_from_string(const std::string& name, const std::string& what) {
   for (const auto& n : enum_names(E{}))
     if (name == n.name) return n.value;
-  const auto choices = enum_choices<E>();
-  std::string list;
-  for (std::size_t i = 0; i < choices.size(); ++i)
-    list += (i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ") + choices[i];
-  throw ParamError(what + ": unknown value '" + name + "' (expected " + list + ")");
+  throw_unknown_choice(what, name, enum_choices<E>());
 }
 
 // ---------------------------------------------------------------- ranges
@@ -182,6 +183,28 @@ ParamRow<S> field(std::string key, T S::*m, std::string unit, std::string doc, R
   };
   r.set = [m, range = r.range](S& s, const nlohmann::json& j, const std::string& key) {
     s.*m = detail::checked_value<T>(j, key, range);
+  };
+  return r;
+}
+
+/// A row for member `m` holding one of `choices` by name (a registry's names,
+/// e.g. the methods): T is std::string or has name() and T(std::string).
+template <class S, class T>
+ParamRow<S> name_field(std::string key, T S::*m, std::string doc, std::vector<std::string> choices) {
+  ParamRow<S> r;
+  r.key = std::move(key);
+  r.doc = std::move(doc);
+  r.type = ParamType::Enum;
+  r.choices = std::move(choices);
+  r.get = [m](const S& s) -> nlohmann::json {
+    if constexpr (std::is_same_v<T, std::string>) return s.*m;
+    else return (s.*m).name();
+  };
+  r.set = [m, choices = r.choices](S& s, const nlohmann::json& j, const std::string& key) {
+    if (!j.is_string()) detail::throw_bad_value(key, "a string", j);
+    const std::string name = j.get<std::string>();
+    if (std::find(choices.begin(), choices.end(), name) == choices.end()) throw_unknown_choice(key, name, choices);
+    s.*m = T(name);
   };
   return r;
 }

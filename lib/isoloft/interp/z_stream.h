@@ -31,6 +31,9 @@ class PlaneSource {
   virtual void reach(std::size_t k) = 0;
   virtual void evaluate(double z, Grid2f& out) const = 0;  ///< as ZInterpolator::evaluate
   virtual void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const = 0;  ///< as ZInterpolator::sides
+  /// Wall seconds spent preparing intervals in reach() (tangents,
+  /// correspondences), knot pulls excluded.
+  [[nodiscard]] virtual double setup_seconds() const { return 0; }
 };
 
 /// A whole ZInterpolator as a PlaneSource.
@@ -87,7 +90,7 @@ class ZStream final : public PlaneSource {
   void reach(std::size_t k) override;
   void evaluate(double z, Grid2f& out) const override;
   void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override;
-  [[nodiscard]] double tangent_seconds() const { return tangent_seconds_; }  ///< wall time computing tangents (pulls excluded)
+  [[nodiscard]] double setup_seconds() const override { return tangent_seconds_; }  ///< computing tangents
 
  private:
   void next_block();

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <set>
 #include <system_error>
@@ -213,6 +214,16 @@ std::vector<std::string> OutputSet::staged() const {
   std::vector<std::string> out;
   for (const auto& f : files_) out.push_back(f.staged);
   return out;
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  AtomicFile f(path);
+  {
+    std::ofstream out(f.temp_path(), std::ios::binary);
+    out << text;
+    if (!out) throw InputError(path, "cannot write file");
+  }
+  f.commit();
 }
 
 }  // namespace isoloft

@@ -42,6 +42,10 @@ class AtomicFile {
   bool committed_ = false;
 };
 
+/// Writes text to `path` atomically (temp file + rename).
+/// \throw InputError naming the path if it cannot be written.
+void write_text_atomic(const std::string& path, const std::string& text);
+
 /// Installs handlers for SIGINT, SIGTERM and SIGHUP that unlink every
 /// registered temp and staged file (async-signal-safe: unlink() only), then
 /// re-raise the signal with its default action (the exit status shows it).

@@ -21,6 +21,7 @@
 #include <sstream>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/file_util.h"
 
@@ -105,7 +106,7 @@ std::vector<const RtRoi*> RtStructureSet::select(const std::vector<std::string>&
         if (r.number == *n) numbered.push_back(&r);
     if (named.size() > 1)
       throw InputError(path, std::to_string(named.size()) + " ROIs are named '" + w + "': " + quoted_names(named, true) +
-                                 "; select one by its number (--roi NUMBER)");
+                                 "; select one by its number (" + option_given("--roi", "NUMBER") + ")");
     if (named.size() == 1 && !numbered.empty() && numbered.front() != named.front())
       throw InputError(path, "'" + w + "' is the name of ROI number " + std::to_string(named.front()->number) +
                                  " and the number of ROI '" + numbered.front()->name + "'; rename one of them");
@@ -125,7 +126,7 @@ std::vector<const RtRoi*> RtStructureSet::select(const std::vector<std::string>&
 std::vector<const RtRoi*> RtStructureSet::with_contours(const std::string& path, std::vector<std::string>& warnings) const {
   std::vector<const RtRoi*> out;
   for (const auto& r : rois) {
-    if (r.number_shared) throw InputError(path, shared_number_error(*this, r) + " (select the others with --roi)");
+    if (r.number_shared) throw InputError(path, shared_number_error(*this, r) + " (select the others with " + option_name("--roi") + ")");
     if (r.closed_contours() == 0) {
       warnings.push_back(path + ": ROI '" + r.name + "' has no closed planar contour: skipped");
       continue;
@@ -139,7 +140,7 @@ std::vector<const RtRoi*> RtStructureSet::with_contours(const std::string& path,
       if (lower(q->name) == lower(r->name)) same.push_back(q);
     if (same.size() > 1)
       throw InputError(path, std::to_string(same.size()) + " ROIs are named '" + r->name + "': " + quoted_names(same, true) +
-                                 "; select them by number (--roi NUMBER, repeatable)");
+                                 "; select them by number (" + option_given("--roi", "NUMBER") + ", repeatable)");
   }
   return out;
 }
@@ -277,7 +278,7 @@ std::vector<std::vector<Vec2d>> split_keyholes(const std::vector<Vec2d>& polygon
 
 SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& path, std::vector<std::string>& warnings) {
   if (!(grid.voxel_size > 0 && std::isfinite(grid.voxel_size)))
-    throw ParamError("--voxel-size: must be finite and > 0, got " + std::to_string(grid.voxel_size));
+    throw ParamError(option_name("--voxel-size") + ": must be finite and > 0, got " + std::to_string(grid.voxel_size));
   const std::string what = "ROI '" + roi.name + "'";
   // Each closed contour's plane (mean z of its points), to find the spacing first.
   std::vector<double> contour_z;
@@ -358,7 +359,7 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
                        " contour(s) not CLOSED_PLANAR with 3 or more points skipped");
   if (specks > 0)
     warnings.push_back(path + ": " + what + ": " + std::to_string(specks) + " contour loop(s) smaller than one pixel of the " +
-                       std::to_string(grid.voxel_size) + " mm working grid dropped (give a smaller --voxel-size to keep them)");
+                       std::to_string(grid.voxel_size) + " mm working grid dropped (give a smaller " + option_name("--voxel-size") + " to keep them)");
   if (planes.empty()) throw InputError(path, what + " has no closed planar contour");
   std::sort(planes.begin(), planes.end(), [](const Plane& a, const Plane& b) { return a.z < b.z; });
   int joined = 0;
@@ -385,7 +386,7 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   const double wx = std::ceil((xhi - xlo) / s) + 2.0 * grid.margin + 1, wy = std::ceil((yhi - ylo) / s) + 2.0 * grid.margin + 1;
   constexpr double kMaxGrid = 1 << 15;  // pixels across: a 32768^2 working grid is surely a wrong voxel size
   if (wx > kMaxGrid || wy > kMaxGrid)
-    throw ParamError("--voxel-size " + std::to_string(s) + " mm: " + what + " would need a " + std::to_string(long(wx)) +
+    throw ParamError(option_name("--voxel-size") + " " + std::to_string(s) + " mm: " + what + " would need a " + std::to_string(long(wx)) +
                      " x " + std::to_string(long(wy)) + " pixel grid");
   SliceStack st;
   st.kind = InputKind::Polylines;

@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 
 namespace isoloft {
 
@@ -109,7 +110,7 @@ int sparse_axis(const Volume& v) { return sparse_axis_of(scan_voxels(v, false).o
 VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path) {
   if (slicing.kind != InputKind::Labels && slicing.kind != InputKind::Masks)
     throw ParamError("a volume holds labels or masks");
-  if (slicing.axis < -1 || slicing.axis > 2) throw ParamError("--axis: must be i, j or k");
+  if (slicing.axis < -1 || slicing.axis > 2) throw ParamError(option_name("--axis") + ": must be i, j or k");
   VolumeStack out;
   const VoxelScan scan = scan_voxels(v, slicing.kind == InputKind::Labels);
   out.axis = slicing.axis >= 0 ? slicing.axis : sparse_axis_of(scan.occupied);
@@ -120,12 +121,13 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
   if (scan.first_nonfinite_row != kNoRow) detail::check_finite_voxels(v, path);
   if (std::abs(su - sw) > kSquareTolerance * std::max(su, sw))
     throw InputError(path, std::string("voxels are not square across axis ") + kAxis[a] + " (" + std::to_string(su) +
-                               " x " + std::to_string(sw) + " mm): resample the volume, or give another --axis");
+                               " x " + std::to_string(sw) + " mm): resample the volume, or give another " + option_name("--axis"));
   if (scan.first_nonlabel_row != kNoRow)
     for (std::size_t i = scan.first_nonlabel_row * std::size_t(v.nx); i < v.data.size(); ++i)
       if (v.data[i] < 0 || v.data[i] != std::floor(v.data[i]) || v.data[i] > float(1 << 24))
         throw InputError(path, "not a label map: value " + std::to_string(v.data[i]) + " at voxel " + std::to_string(i) +
-                                   " is not a non-negative integer (use --input masks for any non-zero voxel as inside)");
+                                   " is not a non-negative integer (use " + option_given("--input", "masks") +
+                                   " for any non-zero voxel as inside)");
   const auto& occ = scan.occupied[std::size_t(a)];
   for (int t = 0; t < int(occ.size()); ++t)
     if (occ[std::size_t(t)]) out.annotated.push_back(t);

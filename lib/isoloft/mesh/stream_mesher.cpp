@@ -22,9 +22,11 @@ Grid2<T> pad(const Grid2<T>& g, T outside) {
   return out;
 }
 
+}  // namespace
+
 // The padded side maps of the last two knot intervals, one slot per interval
 // parity: consecutive layers share an interval.
-class SideCache {
+class StreamMesher::SideCache {
  public:
   SideCache(const PlaneSource& field, float iso, std::int8_t pad_side) : field_(field), iso_(iso), pad_side_(pad_side) {}
 
@@ -47,8 +49,6 @@ class SideCache {
   Grid2<std::int8_t> knot_sides_;
 };
 
-}  // namespace
-
 std::vector<double> sample_planes(double z_begin, double z_end, double step) {
   if (!(step > 0)) throw ParamError("interp.z_step must be positive");
   if (!(z_end > z_begin)) throw ParamError("sample_planes: empty z range");
@@ -66,51 +66,67 @@ StreamMeshResult mesh_interpolated_field(const ZInterpolator& field, const std::
   return mesh_interpolated_field(whole, planes, x0, y0, mc, options);
 }
 
+StreamMesher::StreamMesher(const PlaneSource& field, double x0, double y0, const MarchingCubesParams& mc,
+                           StreamMeshOptions options)
+    : field_(field),
+      options_(std::move(options)),
+      sides_(std::make_unique<SideCache>(field, mc.iso, options_.outside < mc.iso - kSideMargin ? std::int8_t(-1)
+                                                                                                 : std::int8_t(0))),
+      builder_(field.width() + 2, field.height() + 2, x0 - 1.0, y0 - 1.0, mc),
+      x0_(x0),
+      y0_(y0) {
+  if (!(options_.outside <= mc.iso)) throw ParamError("mesh_interpolated_field: the pad value must be outside (<= iso)");
+}
+
+StreamMesher::~StreamMesher() = default;
+
+void StreamMesher::add(const Grid2f& plane, double z, std::size_t k, long count) {
+  const auto t0 = Clock::now();
+  Grid2f padded = pad(plane, options_.outside);
+  const std::size_t j = std::size_t(builder_.planes_added());
+  if (options_.on_plane) options_.on_plane(padded, x0_ - 1.0, y0_ - 1.0, z, int(j), int(count));
+  // Planes in one or two adjacent knot intervals: the layer may skip cells.
+  const bool skip = options_.skip_cells && j > 0 && k - k_prev_ <= 1;
+  if (skip && visit_for_ != std::array<std::size_t, 2>{k_prev_, k}) {
+    const Grid2<std::int8_t>& below = sides_->of(k_prev_);  // k_prev and k use different slots, or are equal
+    layer_cells_to_visit(below, sides_->of(k), visit_);
+    visit_for_ = {k_prev_, k};
+  }
+  if (j > 0) {
+    const long layer = long(field_.width() + 1) * long(field_.height() + 1);
+    out_.cells += layer;
+    out_.cells_visited += skip ? long(std::count(visit_.begin(), visit_.end(), std::uint8_t(1))) : layer;
+  }
+  builder_.add_plane(std::move(padded), z, skip ? &visit_ : nullptr);
+  k_prev_ = k;
+  out_.mesh_seconds += seconds_since(t0);
+  if (options_.progress) options_.progress(long(j + 1), count);
+}
+
+StreamMeshResult StreamMesher::finish() {
+  const auto t0 = Clock::now();
+  out_.mesh = builder_.finish();
+  out_.mesh_seconds += seconds_since(t0);
+  return std::move(out_);
+}
+
 StreamMeshResult mesh_interpolated_field(PlaneSource& field, const std::vector<double>& planes, double x0, double y0,
                                          const MarchingCubesParams& mc, const StreamMeshOptions& options) {
   if (planes.size() < 2) throw ParamError("mesh_interpolated_field: needs at least 2 planes");
-  if (!(options.outside <= mc.iso)) throw ParamError("mesh_interpolated_field: the pad value must be outside (<= iso)");
-  const float iso = mc.iso;
-  const std::int8_t pad_side = options.outside < iso - kSideMargin ? -1 : 0;
-  SideCache sides(field, iso, pad_side);
-  MarchingCubes builder(field.width() + 2, field.height() + 2, x0 - 1.0, y0 - 1.0, mc);
-  const std::size_t builder_cells = std::size_t(field.width() + 1) * std::size_t(field.height() + 1);
-  StreamMeshResult out;
+  StreamMesher mesher(field, x0, y0, mc, options);
   Grid2f plane;
-  std::vector<std::uint8_t> visit;
-  constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
-  std::array<std::size_t, 2> visit_for{kNone, kNone};  // the interval pair `visit` was made for
-  std::size_t k_prev = kNone;
+  double interp_seconds = 0;
   const long count = long(planes.size());
-  for (std::size_t j = 0; j < planes.size(); ++j) {
-    const std::size_t k = field.interval(planes[j]);
+  for (const double z : planes) {
+    const std::size_t k = field.interval(z);
     field.reach(k);  // untimed: a stream's knots may be computed here
-    auto t0 = Clock::now();
-    field.evaluate(planes[j], plane);
-    Grid2f padded = pad(plane, options.outside);
-    out.interp_seconds += seconds_since(t0);
-    if (options.on_plane) options.on_plane(padded, x0 - 1.0, y0 - 1.0, planes[j], int(j), int(count));
-    t0 = Clock::now();
-    // Planes in one or two adjacent knot intervals: the layer may skip cells.
-    const bool skip = options.skip_cells && j > 0 && k - k_prev <= 1;
-    if (skip && visit_for != std::array<std::size_t, 2>{k_prev, k}) {
-      const Grid2<std::int8_t>& below = sides.of(k_prev);  // k_prev and k use different slots, or are equal
-      layer_cells_to_visit(below, sides.of(k), visit);
-      visit_for = {k_prev, k};
-    }
-    if (j > 0) {
-      const long layer = long(builder_cells);
-      out.cells += layer;
-      out.cells_visited += skip ? long(std::count(visit.begin(), visit.end(), std::uint8_t(1))) : layer;
-    }
-    builder.add_plane(std::move(padded), planes[j], skip ? &visit : nullptr);
-    k_prev = k;
-    out.mesh_seconds += seconds_since(t0);
-    if (options.progress) options.progress(long(j + 1), count);
+    const auto t0 = Clock::now();
+    field.evaluate(z, plane);
+    interp_seconds += seconds_since(t0);
+    mesher.add(plane, z, k, count);
   }
-  const auto t0 = Clock::now();
-  out.mesh = builder.finish();
-  out.mesh_seconds += seconds_since(t0);
+  StreamMeshResult out = mesher.finish();
+  out.interp_seconds = interp_seconds;
   return out;
 }
 

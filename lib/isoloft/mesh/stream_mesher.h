@@ -13,7 +13,9 @@
 // linear) skip less (sides() widens the knots by their overshoot bound).
 #pragma once
 
+#include <array>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "isoloft/core/grid.h"
@@ -44,6 +46,36 @@ struct StreamMeshResult {
   double mesh_seconds = 0;     ///< wall time in Marching Cubes
   long cells = 0;              ///< cells of all layers
   long cells_visited = 0;      ///< of those, the ones Marching Cubes looked at
+};
+
+/// Marching Cubes of one z-interpolated field fed plane by plane, so that
+/// several fields can be meshed in lockstep (e.g. a partition of labels):
+/// each plane padded by `outside`, cells skipped by `field`'s sides()
+/// (the contract above), the mesh at finish().
+class StreamMesher {
+ public:
+  /// \throw ParamError if `outside` is above mc.iso.
+  StreamMesher(const PlaneSource& field, double x0, double y0, const MarchingCubesParams& mc, StreamMeshOptions options = {});
+  ~StreamMesher();
+  StreamMesher(const StreamMesher&) = delete;
+  StreamMesher& operator=(const StreamMesher&) = delete;
+  /// The next plane (field.width() x field.height()) at z, in knot interval k,
+  /// of `count` planes in all (for progress and on_plane).
+  void add(const Grid2f& plane, double z, std::size_t k, long count);
+  /// The mesh and counts; interp_seconds is the caller's.
+  StreamMeshResult finish();
+
+ private:
+  class SideCache;
+  const PlaneSource& field_;
+  StreamMeshOptions options_;
+  std::unique_ptr<SideCache> sides_;
+  MarchingCubes builder_;
+  double x0_, y0_;
+  StreamMeshResult out_;
+  std::vector<std::uint8_t> visit_;
+  std::array<std::size_t, 2> visit_for_{std::size_t(-1), std::size_t(-1)};  // the interval pair visit_ was made for
+  std::size_t k_prev_ = std::size_t(-1);
 };
 
 /// Marching Cubes of `field` on the planes z = `planes` (increasing, within

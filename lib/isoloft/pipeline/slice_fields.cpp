@@ -10,7 +10,9 @@
 #include "isoloft/contour/fill.h"
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/field/edt.h"
+#include "isoloft/field/filter.h"
 #include "isoloft/field/marching.h"
 #include "isoloft/field/narrow_band.h"
 #include "isoloft/pipeline.h"
@@ -30,7 +32,8 @@ void check_binary(const Slice& s, std::uint32_t max_value) {
       if (v != 0 && v != max_value)
         throw InputError(s.source, "not a binary image: value " + std::to_string(v) + " at pixel (" + std::to_string(x) + ", " +
                                        std::to_string(y) + ") is neither 0 nor " + std::to_string(max_value) +
-                                       " (use --input labels for label images, or --binarize to threshold at half range)");
+                                       " (use " + option_given("--input", "labels") + " for label images, or " + option_given("--binarize") +
+                                       " to threshold at half range)");
     }
 }
 
@@ -173,6 +176,39 @@ std::vector<LabelMasks> label_masks(const Grid2u32& image) {
   return out;
 }
 
+Grid2f union_healing(const Grid2u32& image, const PixelBox& box) {
+  // One pixel of background around the box: a mask touching the image
+  // border is closed there, as the fields' crops are.
+  const int w = box.width() + 2, h = box.height() + 2;
+  Grid2u32 labels(w, h, 0);
+  for (int y = box.y0; y < box.y1; ++y)
+    for (int x = box.x0; x < box.x1; ++x) labels(x - box.x0 + 1, y - box.y0 + 1) = image(x, y);
+  Grid2u8 uni(w, h, 0);
+  for (std::size_t i = 0; i < uni.size(); ++i) uni.data[i] = labels.data[i] != 0;
+  const Grid2f d_union = distance_to_mask_edge_signed(uni);
+  // Each label's own edge distance, over its bounds plus one pixel.
+  std::map<std::uint32_t, PixelBox> bounds;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (const std::uint32_t v = labels(x, y)) {
+        auto [it, added] = bounds.try_emplace(v, PixelBox{x, y, x + 1, y + 1});
+        PixelBox& b = it->second;
+        b = {std::min(b.x0, x), std::min(b.y0, y), std::max(b.x1, x + 1), std::max(b.y1, y + 1)};
+      }
+  Grid2f out(box.width(), box.height(), 0.0f);
+  for (const auto& [v, b0] : bounds) {
+    const PixelBox b{b0.x0 - 1, b0.y0 - 1, b0.x1 + 1, b0.y1 + 1};  // within the padded grid
+    Grid2u8 own(b.width(), b.height(), 0);
+    for (int y = b.y0; y < b.y1; ++y)
+      for (int x = b.x0; x < b.x1; ++x) own(x - b.x0, y - b.y0) = labels(x, y) == v;
+    const Grid2f d_own = distance_to_mask_edge_signed(own);
+    for (int y = b.y0; y < b.y1; ++y)
+      for (int x = b.x0; x < b.x1; ++x)
+        if (labels(x, y) == v) out(x - 1, y - 1) = std::max(0.0f, d_union(x, y) - d_own(x - b.x0, y - b.y0));
+  }
+  return out;
+}
+
 PixelBox mask_bounds(const SliceMasks& m) {
   if (m.empty) return {};
   const int width = m.inside.width, height = m.inside.height;
@@ -201,16 +237,20 @@ Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind) {
   return distance_to_mask_edge_signed(inside);
 }
 
-MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& p, InputKind kind,
-                         int stack_width, bool keep) {
+SliceField marker_slice(const SliceInput& in, const ReconstructParams& p) {
+  const SliceMasks& m = in.masks;
+  const Slice& s = in.slice;
+  const PixelBox& b = in.box;
+  const InputKind kind = in.kind;
+  const bool keep = in.keep_stages;
   const bool polylines = kind == InputKind::Polylines;
-  MarkerSlice r;
+  SliceField r;
   auto t0 = Clock::now();
   // Polylines may be fitted on a finer raster (the paper's pelvis): working
   // coordinate x maps to X = k (x + 0.5) - 0.5 (pixel-centre convention at
   // both resolutions), and f is rescaled to working pixels. k = 1 otherwise.
   const bool fine = polylines && p.polyline_raster_width > 0;
-  const double k = fine ? double(p.polyline_raster_width) / stack_width : 1.0;
+  const double k = fine ? double(p.polyline_raster_width) / in.stack_width : 1.0;
   int fit_w = b.width(), fit_h = b.height();
   // The contour pixels and inside over the crop; masks and labels without
   // their features thinner than mask_min_feature (the points, the band and
@@ -291,6 +331,16 @@ MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b,
   r.field = extend_distance(nb, p.extend);
   r.t_dist = seconds_since(t0);
   if (keep) r.distance = r.field;
+  return r;
+}
+
+SliceField filtered_marker_slice(const SliceInput& in, const ReconstructParams& p) {
+  SliceField r = marker_slice(in, p);
+  if (p.filter.enabled) {
+    const auto t0 = Clock::now();
+    r.field = distance_filter(r.field, p.filter);
+    r.t_filter = seconds_since(t0);
+  }
   return r;
 }
 

@@ -71,6 +71,12 @@ struct LabelMasks {
 /// its pixels (the same masks as slice_masks() of each label in turn).
 std::vector<LabelMasks> label_masks(const Grid2u32& image);
 
+/// Over `box` of a label image: inside the labels' union, how much farther its
+/// edge is than the edge of the pixel's own label (exact distances to the
+/// edges halfway between pixel centres), else 0. Zero wherever a label meets
+/// only the background; the union's field is its labels' plus this.
+Grid2f union_healing(const Grid2u32& image, const PixelBox& box);
+
 /// Bounding box of a slice's inside and contour pixels; empty if m.empty.
 PixelBox mask_bounds(const SliceMasks& m);
 
@@ -80,6 +86,36 @@ PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, 
 /// The Levin field over b: exact signed EDT to the contour pixels (contours,
 /// polylines) or to the mask's edge (masks, labels).
 Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
+
+}  // namespace isoloft::detail
+
+namespace isoloft {
+
+/// One slice of one object, as a method reads it (methods/method.h).
+struct SliceInput {
+  const detail::SliceMasks& masks;  ///< full-size contour and inside
+  const Slice& slice;               ///< z, source, polygons (polyline input)
+  PixelBox box;                     ///< the object's crop box: the field covers it
+  InputKind kind = InputKind::Contours;
+  int stack_width = 0;              ///< working grid width (fine polyline rasters)
+  bool keep_stages = false;         ///< keep SliceField::mpu and distance (--dump-stages)
+};
+
+/// A method's field for one slice over the crop box, positive inside, with
+/// what it reports.
+struct SliceField {
+  Grid2f field;            ///< the slice's knot field (after any filter)
+  bool fallback = false;   ///< too few points for a curve: exact pixel distances instead
+  long sign_guarded = 0;   ///< pixels whose MPU sign the sign guard overruled
+  MpuResult fit;           ///< curve-fitting methods: the fit's statistics
+  OrientedPoints points;   ///< contour points and normals, crop coordinates
+  Grid2f mpu, distance;    ///< kept only when asked (figures): raw MPU f, distance before the filter
+  double t_mpu = 0, t_dist = 0, t_filter = 0;  ///< CPU seconds of the stages
+};
+
+}  // namespace isoloft
+
+namespace isoloft::detail {
 
 /// Fewer contour points than this cannot carry a conic fit (6 coefficients).
 inline constexpr std::size_t kMinMpuPoints = 6;
@@ -92,24 +128,17 @@ inline constexpr std::size_t kMinMpuPoints = 6;
 /// evaluated pixel lies in a fitted cell.
 inline constexpr double kBandPointMargin = 3.0;
 
-/// One slice through the paper's stages 2.1-2.2.
-struct MarkerSlice {
-  Grid2f field;            ///< signed distance (narrow band + extension), before the filter
-  bool fallback = false;   ///< too few points for a curve: exact pixel distances instead
-  long sign_guarded = 0;   ///< pixels whose MPU sign the sign guard overruled
-  MpuResult fit;
-  OrientedPoints points;   ///< contour points and normals, crop coordinates
-  Grid2f mpu, distance;    ///< kept only when asked (figures): raw MPU f, distance before the filter
-  double t_mpu = 0, t_dist = 0;  ///< CPU seconds of the two stages
-};
-
-/// marker2006 for one slice over b (paper 2.1-2.2): points and normals, the MPU
-/// curve (on a finer raster for polylines if polyline_raster_width > 0), the
-/// sign guard (docs/decisions.md: sign guard), narrow band, extension.
+/// marker2006 for one slice over in.box (paper 2.1-2.2): points and normals,
+/// the MPU curve (on a finer raster for polylines if polyline_raster_width > 0),
+/// the sign guard (docs/decisions.md: sign guard), narrow band, extension;
+/// SliceField::field is the distance before the filter.
 /// @warning Fewer than kMinMpuPoints oriented points (e.g. a one-pixel island)
 /// give the exact pixel distance field (fallback = true).
-MarkerSlice marker_slice(const SliceMasks& m, const Slice& s, const PixelBox& b, const ReconstructParams& params,
-                         InputKind kind, int stack_width, bool keep_stages);
+SliceField marker_slice(const SliceInput& in, const ReconstructParams& params);
+
+/// marker_slice() then the distance-dependent filter if enabled (paper
+/// 2.1-2.3): the curve-fitting methods' slice field.
+SliceField filtered_marker_slice(const SliceInput& in, const ReconstructParams& params);
 
 /// Gives every empty slice a field: a non-empty neighbour's field moved
 /// 1 / cap_extent of the way to its cap_slice() for the gap (z: the slices'

@@ -33,20 +33,25 @@ def _paths(path):
     return [_os.fsdecode(p) for p in path]
 
 
+def _path_or_empty(path):
+    return "" if path is None else _os.fsdecode(path)
+
+
 def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
-         voxel_size=None, space=None):
+         voxel_size=None, space=None, max_memory="4G"):
     """Reads what `isoloft reconstruct` reads, as an Input for reconstruct().
 
     path: a directory of PNG slices or a list of PNG files (input: contours,
     masks or labels; z_spacing or slice_z; pixel_size), a polyline text file,
     a label volume (.nii .nii.gz .nrrd .nhdr .mha .mhd; input labels|masks,
-    axis i|j|k, space lps|ras) or a DICOM RT Structure Set (roi: a name or a
-    list of names, voxel_size in mm, space). Options the input cannot use are
-    a ParamError naming them.
+    axis i|j|k, space lps|ras) or a DICOM RT Structure Set (roi: a name or
+    number, or a list of them; voxel_size in mm, space). Options the input cannot use are
+    a ParamError naming them. max_memory: the budget checked from the image
+    headers before decoding ("4G", "512M", bytes; 0 = no limit).
     """
-    rois = [] if roi is None else [roi] if isinstance(roi, str) else list(roi)
+    rois = [] if roi is None else [str(roi)] if isinstance(roi, (str, int)) else [str(r) for r in roi]
     return _isoloft._read(_paths(path), input or "", z_spacing, None if slice_z is None else list(slice_z),
-                          pixel_size, axis or "", rois, voxel_size, space or "")
+                          pixel_size, axis or "", rois, voxel_size, space or "", str(max_memory))
 
 
 def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
@@ -57,7 +62,9 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
 
 
 def reconstruct(slices, *, z_spacing=1.0, slice_z=None, pixel_size=1.0, input="contours", method=None,
-                labels=None, threads=None, progress=None, image_shape=None, allow_empty=False, **params):
+                labels=None, threads=None, progress=None, image_shape=None, allow_empty=False, volume=None,
+                labelmap=None, dump_stages=None, rtstruct=None, volumes=None, report=None, max_memory="4G",
+                max_output="4G", **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
     slices: an (n, h, w) numpy array or a list of 2D arrays (bool, uint8,
@@ -69,8 +76,17 @@ def reconstruct(slices, *, z_spacing=1.0, slice_z=None, pixel_size=1.0, input="c
     method: isoloft (default), marker2006 or levin; labels: only these (labels input);
     threads: worker threads (default: all cores); progress(stage, done, total)
     is called as the work goes (raise in it to stop); allow_empty: return a
-    surface with no triangles instead of raising on it. **params: reconstruction
-    parameters by their --print-params names.
+    surface with no triangles instead of raising on it. Files written with
+    the run, all or none, as the CLI's flags of the same names: volume
+    (OUT.nrrd, the signed distance volume per object), labelmap (a volume
+    input's dense label map, .nii.gz/.nii/.nrrd/.mha), dump_stages (a
+    directory: marker2006's per-slice fields), rtstruct (an RT Structure Set
+    input's surfaces back as OUT.dcm, cut at its contour planes), volumes
+    (the volume table, .csv or .json; .report["volumes"] always has it),
+    report (the JSON of .report).
+    max_memory, max_output: the work budget ("4G", "512M", bytes; 0 = no
+    limit), checked before the work. **params: reconstruction parameters by
+    their --print-params names.
     """
     if method is not None:
         params["method"] = method
@@ -84,7 +100,7 @@ def reconstruct(slices, *, z_spacing=1.0, slice_z=None, pixel_size=1.0, input="c
     elif isinstance(slices, (str, bytes, _os.PathLike)):
         options = {"z_spacing": z_spacing if z_spacing != 1.0 else None, "slice_z": slice_z,
                    "pixel_size": pixel_size if pixel_size != 1.0 else None,
-                   "input": input if input != "contours" else None}
+                   "input": input if input != "contours" else None, "max_memory": max_memory}
         stack = read(slices, **options)
     else:
         if input not in _KINDS:
@@ -95,7 +111,10 @@ def reconstruct(slices, *, z_spacing=1.0, slice_z=None, pixel_size=1.0, input="c
                                       None if image_shape is None else tuple(int(n) for n in image_shape))
     if labels is not None:
         labels = [int(l) for l in labels]
-    return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty))
+    return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
+                                 _path_or_empty(volume), _path_or_empty(labelmap), _path_or_empty(dump_stages),
+                                 _path_or_empty(rtstruct), _path_or_empty(volumes), _path_or_empty(report),
+                                 str(max_memory), str(max_output))
 
 
 def evaluate(mesh, truth, *, pixel_size=1.0):

@@ -1,0 +1,90 @@
+// @file methods/method.h
+// @brief The seam for reconstruction methods and z schemes.
+// A method says how one slice of one object becomes a signed distance field
+// (paper 2.1-2.3, or a baseline); a z scheme says how those fields are
+// interpolated between the slices (paper 2.4) into the planes Marching Cubes
+// reads. Each is one file (methods/<name>.cpp) returning its spec, plus one
+// line in methods/registry.cpp. A spec names itself, gives its defaults over
+// the stages' (the paper's), and lists the parameter rows it reads: a flag for
+// a row that some other method or scheme reads but this one does not is an
+// error naming where it applies (unused_param()). Sign convention: positive
+// inside.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "isoloft/interp/z_stream.h"
+#include "isoloft/pipeline/slice_fields.h"
+
+namespace isoloft {
+
+struct ReconstructParams;
+
+/// A method: slices to fields.
+struct MethodSpec {
+  std::string name;  ///< as in --method and the report
+  std::string doc;   ///< one line: what it is, with the paper section or reference
+  /// Its changes to the stages' defaults (e.g. the z spline, the z scheme).
+  std::function<void(ReconstructParams&)> defaults;
+  /// The method-specific parameter rows it reads: keys, or prefixes ending
+  /// in '.'. Rows no method lists are read by every method.
+  std::vector<std::string> rows;
+  /// Whether it fits curves (its slices report MPU statistics, --dump-stages).
+  bool fits_curves = false;
+  /// One slice's field over the object's crop box.
+  std::function<SliceField(const SliceInput&, const ReconstructParams&)> slice_field;
+};
+
+/// What a z scheme needs to build its plane source for one object.
+struct ZSchemeInput {
+  std::vector<double> z;      ///< every knot (end caps included), increasing
+  int width = 0, height = 0;  ///< the crop box
+  ZStream::NextKnot next;     ///< the knots' fields in z order, one per call
+  ResidentCount* count = nullptr;  ///< counts the fields held
+};
+
+/// A z scheme: the slice fields to the planes Marching Cubes reads.
+struct ZSchemeSpec {
+  std::string name;  ///< as in --z-scheme and the report
+  std::string doc;   ///< one line, with the paper section or reference
+  /// The scheme-specific parameter rows it reads (as MethodSpec::rows).
+  std::vector<std::string> rows;
+  /// Knots it holds at once beyond the slices in flight, for the work
+  /// estimate; nullopt: all of them.
+  std::function<std::optional<std::size_t>(const ReconstructParams&)> resident_knots;
+  std::function<std::unique_ptr<PlaneSource>(ZSchemeInput, const ReconstructParams&)> make;
+};
+
+/// The registered methods and z schemes, in registry order.
+const std::vector<MethodSpec>& methods();
+const std::vector<ZSchemeSpec>& z_schemes();
+
+/// \throw ParamError naming the known names if `name` is not registered.
+const MethodSpec& method_spec(const std::string& name);
+const ZSchemeSpec& z_scheme_spec(const std::string& name);
+
+/// The names, for a parameter row's choices.
+std::vector<std::string> method_names();
+std::vector<std::string> z_scheme_names();
+
+/// If parameter row `key` is read by some method or z scheme but not by
+/// `method` nor `scheme`: where it applies ("only with --method isoloft,
+/// marker2006"); else "" (the row applies).
+std::string unused_param(const std::string& key, const std::string& method, const std::string& scheme);
+
+namespace detail {
+/// True if `key` is `row` or lies under a `row` ending in '.'.
+bool row_matches(const std::string& row, const std::string& key);
+/// The rows the curve-fitting methods read and the baseline does not (marker2006.cpp).
+const std::vector<std::string>& curve_fit_rows();
+/// The paper reproduction's z defaults (marker2006, levin): the stages' own
+/// InterpParams spline (Hyman's) and end caps (dome) over isoloft's (marker2006.cpp).
+void paper_interp_defaults(ReconstructParams& p);
+}  // namespace detail
+
+}  // namespace isoloft

@@ -1,0 +1,54 @@
+// @file run/budget.h
+// @brief A run's work budget (--max-memory, --max-output): estimates checked
+// before the work they count, so an oversized or hostile input stops with an
+// error naming the option and the estimate instead of exhausting the machine
+// (docs/decisions.md, work budget).
+//
+// Checked: the slice images' size from their headers, before decoding
+// (read_inputs); the input's footprint through the contour stage, after
+// reading; per object after its contour stage and before its fit, its
+// fields and mesh (memory) and the bytes of every file the run writes for
+// it (output; each RunOutput counts its own).
+#pragma once
+
+#include <string>
+
+#include "isoloft/core/slice_stack.h"
+
+namespace isoloft {
+
+struct Inputs;
+
+/// Byte limits, 0 = no limit.
+struct Budget {
+  double max_memory = 0;  ///< --max-memory
+  double max_output = 0;  ///< --max-output
+};
+
+/// The CLI's default for both (4 GiB).
+inline constexpr const char* kDefaultBudget = "4G";
+
+/// A byte count from "4G", "512M", "64K", "1.5G" (binary units) or plain
+/// bytes; 0 = no limit. \throw ParamError naming `option`.
+double parse_size(const std::string& text, const std::string& option);
+/// E.g. "3.2 GiB", "512 MiB".
+std::string size_text(double bytes);
+/// \throw ParamError "<option>: <what> needs about X, over the budget of Y ..." if need > limit > 0.
+void check_budget(const std::string& option, const std::string& what, double need, double limit);
+
+/// Bytes one stack holds up to and through the contour stage: its held
+/// slice images (volumes; PNG slices are decoded as the pipeline goes), its
+/// packed masks and, per slice in flight, a decoded image, the full-size
+/// masks and the fill's temporaries.
+double stack_bytes(const SliceStack& stack);
+
+/// The largest stack_bytes() of the jobs (they run one at a time) plus a
+/// volume input's voxels.
+double input_bytes(const Inputs& in);
+
+/// Bytes per triangle of a mesh file: binary STL (50, the largest binary
+/// format) and ASCII STL (~250, the largest text one), upper bounds for PLY,
+/// OBJ and OFF.
+inline constexpr double kMeshFileBytesPerTriangle = 50, kAsciiMeshFileBytesPerTriangle = 250;
+
+}  // namespace isoloft

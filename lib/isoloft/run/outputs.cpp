@@ -1,0 +1,260 @@
+#include "isoloft/run/outputs.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
+#include "isoloft/io/file_util.h"
+#include "isoloft/io/nrrd.h"
+#include "isoloft/run.h"
+#include "isoloft/run/budget.h"
+
+namespace fs = std::filesystem;
+
+namespace isoloft {
+
+// ---------------------------------------------------------------- naming and meshes
+
+std::string file_safe(const std::string& name) {
+  std::string s;
+  for (unsigned char c : name) s += std::isalnum(c) || c == '-' || c == '_' ? char(c) : '_';
+  return s.empty() ? "roi" : s;
+}
+
+std::string with_suffix(const std::string& path, const std::string& suffix) {
+  const fs::path p(path);
+  return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
+}
+
+std::string roi_file_tag(const Inputs& in, std::size_t job) {
+  const Job& j = in.jobs[job];
+  const std::string tag = file_safe(j.name);
+  for (std::size_t k = 0; k < in.jobs.size(); ++k)
+    if (k != job && file_safe(in.jobs[k].name) == tag && j.roi) return tag + "_" + std::to_string(j.roi->number);
+  return tag;
+}
+
+std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label) {
+  if (in.labels()) return std::string("_label") + std::to_string(label);
+  return in.jobs.size() > 1 ? "_" + roi_file_tag(in, job) : "";
+}
+
+MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii) {
+  MeshWriteOptions mo;
+  mo.ascii = ascii;
+  if (in.first().patient) {
+    mo.frame = PatientFrame{};  // the meshes are in patient mm already: the identity names the space
+    mo.ras = in.ras;
+  } else {
+    mo.scale = in.first().pixel_size;
+  }
+  return mo;
+}
+
+bool several_outputs(const Inputs& in, const RunResult& r) { return in.labels() || r.objects.size() > 1; }
+
+void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r, const MeshWriteOptions& mo,
+                      const std::function<std::string(const std::string&)>& stage) {
+  auto staged = [&](const std::string& p) { return stage ? stage(p) : p; };
+  const bool several = several_outputs(in, r);
+  for (auto& o : r.objects) {
+    o.file = several ? with_suffix(output, object_suffix(in, o.job, o.object.label)) : output;
+    write_mesh(staged(o.file), o.mesh, mo);
+  }
+  if (several) {
+    std::vector<TriMesh> parts;
+    std::vector<Rgb> colours;
+    for (const auto& o : r.objects) parts.push_back(o.mesh), colours.push_back(o.colour);
+    std::vector<Rgb> vertex_colours;
+    const TriMesh combined = merge_meshes(parts, colours, &vertex_colours);
+    MeshWriteOptions co = mo;
+    co.colors = &vertex_colours;
+    write_mesh(staged(output), combined, co);
+  }
+}
+
+// ---------------------------------------------------------------- hooks
+
+void JobHooks::on_sample(std::vector<double> z, SampleHook hook) {
+  std::sort(z.begin(), z.end());
+  samplers_.push_back({std::move(z), std::move(hook)});
+}
+
+void JobHooks::apply(ReconstructOptions& o) const {
+  if (!fields_.empty())
+    o.on_slice_fields = [this](const SliceStageFields& f) {
+      for (const auto& h : fields_) h(f);
+    };
+  if (!planes_.empty())
+    o.on_plane = [this](std::uint32_t label, const Grid2f& plane, double x0, double y0, double z, int index, int count) {
+      for (const auto& h : planes_) h(label, plane, x0, y0, z, index, count);
+    };
+  if (samplers_.empty()) return;
+  o.sample_z.clear();
+  for (const auto& s : samplers_) o.sample_z.insert(o.sample_z.end(), s.z.begin(), s.z.end());
+  std::sort(o.sample_z.begin(), o.sample_z.end());
+  o.sample_z.erase(std::unique(o.sample_z.begin(), o.sample_z.end()), o.sample_z.end());
+  // The pipeline hands back the heights it was given, so each sampler finds its own exactly.
+  o.on_sample = [this](std::uint32_t label, const Grid2f& field, const PixelBox& box, double z) {
+    for (const auto& s : samplers_)
+      if (std::binary_search(s.z.begin(), s.z.end(), z)) s.hook(label, field, box, z);
+  };
+}
+
+// ---------------------------------------------------------------- -o
+
+MeshOutput::MeshOutput(std::string path, bool ascii) : path_(std::move(path)), ascii_(ascii) {
+  (void)mesh_format_from_path(path_);  // unknown extension -> error before any work
+}
+
+double MeshOutput::file_bytes(const Inputs&, const WorkEstimate& e) const {
+  return e.triangles * (ascii_ ? kAsciiMeshFileBytesPerTriangle : kMeshFileBytesPerTriangle);
+}
+
+void MeshOutput::finish(const RunContext& ctx, RunResult& r) {
+  write_run_meshes(path_, ctx.in, r, run_mesh_options(ctx.in, ascii_), [&](const std::string& p) { return ctx.files.stage(p); });
+  files_.clear();
+  for (const auto& o : r.objects) files_.push_back(o.file);
+  if (several_outputs(ctx.in, r)) files_.push_back(path_);
+}
+
+// ---------------------------------------------------------------- --volume
+
+VolumeOutput::VolumeOutput(std::string path) : path_(std::move(path)) {
+  if (fs::path(path_).extension() != ".nrrd")
+    throw ParamError(option_name("--volume") + ": '" + path_ + "' must end in .nrrd");
+}
+
+VolumeOutput::~VolumeOutput() = default;
+
+void VolumeOutput::start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) {
+  const SliceStack& stack = ctx.in.jobs[job].stack;
+  const double z_step = ctx.params.interp.z_step;
+  hooks.on_plane([this, &ctx, &stack, job, z_step](std::uint32_t label, const Grid2f& plane, double x0, double y0, double z,
+                                                   int index, int count) {
+    if (index == 0) {
+      const std::string path = with_suffix(path_, object_suffix(ctx.in, job, label));
+      // The z step is uniform except possibly the last plane (snapped to the cap); record the nominal step.
+      NrrdGeometry g;
+      if (stack.patient) {
+        g.axes = stack.patient->axes * Eigen::Vector3d(1, 1, z_step).asDiagonal();
+        const Vec3d p0 = stack.patient->to_patient(Vec3d(x0, y0, z));
+        g.origin = {p0.x(), p0.y(), p0.z()};
+        g.patient = true;
+      } else {
+        const double s = stack.pixel_size;
+        g.axes = Eigen::Vector3d(s, s, s * z_step).asDiagonal();
+        g.origin = {x0 * s, y0 * s, z * s};
+      }
+      writer_ = std::make_unique<NrrdWriter>(ctx.files.stage(path), plane.width, plane.height, count, g);
+      files_.push_back(path);
+    }
+    writer_->write_plane(plane);
+    if (index == count - 1) {
+      writer_->finish();
+      writer_.reset();
+    }
+  });
+}
+
+double VolumeOutput::file_bytes(const Inputs&, const WorkEstimate& e) const { return e.planes * e.plane_bytes; }
+
+std::string VolumeOutput::budget_note() const { return " with " + option_name("--volume"); }
+
+void VolumeOutput::report(nlohmann::json& report) const { report["volume_files"] = files_; }
+
+// ---------------------------------------------------------------- --labelmap
+
+LabelmapOutput::LabelmapOutput(std::string path) : path_(std::move(path)) {
+  if (!is_volume_path(path_))
+    throw ParamError(option_name("--labelmap") + ": '" + path_ + "' must end in .nii.gz, .nii, .nrrd or .mha");
+}
+
+LabelmapOutput::~LabelmapOutput() = default;
+
+void LabelmapOutput::check_format(InputFormat format) const {
+  if (format != InputFormat::Volume) throw ParamError(option_name("--labelmap") + ": " + kVolumeInputOnly);
+}
+
+void LabelmapOutput::start_job(const RunContext& ctx, std::size_t, JobHooks& hooks) {
+  if (!builder_) builder_ = std::make_unique<LabelmapBuilder>(*ctx.in.volume, *ctx.in.slicing);
+  hooks.on_sample(builder_->sample_z(), [this](std::uint32_t label, const Grid2f& field, const PixelBox& box, double z) {
+    builder_->add(label, field, box, z);
+  });
+}
+
+double LabelmapOutput::file_bytes(const Inputs& in, const WorkEstimate&) const {
+  return double(in.volume->data.size()) * 4;
+}
+
+void LabelmapOutput::finish(const RunContext& ctx, RunResult&) {
+  write_volume(ctx.files.stage(path_), builder_->finish());
+  written_ = true;
+}
+
+void LabelmapOutput::report(nlohmann::json& report) const { report["labelmap"] = path_; }
+
+std::vector<std::string> LabelmapOutput::files() const {
+  return written_ ? std::vector<std::string>{path_} : std::vector<std::string>{};
+}
+
+// ---------------------------------------------------------------- --dump-stages
+
+void StageDumpOutput::check(const Inputs&, const ReconstructParams& params) const {
+  if (!fits_curves(params.method))
+    throw ParamError(option_name("--dump-stages") +
+                     ": has no effect here, only with a curve-fitting method (isoloft, marker2006)");
+}
+
+void StageDumpOutput::start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) {
+  fs::create_directories(dir_);
+  const SliceStack& stack = ctx.in.jobs[job].stack;
+  hooks.on_slice_fields([this, &ctx, &stack](const SliceStageFields& sf) {
+    char stem[64];
+    std::snprintf(stem, sizeof stem, "label%u_slice%03d_", sf.label, sf.slice);
+    const std::string base = (fs::path(dir_) / stem).string();
+    const double s = stack.pixel_size;
+    const std::array<double, 3> spacing{s, s, s},
+        origin{sf.box.x0 * s, sf.box.y0 * s, stack.slices[std::size_t(sf.slice)].z * s};
+    auto staged = [&](const std::string& path) {
+      std::lock_guard lock(mutex_);
+      files_.push_back(path);
+      return ctx.files.stage(path);
+    };
+    auto write2d = [&](const std::string& name, const Grid2f& g) {
+      NrrdWriter w(staged(base + name + ".nrrd"), g.width, g.height, 1, spacing, origin);
+      w.write_plane(g);
+      w.finish();
+    };
+    write2d("mpu", sf.mpu);
+    write2d("distance", sf.distance);
+    write2d("filtered", sf.filtered);
+    Grid2f diff = sf.filtered;
+    for (std::size_t i = 0; i < diff.size(); ++i) diff.data[i] -= sf.distance.data[i];
+    write2d("difference", diff);
+    std::ostringstream csv;
+    csv << "x,y,nx,ny\n";
+    for (std::size_t i = 0; i < sf.points.size(); ++i)
+      csv << sf.points.points[i].x() + sf.box.x0 << "," << sf.points.points[i].y() + sf.box.y0 << ","
+          << sf.points.normals[i].x() << "," << sf.points.normals[i].y() << "\n";
+    write_text_atomic(staged(base + "points.csv"), csv.str());
+  });
+}
+
+double StageDumpOutput::file_bytes(const Inputs&, const WorkEstimate& e) const {
+  return double(e.slices) * e.plane_bytes * 4;
+}
+
+std::vector<std::string> StageDumpOutput::files() const {
+  std::vector<std::string> f = files_;
+  std::sort(f.begin(), f.end());
+  return f;
+}
+
+}  // namespace isoloft

@@ -1,0 +1,208 @@
+// @file run/outputs.h
+// @brief What a run writes, one output kind per class: the meshes (-o), the
+// signed distance volumes (--volume), the dense label map (--labelmap), the
+// per-slice stage fields (--dump-stages). Every file is staged in the run's
+// OutputSet (io/atomic_file.h), so all appear together at the end or none.
+//
+// A new kind (an RT Structure Set writer, a label map on a reference grid) is
+// one RunOutput subclass, added to RunOptions::outputs by the front end:
+//  - check_format(), check(): refuse early, naming option(), what it cannot
+//    give (before reading; after reading, before any work);
+//  - start_job(): add per-job pipeline hooks (JobHooks: several outputs may
+//    ask for stage fields, planes or samples at once);
+//  - file_bytes(): its bytes per object, for the --max-output check;
+//  - finish(): write what it holds, through RunContext::files.stage();
+//  - report(), files(): what it wrote, for the report and the front end.
+// The run calls them in RunOptions::outputs order.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "isoloft/io/atomic_file.h"
+#include "isoloft/io/mesh_io.h"
+#include "isoloft/pipeline.h"
+#include "isoloft/run/inputs.h"
+
+namespace isoloft {
+
+struct RunResult;
+class NrrdWriter;
+
+/// `name` made safe as a file name part (letters, digits, '-', '_'; others '_').
+std::string file_safe(const std::string& name);
+
+/// `path` with `suffix` before its extension ("a/b.ply", "_label2" -> "a/b_label2.ply").
+std::string with_suffix(const std::string& path, const std::string& suffix);
+
+/// The file name part of job `job`'s ROI: file_safe(name), with "_<number>"
+/// if another job's name gives the same (ROIs selected by number).
+std::string roi_file_tag(const Inputs& in, std::size_t job);
+
+/// The per-object suffix of a run's files: "_label<L>" (labels), "_<ROI>"
+/// (several ROIs: roi_file_tag()), else "".
+std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label);
+
+/// How the run's meshes are written: patient mm with the space named, or
+/// pixels times the stack's pixel size.
+MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii = false);
+
+/// Whether the run writes one file per object plus a combined one.
+bool several_outputs(const Inputs& in, const RunResult& r);
+
+/// Writes the meshes: one object -> `output`; several -> OUT_label<L>.ext
+/// (labels) or OUT_<ROI>.ext each, and `output` with a colour per object.
+/// Each file goes to stage(path) (identity if empty); sets RunObject::file.
+void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r, const MeshWriteOptions& options,
+                      const std::function<std::string(const std::string&)>& stage = {});
+
+/// What every output sees during a run.
+struct RunContext {
+  const Inputs& in;
+  const ReconstructParams& params;
+  OutputSet& files;  ///< stage() every path written
+};
+
+/// One job's pipeline hooks, gathered from every output and combined into
+/// its ReconstructOptions (each hook called in the order added).
+class JobHooks {
+ public:
+  using FieldsHook = std::function<void(const SliceStageFields&)>;
+  using PlaneHook = std::function<void(std::uint32_t label, const Grid2f& plane, double x0, double y0, double z,
+                                       int plane_index, int plane_count)>;
+  using SampleHook = std::function<void(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z)>;
+
+  /// Each slice's stage fields (marker2006), from worker threads.
+  void on_slice_fields(FieldsHook hook) { fields_.push_back(std::move(hook)); }
+  /// Every sampled plane of each object's field (objects then run one at a time).
+  void on_plane(PlaneHook hook) { planes_.push_back(std::move(hook)); }
+  /// Each object's whole field at these working heights (pixels); `hook`
+  /// sees only its own heights.
+  void on_sample(std::vector<double> z, SampleHook hook);
+  /// Sets the hooks of `options` (its other fields kept).
+  void apply(ReconstructOptions& options) const;
+
+ private:
+  struct Sampler {
+    std::vector<double> z;  // sorted
+    SampleHook hook;
+  };
+  std::vector<FieldsHook> fields_;
+  std::vector<PlaneHook> planes_;
+  std::vector<Sampler> samplers_;
+};
+
+/// One kind of output of a run (see the file comment).
+class RunOutput {
+ public:
+  virtual ~RunOutput() = default;
+  /// The option that asks for it, as a flag ("--volume"); errors show it as
+  /// core/option_names.h says.
+  [[nodiscard]] virtual std::string option() const = 0;
+  /// The path or directory given.
+  [[nodiscard]] virtual std::string target() const = 0;
+  /// Before the input is read. \throw ParamError naming option() if this
+  /// input format cannot give it.
+  virtual void check_format(InputFormat) const {}
+  /// After reading, before any work. \throw ParamError naming option() if the
+  /// input or the method cannot give it.
+  virtual void check(const Inputs&, const ReconstructParams&) const {}
+  /// Before job `job`'s reconstruct(): its hooks.
+  virtual void start_job(const RunContext&, std::size_t /*job*/, JobHooks&) {}
+  /// Bytes this output writes for one object (the --max-output check).
+  [[nodiscard]] virtual double file_bytes(const Inputs&, const WorkEstimate&) const { return 0; }
+  /// Said after the object in a --max-output error (" with --volume").
+  [[nodiscard]] virtual std::string budget_note() const { return {}; }
+  /// After every job, the surfaces checked: writes what it holds (staged).
+  virtual void finish(const RunContext&, RunResult&) {}
+  /// Adds to the run's report.
+  virtual void report(nlohmann::json&) const {}
+  /// The files written (final paths, in order).
+  [[nodiscard]] virtual std::vector<std::string> files() const = 0;
+};
+
+/// -o: the meshes, written at the end (write_run_meshes).
+class MeshOutput final : public RunOutput {
+ public:
+  /// \throw ParamError for an unknown mesh extension.
+  explicit MeshOutput(std::string path, bool ascii = false);
+  [[nodiscard]] std::string option() const override { return "-o"; }
+  [[nodiscard]] std::string target() const override { return path_; }
+  [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;
+  void finish(const RunContext& ctx, RunResult& r) override;
+  [[nodiscard]] std::vector<std::string> files() const override { return files_; }
+
+ private:
+  std::string path_;
+  bool ascii_;
+  std::vector<std::string> files_;
+};
+
+/// --volume: each object's interpolated signed distance volume (float NRRD,
+/// positive inside), streamed plane by plane; OUT<suffix>.nrrd per object.
+class VolumeOutput final : public RunOutput {
+ public:
+  /// \throw ParamError unless `path` ends in .nrrd.
+  explicit VolumeOutput(std::string path);
+  ~VolumeOutput() override;
+  [[nodiscard]] std::string option() const override { return "--volume"; }
+  [[nodiscard]] std::string target() const override { return path_; }
+  void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
+  [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;
+  [[nodiscard]] std::string budget_note() const override;
+  void report(nlohmann::json& report) const override;
+  [[nodiscard]] std::vector<std::string> files() const override { return files_; }
+
+ private:
+  std::string path_;
+  std::vector<std::string> files_;
+  std::unique_ptr<NrrdWriter> writer_;  // the object being streamed
+};
+
+/// --labelmap: the dense label map on a volume input's grid and geometry
+/// (the annotated slices as given, every other voxel from the fields).
+class LabelmapOutput final : public RunOutput {
+ public:
+  /// \throw ParamError unless `path` is a volume path (.nii.gz .nii .nrrd .mha).
+  explicit LabelmapOutput(std::string path);
+  ~LabelmapOutput() override;
+  [[nodiscard]] std::string option() const override { return "--labelmap"; }
+  [[nodiscard]] std::string target() const override { return path_; }
+  void check_format(InputFormat format) const override;
+  void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
+  [[nodiscard]] double file_bytes(const Inputs& in, const WorkEstimate&) const override;
+  void finish(const RunContext& ctx, RunResult& r) override;
+  void report(nlohmann::json& report) const override;
+  [[nodiscard]] std::vector<std::string> files() const override;
+
+ private:
+  std::string path_;
+  std::unique_ptr<LabelmapBuilder> builder_;
+  bool written_ = false;
+};
+
+/// --dump-stages: each slice's MPU field, distance, filtered distance and
+/// their difference (float NRRD) and contour points + normals (CSV), for the
+/// paper's Figs. 3-5; curve-fitting methods only.
+class StageDumpOutput final : public RunOutput {
+ public:
+  explicit StageDumpOutput(std::string dir) : dir_(std::move(dir)) {}
+  [[nodiscard]] std::string option() const override { return "--dump-stages"; }
+  [[nodiscard]] std::string target() const override { return dir_; }
+  void check(const Inputs&, const ReconstructParams& params) const override;
+  void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
+  [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;
+  [[nodiscard]] std::vector<std::string> files() const override;
+
+ private:
+  std::string dir_;
+  std::mutex mutex_;  // hooks run on worker threads
+  std::vector<std::string> files_;
+};
+
+}  // namespace isoloft
