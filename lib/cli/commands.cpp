@@ -24,7 +24,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("inputs", r_.inputs,
                 "PNG slices in stack order, one directory of PNGs, one polyline text file, one label volume "
                 "(.nii .nii.gz .nrrd .nhdr .mha .mhd) or one DICOM RT Structure Set (.dcm)");
-  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl, .off, .vtp or .vtk (VTK: normals and labels as cell data); with labels also one file per label");
+  R->add_option("-o,--output", r_.output, "Output mesh: .ply (binary), .obj, .stl, .off, .vtp or .vtk (VTK: normals and labels as cell data); with labels also one file per label; .dcm: an RT Structure Set (as --rtstruct)");
   R->add_option("--input", r_.input_kind, "How to read pixels: contours (white curves), masks (filled), labels (each value an object)")
       ->check(CLI::IsMember({"contours", "masks", "labels"}));
   // PositiveNumber lets NaN through (every comparison with it is false).
@@ -50,6 +50,8 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--space", r_.space, "Volumes and RT Structure Sets: patient space of the outputs, lps (default; DICOM, ITK, 3D Slicer files) or ras")
       ->check(CLI::IsMember({"lps", "ras"}));
   R->add_option("--labelmap", r_.labelmap, "Volumes: write the dense label map on the input's grid (.nii.gz, .nii, .nrrd, .mha): annotated slices as given, the others from the interpolated fields");
+  R->add_option("--rtstruct", r_.rtstruct, "RT Structure Sets: write the surfaces back as an RT Structure Set (.dcm), cut at the input's contour planes, the input's patient, study, frame of reference and ROI numbers, names and colours kept (also -o OUT.dcm)");
+  R->add_option("--volumes", r_.volumes, "Write the volume table (per object: name, number, volume, slab volume = contour area x spacing, area, planes, closed) as .csv or .json; RT Structure Sets also print it on stdout");
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
   R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON with its unit, range and doc, and exit");

@@ -27,6 +27,8 @@ struct ReconstructArgs {
   double voxel_size = 0.5;         ///< RT Structure Sets: working grid, mm
   std::string space;               ///< patient space of the outputs: lps (default) or ras
   std::string labelmap;            ///< volumes: the dense label map out
+  std::string rtstruct;            ///< RT Structure Sets: the surfaces back as an RT Structure Set (or -o OUT.dcm)
+  std::string volumes;             ///< the volume table as CSV or JSON
   int threads = 0;
   std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output)
   long max_files = kDefaultMaxFiles;                  ///< --max-files (0 = no limit)

@@ -155,8 +155,14 @@ int Commands::reconstruct() {
     return 0;
   }
   if (o.output.empty()) throw ParamError("reconstruct: no output given (-o OUT.ply)");
+  // -o OUT.dcm: the RT Structure Set is the output, no mesh.
+  const bool dcm_output = fs::path(o.output).extension() == ".dcm";
+  if (dcm_output && !o.rtstruct.empty()) throw ParamError("give either -o OUT.dcm or --rtstruct OUT.dcm, not both");
   // Outputs in the order they are checked and written; each refuses a bad path before any work.
-  run.outputs.push_back(std::make_unique<MeshOutput>(o.output, o.ascii));
+  if (dcm_output) run.outputs.push_back(std::make_unique<RtStructOutput>(o.output, "-o"));
+  else run.outputs.push_back(std::make_unique<MeshOutput>(o.output, o.ascii));
+  if (!o.rtstruct.empty()) run.outputs.push_back(std::make_unique<RtStructOutput>(o.rtstruct));
+  if (!o.volumes.empty()) run.outputs.push_back(std::make_unique<VolumeTableOutput>(o.volumes));
   if (!o.volume.empty()) run.outputs.push_back(std::make_unique<VolumeOutput>(o.volume));
   LabelmapOutput* labelmap = nullptr;
   if (!o.labelmap.empty()) {
@@ -195,12 +201,16 @@ int Commands::reconstruct() {
   run.seconds_before = seconds_since(t_start);
   const RunResult result = isoloft::run(in, params, run);
   progress.finish();
+  if (in.format == InputFormat::RtStruct) std::cout << volume_table_text(volume_table(in, result), true) << std::flush;
   if (!o.quiet) {
+    const std::string rtstruct_out = dcm_output ? o.output : o.rtstruct;
+    if (!rtstruct_out.empty()) std::cerr << "isoloft: wrote " << rtstruct_out << " (RT Structure Set)\n";
     for (const auto& ob : result.objects)
-      std::cerr << "isoloft: wrote " << ob.file << " (" << ob.object.mesh.triangles.size() << " triangles"
-                << (ob.object.check.closed && ob.object.check.manifold ? ", closed manifold" : ", NOT closed manifold")
-                << ")\n";
-    if (several_outputs(in, result)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
+      if (!dcm_output)
+        std::cerr << "isoloft: wrote " << ob.file << " (" << ob.object.mesh.triangles.size() << " triangles"
+                  << (ob.object.check.closed && ob.object.check.manifold ? ", closed manifold" : ", NOT closed manifold")
+                  << ")\n";
+    if (!dcm_output && several_outputs(in, result)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
     if (labelmap) std::cerr << "isoloft: wrote " << o.labelmap << " (dense label map)\n";
   }
   return 0;

@@ -423,37 +423,53 @@ class SliceFields {
 // end cap above. Holds a slice's field while a neighbour may still need it.
 class KnotFeed {
  public:
-  KnotFeed(SliceFields& slices, const std::vector<char>& empty, const PixelBox& box, const InterpParams& interp,
-           ResidentCount& count)
-      : slices_(slices), empty_(empty), box_(box), interp_(interp), count_(count) {
+  // z: the knot heights (knot_z: slice k at z[k + 1]).
+  KnotFeed(SliceFields& slices, const std::vector<char>& empty, const std::vector<double>& z, const PixelBox& box,
+           const InterpParams& interp, ResidentCount& count)
+      : slices_(slices), empty_(empty), z_(z), box_(box), interp_(interp), count_(count) {
     const auto last = std::find(empty.rbegin(), empty.rend(), char(0));
     last_nonempty_ = std::size_t(empty.rend() - last) - 1;
   }
-  ~KnotFeed() { count_.remove(long(raw_.size()) + long(!pending_.empty())); }
+  ~KnotFeed() { count_.remove(long(raw_.size()) + long(!pending_.empty()) + long(!before_.empty())); }
   KnotFeed(const KnotFeed&) = delete;
   KnotFeed& operator=(const KnotFeed&) = delete;
 
   Grid2f next() {
     const std::size_t n = empty_.size(), i = knot_++;
+    Grid2f out;
     if (i == 1 || i == n + 1) {  // slice 0's field after its cap below; the cap above after slice n - 1
       count_.remove(1);
-      return std::move(pending_);
+      out = std::move(pending_);
+    } else {
+      Grid2f f = slice_field(i == 0 ? 0 : i - 1);
+      if (i == 0) {
+        // Slice 1, whose trend round and slab caps follow (interp/spline.h, cap_slice).
+        const Grid2f* after = follows_trend() && !raw(1).empty() ? &raw(1) : nullptr;
+        Grid2f cap = cap_slice(f, interp_, z_[1] - z_[0], after, z_[2] - z_[1]);
+        pending_ = std::move(f);
+        count_.add(1);
+        return cap;
+      }
+      if (i == n) {
+        pending_ = cap_slice(f, interp_, z_[n + 1] - z_[n], before_.empty() ? nullptr : &before_, z_[n] - z_[n - 1]);
+        if (!before_.empty()) count_.remove(1);
+        before_ = Grid2f();
+        count_.add(1);
+      }
+      out = std::move(f);
     }
-    Grid2f f = slice_field(i == 0 ? 0 : i - 1);
-    if (i == 0) {
-      Grid2f cap = cap_slice(f, interp_);
-      pending_ = std::move(f);
+    if (i + 1 == n && i >= 1 && follows_trend()) {  // slice n - 2, kept for the cap above
+      before_ = out;
       count_.add(1);
-      return cap;
     }
-    if (i == n) {
-      pending_ = cap_slice(f, interp_);
-      count_.add(1);
-    }
-    return f;
+    return out;
   }
 
  private:
+  [[nodiscard]] bool follows_trend() const {
+    return interp_.cap_shape == CapShape::Slab || interp_.cap_shape == CapShape::Round;
+  }
+
   // Slice k's raw field, pulling slices up to k.
   Grid2f& raw(std::size_t k) {
     while (raw_first_ + raw_.size() <= k) {
@@ -478,7 +494,8 @@ class KnotFeed {
       // The most negative value of all fields: pull (and hold) the slices up
       // to the last non-empty one first.
       if (isolated && last_nonempty_ > k) raw(last_nonempty_);
-      out = detail::empty_slice_field(below, above, lowest_, box_, interp_);
+      out = detail::empty_slice_field(below, above, lowest_, box_, interp_, k > 0 ? z_[k + 1] - z_[k] : 0.0,
+                                      k + 1 < n ? z_[k + 2] - z_[k + 1] : 0.0);
     }
     // Slices below k are no longer anyone's neighbour.
     for (; raw_first_ < k; ++raw_first_) {
@@ -490,6 +507,7 @@ class KnotFeed {
 
   SliceFields& slices_;
   const std::vector<char>& empty_;
+  const std::vector<double>& z_;
   PixelBox box_;
   const InterpParams& interp_;
   ResidentCount& count_;
@@ -499,6 +517,7 @@ class KnotFeed {
   float lowest_ = -1.0f;  // detail::most_negative of the slices pulled
   std::size_t knot_ = 0;
   Grid2f pending_;
+  Grid2f before_;  // slice n - 2's knot field, for the cap above
 };
 
 // ReconstructOptions::on_sample served as the planes pass its heights.
@@ -654,7 +673,7 @@ class ObjectStream {
       throw InputError(run.stack.slices.front().source, o.str());
     }
     slices_.emplace(run, obj, masks_, count_);
-    feed_.emplace(*slices_, empty_, obj.box, p.interp, count_);
+    feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_);
     stream_ = z_scheme_spec(p.z_scheme).make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, p);
   }
   ObjectStream(const ObjectStream&) = delete;

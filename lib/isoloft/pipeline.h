@@ -90,7 +90,8 @@ struct ReconstructParams {
   ExtendParams extend;          ///< field/: paper 2.2
   FilterParams filter;          ///< field/: paper 2.3
   MaskCurveParams mask_curve;    ///< contour/: the traced mask boundary
-  InterpParams interp{.spline = SplineKind::ExtremumPreserving, .planes_on_slices = true};  ///< interp/: paper 2.4 (isoloft's)
+  /// interp/: paper 2.4 (spline, planes and end caps: isoloft's)
+  InterpParams interp{.spline = SplineKind::ExtremumPreserving, .cap_shape = CapShape::Slab, .planes_on_slices = true};
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
@@ -198,9 +199,10 @@ struct ReconstructResult {
 /// \throw ParamError for a method not registered.
 bool fits_curves(const Method& m);
 
-/// A method's parameters: ReconstructParams{} (the default method's) with
-/// what the method's spec changes (MethodSpec::defaults: marker2006 and levin
-/// take Hyman's z spline; docs/decisions.md: the isoloft method).
+/// A method's parameters: ReconstructParams{} (the default method's:
+/// the extremum-preserving z spline, slab end caps) with what the method's
+/// spec changes (MethodSpec::defaults: marker2006 and levin take Hyman's z
+/// spline and dome caps; docs/decisions.md: the isoloft method, end caps).
 /// \throw ParamError for a method not registered.
 ReconstructParams method_defaults(const Method& m);
 

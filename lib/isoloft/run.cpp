@@ -15,6 +15,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
+#include "isoloft/run/volume_table.h"
 
 namespace isoloft {
 
@@ -316,6 +317,7 @@ nlohmann::json run_report(const std::string& git, const std::string& command, co
             {"total", seconds.total}}},
           {"peak_memory_mib", peak_memory_mib()},
           {"objects", objects_report(in, r, params.method)},
+          {"volumes", volume_table_json(volume_table(in, r))},
           {"volume_files", nlohmann::json::array()},
           {"warnings", r.warnings}};
 }

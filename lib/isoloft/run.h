@@ -3,8 +3,8 @@
 // module both do it: an input read as slice stacks ("jobs", run/inputs.h),
 // the pipeline on each under a work budget (run/budget.h), every object's
 // mesh in output units, the outputs asked for (run/outputs.h: meshes,
-// volumes, label map, stage dumps) staged and committed together, and the
-// run report. The front ends only turn their options into an InputRequest
+// volumes, label map, stage dumps; run/rtstruct_output.h, run/volume_table.h)
+// staged and committed together, and the run report (with the volume table). The front ends only turn their options into an InputRequest
 // and RunOptions, and show progress, warnings and errors.
 //
 // Output units: patient mm (LPS) for inputs with a patient frame (volumes,
@@ -24,6 +24,8 @@
 #include "isoloft/run/budget.h"
 #include "isoloft/run/inputs.h"
 #include "isoloft/run/outputs.h"
+#include "isoloft/run/rtstruct_output.h"
+#include "isoloft/run/volume_table.h"
 
 namespace isoloft {
 

@@ -422,7 +422,7 @@ struct CallbackStopped : std::exception {
 
 // The outputs a reconstruct() call writes besides its meshes (save() writes those).
 struct PyOutputs {
-  std::string volume, labelmap, dump_stages, report;
+  std::string volume, labelmap, dump_stages, rtstruct, volumes, report;
 };
 
 PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<std::uint32_t>& labels,
@@ -440,6 +440,8 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
   if (!files.volume.empty()) o.outputs.push_back(std::make_unique<VolumeOutput>(files.volume));
   if (!files.labelmap.empty()) o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
   if (!files.dump_stages.empty()) o.outputs.push_back(std::make_unique<StageDumpOutput>(files.dump_stages));
+  if (!files.rtstruct.empty()) o.outputs.push_back(std::make_unique<RtStructOutput>(files.rtstruct));
+  if (!files.volumes.empty()) o.outputs.push_back(std::make_unique<VolumeTableOutput>(files.volumes));
   o.report_path = files.report;
   o.allow_empty = allow_empty;
   o.threads = threads.value_or(0);
@@ -744,13 +746,13 @@ PYBIND11_MODULE(_isoloft, m) {
   m.def("_reconstruct", [](const PyInput& input, const py::dict& params, const std::vector<std::uint32_t>& labels,
                            std::optional<int> threads, const py::object& progress, bool allow_empty,
                            const std::string& volume, const std::string& labelmap, const std::string& dump_stages,
-                           const std::string& report, const std::string& max_memory, const std::string& max_output,
-                           long max_files) {
-          return run(input, params, labels, threads, progress, allow_empty, {volume, labelmap, dump_stages, report},
-                     max_memory, max_output, max_files);
+                           const std::string& rtstruct, const std::string& volumes, const std::string& report,
+                           const std::string& max_memory, const std::string& max_output, long max_files) {
+          return run(input, params, labels, threads, progress, allow_empty,
+                     {volume, labelmap, dump_stages, rtstruct, volumes, report}, max_memory, max_output, max_files);
         }, py::arg("input"), py::arg("params"), py::arg("labels"), py::arg("threads"), py::arg("progress"),
-        py::arg("allow_empty"), py::arg("volume"), py::arg("labelmap"), py::arg("dump_stages"), py::arg("report"),
-        py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"));
+        py::arg("allow_empty"), py::arg("volume"), py::arg("labelmap"), py::arg("dump_stages"), py::arg("rtstruct"),
+        py::arg("volumes"), py::arg("report"), py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"));
   m.def("_synth", &synth, py::arg("shape"), py::arg("size"), py::arg("z_spacing"), py::arg("kind"));
   m.def("_evaluate", &evaluate, py::arg("mesh"), py::arg("truth"), py::arg("pixel_size"));
   m.def("shapes", &shape_names, "the analytic shapes isoloft.synth() makes");

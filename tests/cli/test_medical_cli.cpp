@@ -151,7 +151,7 @@ TEST_F(Cli, BadMedicalInputsAreOneLineErrorsWithNothingLeftBehind) {
   const std::pair<std::string, std::string> cases[] = {
       {"trunc.dcm", "not a readable DICOM file"},
       {"random.dcm", "not a readable DICOM file"},
-      {kRtss + " --roi Nowhere", "no ROI named 'Nowhere'"},
+      {kRtss + " --roi Nowhere", "no ROI named or numbered 'Nowhere'"},
       {kRtss + " --roi Areola", "ROI 'Areola' has no closed planar contour"},
       {"empty.nii.gz", "0 annotated slice(s)"},
       {"nan.nrrd", "NaN voxel"},
@@ -166,4 +166,35 @@ TEST_F(Cli, BadMedicalInputsAreOneLineErrorsWithNothingLeftBehind) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
     EXPECT_TRUE(leftovers("out").empty()) << args;
   }
+}
+
+// The README's Radiotherapy commands: the volume table on stdout and as CSV,
+// the surfaces back as an RT Structure Set that reads back with the same
+// ROIs and reconstructs to the same volumes (the round trip's measure is in
+// io/test_rtstruct.cpp); an RT Structure Set out from other input is an error.
+TEST_F(Cli, RtStructVolumesAndRtStructOut) {
+  const CliRun r = run("reconstruct " + kRtss + " --roi Scar --roi 7 -o " + p("rt.dcm") + " --volumes " + p("v.csv"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("volume (cc)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("'Scar'"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(p("rt_Scar.ply"))) << "-o OUT.dcm writes no mesh";
+  std::ifstream csv(p("v.csv"));
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed");
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    ++rows;
+    EXPECT_NE(line.find(",true"), std::string::npos) << line;
+  }
+  EXPECT_EQ(rows, 2);
+  const CliRun back = run("reconstruct " + p("rt.dcm") + " --list-rois");
+  ASSERT_EQ(back.code, 0) << back.err;
+  EXPECT_NE(back.out.find("'Scar'"), std::string::npos) << back.out;
+  EXPECT_EQ(back.out.find("'Heart'"), std::string::npos) << "only the ROIs reconstructed";
+  write_circle(p("a.png"));
+  write_circle(p("b.png"));
+  const CliRun png = run("reconstruct " + p("a.png") + " " + p("b.png") + " -o " + p("x.dcm"));
+  EXPECT_EQ(png.code, 1);
+  EXPECT_NE(png.err.find("needs an RT Structure Set input"), std::string::npos) << png.err;
 }

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <cmath>
 #include <numeric>
 #include <string>
@@ -21,6 +22,7 @@
 #include "isoloft/io/rtstruct.h"
 #include "io/io_test_util.h"
 #include "isoloft/mesh/mesh_check.h"
+#include "isoloft/mesh/plane_cut.h"
 #include "isoloft/pipeline.h"
 #include "validation/hausdorff.h"
 
@@ -279,4 +281,232 @@ TEST(RtStruct, GapsBetweenContourPlanesCloseBothSides) {
   const ReconstructResult r = reconstruct(st, ReconstructParams{});
   ASSERT_EQ(r.objects.size(), 1u);
   EXPECT_EQ(r.objects[0].check.components, 2);
+}
+
+namespace {
+
+// A circle of radius r (mm) centred at (cx, cy) on plane z, n vertices.
+Contour circle(double cx, double cy, double r, double z, int n = 64) {
+  Contour c;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2 * M_PI * i / n;
+    c.emplace_back(cx + r * std::cos(t), cy + r * std::sin(t), z);
+  }
+  return c;
+}
+
+// Two spheres of radius 15 mm side by side, cut every 3 mm; each contour's z
+// moved by +-`jitter` mm (alternating sign, as decimal rounding scatters them).
+RtRoi two_spheres(double jitter) {
+  RtRoi roi{1, "Lungs", std::nullopt, {}};
+  int i = 0;
+  for (double z = -12; z <= 12; z += 3)
+    for (double cx : {-20.0, 20.0}) {
+      const double dz = (i++ % 2 ? 1 : -1) * jitter;
+      roi.contours.push_back({"CLOSED_PLANAR", circle(cx, 0, std::sqrt(225 - z * z), z + dz)});
+    }
+  return roi;
+}
+
+}  // namespace
+
+// Contours whose z differ by rounding share their plane (issue 27): an island
+// 0.02 mm off its plane no longer cuts the objects there, and 0.02-0.04 mm of
+// jitter no longer makes 0.02 mm the slice step.
+// Jitter moves each contour by at most 0.04 mm of a 3 mm step (1.3 %): the
+// volume moves by less than this share.
+constexpr double kJitterVolumeShare = 0.01;
+
+TEST(RtStruct, ContoursOffTheirPlaneByRoundingShareIt) {
+  RtRoi lobes{1, "Lobes", std::nullopt, {}};
+  for (int k = 0; k < 5; ++k) {
+    lobes.contours.push_back({"CLOSED_PLANAR", square(-10, 0, 10, 3.0 * k)});
+    lobes.contours.push_back({"CLOSED_PLANAR", square(10, 0, 10, 3.0 * k + (k == 2 ? 0.02 : 0.0))});
+  }
+  RoiGrid grid;
+  grid.plane_spacing = 3;
+  std::vector<std::string> w;
+  const SliceStack st = roi_stack(lobes, grid, "lobes.dcm", w);
+  EXPECT_EQ(st.slices.size(), 5u);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("differ by up to 0.02"), std::string::npos) << w[0];
+  ReconstructParams levin = method_defaults(Method::Levin);
+  EXPECT_EQ(reconstruct(st, levin).objects.at(0).check.components, 2);
+
+  w.clear();
+  const SliceStack clean = roi_stack(two_spheres(0), grid, "s.dcm", w), jittered = roi_stack(two_spheres(0.03), grid, "s.dcm", w);
+  EXPECT_EQ(jittered.slices.size(), 9u) << "one slice per 3 mm plane";
+  const ObjectResult a = reconstruct(clean, levin).objects.at(0), b = reconstruct(jittered, levin).objects.at(0);
+  EXPECT_EQ(b.check.components, 2);
+  EXPECT_NEAR(b.check.volume, a.check.volume, kJitterVolumeShare * a.check.volume);
+}
+
+TEST(RtStruct, RoisByNameOrNumberAndDuplicatesAreErrorsNamingThem) {
+  auto roi = [](int n, const char* name) {
+    return RtRoi{n, name, std::nullopt, {{"CLOSED_PLANAR", square(0, 0, 10, 0)}, {"CLOSED_PLANAR", square(0, 0, 10, 3)}}};
+  };
+  RtStructureSet set;
+  set.rois = {roi(5, "Heart"), roi(7, "Lung"), roi(8, "Lung"), roi(12, "5b")};
+  EXPECT_EQ(set.select({"7"}, "x.dcm").at(0)->name, "Lung") << "by number";
+  EXPECT_EQ(set.select({"heart", "5"}, "x.dcm").size(), 1u) << "by name and number: one ROI once";
+  auto error = [&](const std::vector<std::string>& wanted) {
+    try {
+      (void)set.select(wanted, "x.dcm");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(error({"Lung"}).find("2 ROIs are named 'Lung': 'Lung' (number 7), 'Lung' (number 8)"), std::string::npos)
+      << error({"Lung"});
+  EXPECT_NE(error({"Nowhere"}).find("'Heart' (number 5)"), std::string::npos) << "the ROIs listed";
+  std::vector<std::string> w;
+  try {
+    (void)set.with_contours("x.dcm", w);
+    ADD_FAILURE() << "two ROIs named Lung accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("select them by number"), std::string::npos) << e.what();
+  }
+  // One number, two ROIs: read_rtstruct marks both; their contours are nobody's.
+  set.rois = {roi(9, "A"), roi(9, "B")};
+  set.rois[0].number_shared = set.rois[1].number_shared = true;
+  EXPECT_NE(error({"B"}).find("ROI number 9 is used by 2 ROIs ('A', 'B')"), std::string::npos) << error({"B"});
+  EXPECT_THROW((void)set.with_contours("x.dcm", w), InputError);
+}
+
+// A ROI on one plane is a slab of one slice spacing closed by the end caps:
+// its contours a quarter spacing either side, the caps cap_extent of that
+// half spacing beyond; nothing beyond (plus the half pixel a Marching Cubes
+// vertex may lie off its plane).
+TEST(RtStruct, OnePlaneRoiIsAClosedSurfaceWithinItsSlab) {
+  RtRoi dot{3, "Dot", std::nullopt, {{"CLOSED_PLANAR", circle(0, 0, 2.0, 10.0)}}};
+  RoiGrid grid;
+  std::vector<std::string> w;
+  EXPECT_THROW((void)roi_stack(dot, grid, "d.dcm", w), InputError) << "no spacing known";
+  grid.plane_spacing = 3;
+  const SliceStack st = roi_stack(dot, grid, "d.dcm", w);
+  ASSERT_EQ(st.slices.size(), 2u) << "its contours a quarter spacing below and above";
+  EXPECT_EQ(rt_planes(st), std::vector<double>{10.0});
+  const ReconstructResult r = reconstruct(st, ReconstructParams{});
+  ASSERT_EQ(r.objects.size(), 1u);
+  const ObjectResult& o = r.objects[0];
+  EXPECT_TRUE(o.check.closed && o.check.manifold && o.check.oriented);
+  const double reach = (0.25 + 0.5 * ReconstructParams{}.interp.cap_extent) * grid.plane_spacing + 0.5 * grid.voxel_size;
+  for (const Vec3f& v : o.mesh.vertices) {
+    const double z = st.patient->to_patient(v.cast<double>()).z();
+    ASSERT_LE(std::abs(z - 10.0), reach) << z;
+  }
+}
+
+namespace {
+
+// Distance from p to the nearest edge of the loops.
+double to_loops(const Vec2d& p, const std::vector<std::vector<Vec2d>>& loops) {
+  double best = INFINITY;
+  for (const auto& l : loops)
+    for (std::size_t i = 0, j = l.size() - 1; i < l.size(); j = i++) {
+      const Vec2d a = l[j], d = l[i] - l[j];
+      const double t = std::clamp((p - a).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
+      best = std::min(best, (a + t * d - p).norm());
+    }
+  return best;
+}
+
+std::map<double, std::vector<std::vector<Vec2d>>> loops_by_plane(const RtRoi& roi) {
+  std::map<double, std::vector<std::vector<Vec2d>>> out;
+  for (const auto& c : roi.contours) {
+    std::vector<Vec2d> l;
+    for (const Vec3d& p : c.points) l.emplace_back(p.x(), p.y());
+    out[std::round(c.points.front().z() * 100) / 100].push_back(l);
+  }
+  return out;
+}
+
+}  // namespace
+
+// Back to the planning system: Tumor Bed reconstructed, cut at its planes,
+// written as an RT Structure Set on the input's header and read back. Its
+// number, name, colour and frame of reference are kept; on each input plane
+// the written and the input contours lie within kRoundTripMeanMm (the
+// issue's target) of each other, as the mean of the two directed mean
+// distances (the input's corners, which the fitted curve rounds, weigh on
+// one direction: measured 0.109 mm one way, 0.075 mm the other), and the
+// written set reconstructs to the same volume within kRoundTripVolumeShare
+// (the issue's target).
+constexpr double kRoundTripMeanMm = 0.1;
+constexpr double kRoundTripVolumeShare = 0.005;
+
+TEST(RtStructWrite, TumorBedComesBackOnItsPlanes) {
+  isoloft::test::TempDir dir;
+  const RtStructureSet set = read_rtstruct(kRtss);
+  const RtRoi& roi = *set.find("Tumor Bed");
+  RoiGrid grid;
+  grid.plane_spacing = typical_plane_spacing(set);
+  std::vector<std::string> w;
+  const SliceStack st = roi_stack(roi, grid, kRtss, w);
+  const ObjectResult first = reconstruct(st, ReconstructParams{}).objects.at(0);
+  RtRoiContours out{&roi, {}};
+  for (const Slice& s : st.slices) {
+    if (s.polygons.empty()) continue;
+    RtRoiContours::Plane plane{st.patient->to_patient(Vec3d(0, 0, s.z)).z(), {}};
+    for (const auto& loop : cut_mesh(first.mesh, s.z)) {
+      std::vector<Vec2d> mm;
+      for (const Vec2d& p : loop) mm.push_back(st.patient->to_patient(Vec3d(p.x(), p.y(), s.z)).head<2>());
+      plane.loops.push_back(mm);
+    }
+    out.planes.push_back(plane);
+  }
+  write_rtstruct(dir.file("out.dcm"), kRtss, {out}, "isoloft test");
+  const RtStructureSet back = read_rtstruct(dir.file("out.dcm"));
+  ASSERT_EQ(back.rois.size(), 1u) << "only the ROI written";
+  EXPECT_EQ(back.rois[0].name, "Tumor Bed");
+  EXPECT_EQ(back.rois[0].number, roi.number);
+  ASSERT_TRUE(back.rois[0].color && roi.color);
+  EXPECT_EQ(*back.rois[0].color, *roi.color);
+  EXPECT_EQ(back.frame_of_reference, set.frame_of_reference);
+  const auto in = loops_by_plane(roi), again = loops_by_plane(back.rois[0]);
+  ASSERT_EQ(again.size(), in.size()) << "one written plane per input plane";
+  double sum_in = 0, sum_out = 0;
+  long n_in = 0, n_out = 0;
+  for (const auto& [z, loops] : in) {
+    ASSERT_TRUE(again.count(z)) << "plane z = " << z;
+    for (const auto& l : loops)
+      for (const Vec2d& p : l) sum_in += to_loops(p, again.at(z)), ++n_in;
+    for (const auto& l : again.at(z))
+      for (const Vec2d& p : l) sum_out += to_loops(p, loops), ++n_out;
+  }
+  std::printf("Tumor Bed: input vertices %.4f mm from the written contours on average, written %.4f mm from the input\n",
+              sum_in / double(n_in), sum_out / double(n_out));
+  EXPECT_LE(0.5 * (sum_in / double(n_in) + sum_out / double(n_out)), kRoundTripMeanMm);
+  const SliceStack st2 = roi_stack(back.rois[0], grid, dir.file("out.dcm"), w);
+  const ObjectResult second = reconstruct(st2, ReconstructParams{}).objects.at(0);
+  std::printf("Tumor Bed: volume %.1f mm^3, after the round trip %.1f mm^3\n", first.check.volume * 0.125,
+              second.check.volume * 0.125);
+  EXPECT_NEAR(second.check.volume, first.check.volume, kRoundTripVolumeShare * first.check.volume);
+}
+
+// The analytic kit's core case (experiments/rt_kit.py has the whole table):
+// a 10 mm sphere cut every 2 mm, centred on a plane. isoloft's slab caps keep
+// its volume within kSlabCapShare of the slab rule (contour area x spacing,
+// which is unbiased over where planes cut a shape; measured departures of
+// the caps on 5-15 mm spheres: up to 2.5 %); the old dome lost 5-16 % here.
+constexpr double kSlabCapShare = 0.03;
+
+TEST(RtStruct, SphereVolumeFollowsTheSlabRule) {
+  RtRoi ball{1, "Ball", std::nullopt, {}};
+  double slab = 0;
+  for (double z = -4; z <= 4; z += 2) {
+    const double r = std::sqrt(25 - z * z);
+    ball.contours.push_back({"CLOSED_PLANAR", circle(0, 0, r, z, 128)});
+    slab += 128 * 0.5 * r * r * std::sin(2 * M_PI / 128) * 2.0;  // the 128-gon's area x 2 mm
+  }
+  RoiGrid grid;
+  grid.plane_spacing = 2;
+  std::vector<std::string> w;
+  const SliceStack st = roi_stack(ball, grid, "ball.dcm", w);
+  const ObjectResult o = reconstruct(st, ReconstructParams{}).objects.at(0);
+  EXPECT_TRUE(o.check.closed && o.check.manifold && o.check.oriented);
+  const double mm3 = o.check.volume * std::pow(grid.voxel_size, 3);
+  std::printf("10 mm sphere on 2 mm planes: %.1f mm^3, slab rule %.1f, truth %.1f\n", mm3, slab, 4.0 / 3 * M_PI * 125);
+  EXPECT_NEAR(mm3, slab, kSlabCapShare * slab);
 }

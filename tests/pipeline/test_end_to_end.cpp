@@ -207,7 +207,7 @@ TEST(EmptySlices, CloseLikeAnEndCap) {
   const InterpParams ip;
   std::vector<Grid2f> fields{Grid2f(3, 1, -2.0f), Grid2f(), Grid2f(), Grid2f(3, 1, -1.0f)};
   fields[0](1, 0) = 5.0f;  // deepest point
-  detail::fill_empty_slices(fields, PixelBox{0, 0, 3, 1}, ip);
+  detail::fill_empty_slices(fields, {0.0, 1.0, 2.0, 3.0}, PixelBox{0, 0, 3, 1}, ip);
   const float drop = float((5.0 + ip.cap_depth) / ip.cap_extent);
   EXPECT_FLOAT_EQ(fields[1](1, 0), 5.0f - drop);
   EXPECT_FLOAT_EQ(fields[1](0, 0), -2.0f - drop);

@@ -50,7 +50,7 @@ Resident resident_oracle(const SliceStack& st, const ReconstructParams& p, const
     if (masks[k].empty) continue;
     fields[k] = method_spec(p.method.name()).slice_field(SliceInput{masks[k], st.slices[k], box, st.kind, st.width}, p).field;
   }
-  detail::fill_empty_slices(fields, box, p.interp);
+  detail::fill_empty_slices(fields, z, box, p.interp);
   add_end_caps(fields, z, p.interp);
   const ZInterpolator field(std::move(fields), z, p.interp.spline);
   Resident r;

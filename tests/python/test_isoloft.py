@@ -179,13 +179,23 @@ def test_volume_file_gives_the_cli_meshes_in_patient_space(tmp_path):
 
 def test_rtstruct_gives_the_cli_mesh_bytes(tmp_path, data_dir):
     rtss = data_dir / "rtstruct" / "rtss.dcm"
-    cli_mesh, cli_report = cli_reconstruct(tmp_path, "heart", rtss, "--roi", "Heart", "--method", "levin")
-    inp = isoloft.read(rtss, roi="Heart")
+    cli_mesh, cli_report = cli_reconstruct(tmp_path, "heart", rtss, "--roi", "Heart", "--method", "levin",
+                                           "--volumes", tmp_path / "cli.csv")
+    inp = isoloft.read(rtss, roi=5)  # by number: the Heart
     assert inp.format == "rtstruct" and inp.names == ["Heart"] and inp.space == "LPS"
-    res = isoloft.reconstruct(inp, method="levin")
+    res = isoloft.reconstruct(inp, method="levin", volumes=tmp_path / "py.csv", rtstruct=tmp_path / "py.dcm")
     assert res.objects[0].roi == "Heart"
     assert_same_files(res.save(tmp_path / "py.ply"), [cli_mesh])
     assert comparable(res.report["objects"]) == comparable(cli_report["objects"])
+    # The volume table (issue 25): the CLI's, with the slab volume beside the surface's.
+    assert res.report["volumes"] == cli_report["volumes"]
+    row = res.report["volumes"][0]
+    assert (row["name"], row["number"], row["planes"], row["closed"]) == ("Heart", 5, 33, True)
+    assert row["volume_mm3"] > 0 and row["slab_volume_mm3"] > 0
+    assert read_bytes(tmp_path / "py.csv") == read_bytes(tmp_path / "cli.csv")
+    # The RT Structure Set out (its contents are checked in io/test_rtstruct.cpp): the Heart, by its number.
+    assert res.report["rtstruct"] == str(tmp_path / "py.dcm")
+    assert isoloft.read(tmp_path / "py.dcm", roi=5).names == ["Heart"]
     # Patient mm, as the CLI test checks: inside the Heart's contour range.
     assert res.objects[0].vertices[:, 2].min() > -101 and res.objects[0].vertices[:, 2].max() < 1
 
@@ -257,7 +267,7 @@ def test_options_the_input_cannot_use_raise(tmp_path, data_dir):
         isoloft.read(vol, z_spacing=2)
     with pytest.raises(isoloft.ParamError, match="roi/voxel_size: only with a DICOM RT Structure Set"):
         isoloft.read(vol, roi="Heart")
-    with pytest.raises(isoloft.InputError, match="no ROI named 'Liver'"):
+    with pytest.raises(isoloft.InputError, match="no ROI named or numbered 'Liver'"):
         isoloft.read(data_dir / "rtstruct" / "rtss.dcm", roi="Liver")
     with pytest.raises(isoloft.ParamError, match="z_spacing: the Input already holds"):
         isoloft.reconstruct(isoloft.read(vol), z_spacing=3)

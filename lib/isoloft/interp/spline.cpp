@@ -233,16 +233,45 @@ void ZInterpolator::evaluate(double q, Grid2f& out) const {
   });
 }
 
-Grid2f cap_slice(const Grid2f& end, const InterpParams& params) {
+Grid2f cap_slice(const Grid2f& end, const InterpParams& params, double reach, const Grid2f* next, double spacing) {
   Grid2f c = end;
+  // Round and slab: never above the end slice's own trend continued over the reach.
+  const bool trend = next && !next->empty() && next->size() == end.size() && spacing > 0;
+  auto follow_trend = [&] {
+    if (!trend) return;
+    const double k = reach / spacing;
+    for (std::size_t i = 0; i < c.size(); ++i)
+      c.data[i] = std::min(c.data[i], float(end.data[i] + (double(end.data[i]) - next->data[i]) * k));
+  };
   const float depth = float(params.cap_depth);
-  if (params.cap_shape == CapShape::Flat) {
-    for (float& v : c.data) v = std::min(v, 0.0f) - depth;
-    return c;
-  }
   float top = 0.0f;
   for (float v : end.data) top = std::max(top, v);
-  for (float& v : c.data) v -= top + depth;
+  switch (params.cap_shape) {
+    case CapShape::Flat:
+      for (float& v : c.data) v = std::min(v, 0.0f) - depth;
+      return c;
+    case CapShape::Dome:
+      for (float& v : c.data) v -= top + depth;
+      return c;
+    case CapShape::Slab:
+      for (float& v : c.data) v = std::min(v, 0.0f) - kLidDepth;
+      follow_trend();
+      return c;
+    case CapShape::Round: {
+      // A line from f (end slice) to c (reach beyond) crosses 0 at t = f / (f - c);
+      // c = f - f / (lambda g) puts it at t = lambda g(f / top), g(s) = sqrt(1 - (1 - s)^2).
+      const double lambda = top > 0 && reach > 0 ? std::min(1.0, double(top) / reach) : 1.0;
+      for (float& v : c.data) {
+        if (v > 0) {
+          const double s = std::min(1.0, double(v) / top), g = std::sqrt(1.0 - (1.0 - s) * (1.0 - s));
+          v = float(double(v) - double(v) / (lambda * g));
+        }
+        v -= kLidDepth;
+      }
+      follow_trend();
+      return c;
+    }
+  }
   return c;
 }
 
@@ -250,7 +279,9 @@ void add_end_caps(std::vector<Grid2f>& slices, std::vector<double>& z, const Int
   if (slices.size() < 2 || slices.size() != z.size()) throw ParamError("end caps need at least 2 slices");
   params_table<InterpParams>().validate(params);
   const double h0 = z[1] - z[0], hn = z[z.size() - 1] - z[z.size() - 2];
-  Grid2f first = cap_slice(slices.front(), params), last = cap_slice(slices.back(), params);
+  const std::size_t n = slices.size();
+  Grid2f first = cap_slice(slices.front(), params, params.cap_extent * h0, &slices[1], h0),
+         last = cap_slice(slices.back(), params, params.cap_extent * hn, &slices[n - 2], hn);
   slices.insert(slices.begin(), std::move(first));
   z.insert(z.begin(), z.front() - params.cap_extent * h0);
   slices.push_back(std::move(last));

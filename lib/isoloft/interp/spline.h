@@ -31,11 +31,17 @@ inline constexpr std::array<EnumName<SplineKind>, 5> kSplineKindNames{
 constexpr std::span<const EnumName<SplineKind>> enum_names(SplineKind) { return kSplineKindNames; }
 
 /// How an object closes beyond its end slices (and next to an empty slice).
+/// The cap slice sits cap_extent end spacings beyond the end slice; each
+/// shape sets where between them the surface closes (docs/decisions.md: end
+/// caps, measured on analytic RT Structure Sets).
 enum class CapShape {
-  Dome,  ///< the end slice's field lowered by its maximum + cap_depth: a dome shaped by the end contour's distance field
-  Flat,  ///< inside set to -cap_depth: a flat lid cap_extent beyond the end slice, its rim rounded over ~cap_depth
+  Dome,   ///< the end slice's field lowered by its maximum + cap_depth: a cone-like dome shaped by the end contour's distance field (marker2006, levin)
+  Flat,   ///< inside set to -cap_depth: a flat lid cap_extent beyond the end slice, its rim rounded over ~cap_depth
+  Round,  ///< a half ellipsoid over the end contour, reaching min(cap_extent spacings, the contour's inradius)
+  Slab,   ///< a flat lid with a sharp rim cap_extent beyond the end slice: the slab rule's volume (contour area x spacing)
 };
-inline constexpr std::array<EnumName<CapShape>, 2> kCapShapeNames{{{CapShape::Dome, "dome"}, {CapShape::Flat, "flat"}}};
+inline constexpr std::array<EnumName<CapShape>, 4> kCapShapeNames{
+    {{CapShape::Dome, "dome"}, {CapShape::Flat, "flat"}, {CapShape::Round, "round"}, {CapShape::Slab, "slab"}}};
 constexpr std::span<const EnumName<CapShape>> enum_names(CapShape) { return kCapShapeNames; }
 
 /// Largest cap_extent accepted, slice spacings.
@@ -63,7 +69,9 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
       field("cap_depth", &InterpParams::cap_depth, "px",
             "end caps: the virtual slice is the end slice's field lowered by its maximum plus this", above(0)),
       field("cap_shape", &InterpParams::cap_shape, "",
-            "end caps: dome (shaped by the end contour's distance field) or flat (a lid cap_extent beyond the end slice)")
+            "end caps (not in the paper): round (a half ellipsoid reaching min(cap_extent spacings, the end contour's "
+            "inradius)), slab (a sharp flat lid cap_extent beyond: the slab rule's volume), dome (shaped by the end "
+            "contour's distance field, the paper reproduction's) or flat (a lid with a rounded rim)")
           .cli("--caps"),
       field("z_step", &InterpParams::z_step, "px", "spacing of the sampled z planes (the Marching Cubes grid, paper 2.5)",
             above(0)),
@@ -140,10 +148,22 @@ class ZInterpolator {
   SplineKind kind_;
 };
 
-/// The virtual slice beyond end slice `end` (InterpParams::cap_shape),
-/// outside (<= -cap_depth) everywhere: dome, `end` lowered by max(0, its
-/// maximum) + cap_depth; flat, min(end, 0) - cap_depth.
-Grid2f cap_slice(const Grid2f& end, const InterpParams& params);
+/// The virtual slice `reach` px (cap_extent x the end spacing) beyond end
+/// slice `end` (InterpParams::cap_shape), outside everywhere: dome, `end`
+/// lowered by max(0, its maximum) + cap_depth; flat, min(end, 0) -
+/// cap_depth; round and slab, set so that the line from `end` to it crosses
+/// 0 at the shape's height (round: reach x min(1, M / reach) x sqrt(1 - (1 -
+/// f / M)^2) over a pixel of field f, M the maximum; slab: reach), a
+/// kLidDepth lower, and (round, slab) no higher than `end`'s trend from the
+/// slice before it (`next`, `spacing` px away) continued over the reach, so
+/// that a column still narrowing at the end keeps narrowing instead of the
+/// monotone spline's limiter holding it at the end contour.
+Grid2f cap_slice(const Grid2f& end, const InterpParams& params, double reach, const Grid2f* next = nullptr,
+                 double spacing = 0);
+
+/// Round and slab caps: the cap slice lies this far (px) below the value
+/// that would put the surface exactly on it, so it is outside.
+inline constexpr float kLidDepth = 0.05f;
 
 /// Adds the end caps (not in the paper): a cap_slice() cap_extent end
 /// spacings beyond each end slice.

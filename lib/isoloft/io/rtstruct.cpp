@@ -12,24 +12,23 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <sstream>
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/io/atomic_file.h"
 #include "isoloft/io/file_util.h"
 
 namespace isoloft {
 
 namespace {
 
-// Points of one contour whose z differ by more than this (mm) are not on one
-// axial plane: DICOM stores them as decimal strings, equal on an axial contour.
-constexpr double kPlanarTolerance = 0.01;
-// Contours whose planes are closer than this (mm) share a slice.
-constexpr double kPlaneTolerance = 0.01;
 // Keyhole cut ends closer than this (mm) are the same point (a cut is written
 // twice with the same decimal strings).
 constexpr double kKeyholeTolerance = 1e-3;
@@ -67,6 +66,109 @@ const RtRoi* RtStructureSet::find(const std::string& name) const {
   return nullptr;
 }
 
+namespace {
+
+std::string quoted_names(const std::vector<const RtRoi*>& rois, bool numbers) {
+  std::string s;
+  for (const RtRoi* r : rois)
+    s += (s.empty() ? "" : ", ") + ("'" + r->name + "'") + (numbers ? " (number " + std::to_string(r->number) + ")" : "");
+  return s;
+}
+
+std::string shared_number_error(const RtStructureSet& set, const RtRoi& roi) {
+  std::vector<const RtRoi*> same;
+  for (const auto& r : set.rois)
+    if (r.number == roi.number) same.push_back(&r);
+  return "ROI number " + std::to_string(roi.number) + " is used by " + std::to_string(same.size()) + " ROIs (" +
+         quoted_names(same, false) + "): their contours cannot be told apart";
+}
+
+// A whole decimal number, as ROINumber is written.
+std::optional<int> as_number(const std::string& text) {
+  if (text.empty() || text.size() > 9 || !std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); }))
+    return std::nullopt;
+  return std::stoi(text);
+}
+
+}  // namespace
+
+std::vector<const RtRoi*> RtStructureSet::select(const std::vector<std::string>& wanted, const std::string& path) const {
+  std::vector<const RtRoi*> out;
+  for (const std::string& w : wanted) {
+    std::vector<const RtRoi*> named, numbered;
+    for (const auto& r : rois)
+      if (r.name == w) named.push_back(&r);
+    if (named.empty())
+      for (const auto& r : rois)
+        if (lower(r.name) == lower(w)) named.push_back(&r);
+    if (const auto n = as_number(w))
+      for (const auto& r : rois)
+        if (r.number == *n) numbered.push_back(&r);
+    if (named.size() > 1)
+      throw InputError(path, std::to_string(named.size()) + " ROIs are named '" + w + "': " + quoted_names(named, true) +
+                                 "; select one by its number (" + option_given("--roi", "NUMBER") + ")");
+    if (named.size() == 1 && !numbered.empty() && numbered.front() != named.front())
+      throw InputError(path, "'" + w + "' is the name of ROI number " + std::to_string(named.front()->number) +
+                                 " and the number of ROI '" + numbered.front()->name + "'; rename one of them");
+    const RtRoi* roi = !named.empty() ? named.front() : numbered.size() == 1 ? numbered.front() : nullptr;
+    if (numbered.size() > 1 && named.empty()) roi = numbered.front();  // reported as shared below
+    if (!roi) throw InputError(path, "no ROI named or numbered '" + w + "' (ROIs: " + [&] {
+                                 std::vector<const RtRoi*> all;
+                                 for (const auto& r : rois) all.push_back(&r);
+                                 return quoted_names(all, true);
+                               }() + ")");
+    if (roi->number_shared) throw InputError(path, "ROI '" + roi->name + "': " + shared_number_error(*this, *roi));
+    if (std::find(out.begin(), out.end(), roi) == out.end()) out.push_back(roi);
+  }
+  return out;
+}
+
+std::vector<const RtRoi*> RtStructureSet::with_contours(const std::string& path, std::vector<std::string>& warnings) const {
+  std::vector<const RtRoi*> out;
+  for (const auto& r : rois) {
+    if (r.number_shared) throw InputError(path, shared_number_error(*this, r) + " (select the others with " + option_name("--roi") + ")");
+    if (r.closed_contours() == 0) {
+      warnings.push_back(path + ": ROI '" + r.name + "' has no closed planar contour: skipped");
+      continue;
+    }
+    out.push_back(&r);
+  }
+  if (out.empty()) throw InputError(path, "no ROI has closed planar contours");
+  for (const RtRoi* r : out) {
+    std::vector<const RtRoi*> same;
+    for (const RtRoi* q : out)
+      if (lower(q->name) == lower(r->name)) same.push_back(q);
+    if (same.size() > 1)
+      throw InputError(path, std::to_string(same.size()) + " ROIs are named '" + r->name + "': " + quoted_names(same, true) +
+                                 "; select them by number (" + option_given("--roi", "NUMBER") + ", repeatable)");
+  }
+  return out;
+}
+
+namespace {
+
+// The median step between sorted contour z, steps of kPlaneJitterMm or less
+// not counted; 0 if there is none.
+double own_spacing(const std::vector<double>& z) {
+  std::vector<double> steps;
+  for (std::size_t k = 1; k < z.size(); ++k)
+    if (z[k] - z[k - 1] > kPlaneJitterMm) steps.push_back(z[k] - z[k - 1]);
+  if (steps.empty()) return 0;
+  std::nth_element(steps.begin(), steps.begin() + std::ptrdiff_t(steps.size() / 2), steps.end());
+  return steps[steps.size() / 2];
+}
+
+}  // namespace
+
+double typical_plane_spacing(const RtStructureSet& set) {
+  std::vector<double> z;
+  for (const auto& r : set.rois)
+    for (const auto& c : r.contours)
+      if (c.type == "CLOSED_PLANAR" && !c.points.empty()) z.push_back(c.points.front().z());
+  std::sort(z.begin(), z.end());
+  return own_spacing(z);
+}
+
 bool is_dicom_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   char buf[132];
@@ -95,11 +197,14 @@ RtStructureSet read_rtstruct(const std::string& path) {
   DRTStructureSetROISequence& rois = rt->getStructureSetROISequence();
   for (std::size_t i = 0; i < rois.getNumberOfItems(); ++i) {
     Sint32 number = -1;
-    OFString name;
+    OFString name, frame;
     rois.getItem(i).getROINumber(number);
     rois.getItem(i).getROIName(name);
-    by_number[number] = out.rois.size();
+    rois.getItem(i).getReferencedFrameOfReferenceUID(frame);
+    if (out.frame_of_reference.empty()) out.frame_of_reference = frame.c_str();
+    const auto [it, added] = by_number.try_emplace(number, out.rois.size());
     out.rois.push_back({int(number), rtrim(name.c_str()), std::nullopt, {}});
+    if (!added) out.rois[it->second].number_shared = out.rois.back().number_shared = true;
   }
   if (out.rois.empty()) throw InputError(path, "the RT Structure Set holds no ROI");
   DRTROIContourSequence& contours = rt->getROIContourSequence();
@@ -110,6 +215,7 @@ RtStructureSet read_rtstruct(const std::string& path) {
     const auto it = by_number.find(ref);
     if (it == by_number.end()) continue;  // contours of no listed ROI
     RtRoi& roi = out.rois[it->second];
+    if (roi.number_shared) continue;  // whose? selecting either ROI is an error
     Sint32 c[3];
     if (item.getROIDisplayColor(c[0], 0).good() && item.getROIDisplayColor(c[1], 1).good() &&
         item.getROIDisplayColor(c[2], 2).good())
@@ -174,21 +280,40 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   if (!(grid.voxel_size > 0 && std::isfinite(grid.voxel_size)))
     throw ParamError(option_name("--voxel-size") + ": must be finite and > 0, got " + std::to_string(grid.voxel_size));
   const std::string what = "ROI '" + roi.name + "'";
+  // Each closed contour's plane (mean z of its points), to find the spacing first.
+  std::vector<double> contour_z;
+  for (const RtContour& c : roi.contours) {
+    if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) continue;
+    double sum = 0;
+    for (const Vec3d& p : c.points) sum += p.z();
+    contour_z.push_back(sum / double(c.points.size()));
+  }
+  std::vector<double> sorted_z = contour_z;
+  std::sort(sorted_z.begin(), sorted_z.end());
+  const double spacing = grid.plane_spacing > 0 ? grid.plane_spacing : own_spacing(sorted_z);
+  if (!std::isfinite(spacing))
+    throw InputError(path, what + ": its contour planes are too far apart to have a slice spacing");
+  // Contours this close share a plane; a contour's points this close are planar.
+  const double tolerance = std::max(kPlanarToleranceMm, kPlaneGroupFraction * spacing);
+
   struct Plane {
-    double z;
+    double z = 0;   // mean of its contours' z
+    int contours = 0;
+    double zlo = INFINITY, zhi = -INFINITY;
     std::vector<std::vector<Vec2d>> loops;  // patient x, y
   };
   std::vector<Plane> planes;
   int skipped = 0, specks = 0;
-  for (std::size_t k = 0; k < roi.contours.size(); ++k) {
+  for (std::size_t k = 0, kz = 0; k < roi.contours.size(); ++k) {
     const RtContour& c = roi.contours[k];
     if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) {
       ++skipped;
       continue;
     }
+    const double z = contour_z[kz++];
     double zlo = c.points.front().z(), zhi = zlo;
     for (const Vec3d& p : c.points) zlo = std::min(zlo, p.z()), zhi = std::max(zhi, p.z());
-    if (zhi - zlo > kPlanarTolerance) {
+    if (zhi - zlo > tolerance) {
       // On a tilted plane, or on none: the smallest spread about the best plane tells.
       Vec3d mean = Vec3d::Zero();
       for (const Vec3d& p : c.points) mean += p;
@@ -200,7 +325,7 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
       double off = 0;
       for (const Vec3d& p : c.points) off = std::max(off, std::abs((p - mean).dot(normal)));
       throw InputError(path, what + " contour " + std::to_string(k) +
-                                 (off <= kPlanarTolerance
+                                 (off <= kPlanarToleranceMm
                                       ? " lies on an oblique plane (not perpendicular to the patient z axis; z from " +
                                             std::to_string(zlo) + " to " + std::to_string(zhi) + " mm)"
                                       : " is not planar (its points are up to " + std::to_string(off) +
@@ -209,7 +334,6 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
     std::vector<Vec2d> ring;
     for (const Vec3d& p : c.points) ring.emplace_back(p.x(), p.y());
     if (ring.size() > 3 && (ring.back() - ring.front()).norm() <= kKeyholeTolerance) ring.pop_back();
-    const double z = c.points.front().z();
     std::vector<std::vector<Vec2d>> loops;
     for (auto& loop : detail::split_keyholes(ring, kKeyholeTolerance)) {
       // A loop smaller than one pixel of the working grid has no pixel to be
@@ -221,8 +345,13 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
       loops.push_back(std::move(loop));
     }
     if (loops.empty()) continue;
-    auto plane = std::find_if(planes.begin(), planes.end(), [&](const Plane& q) { return std::abs(q.z - z) <= kPlaneTolerance; });
-    if (plane == planes.end()) plane = planes.insert(planes.end(), Plane{z, {}});
+    // The plane whose mean z lies within the tolerance (planes are a spacing,
+    // five tolerances, apart).
+    auto plane = std::find_if(planes.begin(), planes.end(), [&](const Plane& q) { return std::abs(q.z - z) <= tolerance; });
+    if (plane == planes.end()) plane = planes.insert(planes.end(), Plane{});
+    plane->z = (plane->z * plane->contours + z) / (plane->contours + 1);
+    ++plane->contours;
+    plane->zlo = std::min(plane->zlo, z), plane->zhi = std::max(plane->zhi, z);
     for (auto& loop : loops) plane->loops.push_back(std::move(loop));
   }
   if (skipped > 0)
@@ -232,10 +361,21 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
     warnings.push_back(path + ": " + what + ": " + std::to_string(specks) + " contour loop(s) smaller than one pixel of the " +
                        std::to_string(grid.voxel_size) + " mm working grid dropped (give a smaller " + option_name("--voxel-size") + " to keep them)");
   if (planes.empty()) throw InputError(path, what + " has no closed planar contour");
-  if (planes.size() < 2)
-    throw InputError(path, what + " has contours on one plane only (z = " + std::to_string(planes.front().z) +
-                               " mm); a surface needs at least 2");
   std::sort(planes.begin(), planes.end(), [](const Plane& a, const Plane& b) { return a.z < b.z; });
+  int joined = 0;
+  double worst = 0;
+  for (const Plane& q : planes)
+    if (q.zhi - q.zlo > kPlanarToleranceMm) ++joined, worst = std::max(worst, q.zhi - q.zlo);
+  if (joined > 0) {
+    std::ostringstream o;
+    o << path << ": " << what << ": on " << joined << " plane(s) the contours' z differ by up to " << worst
+      << " mm (rounding?); each such plane taken at their mean z (contours within " << tolerance
+      << " mm, a fifth of the " << spacing << " mm slice spacing, share a plane)";
+    warnings.push_back(o.str());
+  }
+  if (planes.size() == 1 && !(spacing > 0))
+    throw InputError(path, what + " has contours on one plane only (z = " + std::to_string(planes.front().z) +
+                               " mm) and the structure set gives no slice spacing to make it a slab");
 
   // The working grid: the contours' box plus the margin, voxel_size pixels.
   double xlo = INFINITY, ylo = INFINITY, xhi = -INFINITY, yhi = -INFINITY;
@@ -259,34 +399,177 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   frame.origin = origin;
   st.patient = frame;
 
+  auto empty_slice = [&](double z_mm) {
+    Slice e;
+    e.z = (z_mm - origin.z()) / s;
+    e.source = path + " " + what + " (no contour at z = " + std::to_string(z_mm) + " mm)";
+    st.slices.push_back(std::move(e));
+  };
   std::vector<double> steps;
   for (std::size_t k = 1; k < planes.size(); ++k) steps.push_back(planes[k].z - planes[k - 1].z);
-  std::nth_element(steps.begin(), steps.begin() + std::ptrdiff_t(steps.size() / 2), steps.end());
-  const double typical = steps[steps.size() / 2];
-  for (std::size_t k = 0; k < planes.size(); ++k) {
-    if (k > 0) {
-      const double gap = planes[k].z - planes[k - 1].z;
-      if (gap > kGapFactor * typical) {
-        const long parts = std::max(2L, std::lround(gap / typical));
-        for (long m = 1; m < parts; ++m) {
-          Slice e;
-          e.z = (planes[k - 1].z + gap * double(m) / double(parts) - origin.z()) / s;
-          e.source = path + " " + what + " (no contour at z = " + std::to_string(planes[k - 1].z + gap * double(m) / double(parts)) + " mm)";
-          st.slices.push_back(std::move(e));
-        }
-      }
-    }
+  double typical = spacing;
+  if (!steps.empty()) {
+    std::nth_element(steps.begin(), steps.begin() + std::ptrdiff_t(steps.size() / 2), steps.end());
+    typical = steps[steps.size() / 2];
+  }
+  auto contour_slice = [&](const Plane& q, double z_mm) {
     Slice sl;
-    sl.z = (planes[k].z - origin.z()) / s;
-    sl.source = path + " " + what + " z = " + std::to_string(planes[k].z) + " mm";
-    for (const auto& loop : planes[k].loops) {
+    sl.z = (z_mm - origin.z()) / s;
+    sl.source = path + " " + what + " z = " + std::to_string(q.z) + " mm";
+    for (const auto& loop : q.loops) {
       Polygon poly;
       for (const Vec2d& p : loop) poly.points.emplace_back((p.x() - origin.x()) / s, (p.y() - origin.y()) / s);
       sl.polygons.push_back(std::move(poly));
     }
     st.slices.push_back(std::move(sl));
+  };
+  // One plane: its contours on two slices half a spacing apart around it, so
+  // the end caps (cap_extent of that half spacing beyond each) close it as a
+  // slab of about one spacing, the field between the two constant.
+  if (planes.size() == 1) {
+    contour_slice(planes.front(), planes.front().z - 0.25 * spacing);
+    contour_slice(planes.front(), planes.front().z + 0.25 * spacing);
+    return st;
+  }
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    if (k > 0) {
+      const double gap = planes[k].z - planes[k - 1].z;
+      if (gap > kGapFactor * typical) {
+        const long parts = std::max(2L, std::lround(gap / typical));
+        for (long m = 1; m < parts; ++m) empty_slice(planes[k - 1].z + gap * double(m) / double(parts));
+      }
+    }
+    contour_slice(planes[k], planes[k].z);
   }
   return st;
+}
+
+std::vector<double> rt_planes(const SliceStack& st) {
+  std::vector<double> z;
+  for (const Slice& s : st.slices)
+    if (!s.polygons.empty()) z.push_back(st.patient ? st.patient->to_patient(Vec3d(0, 0, s.z)).z() : s.z);
+  // A one-plane ROI's two slices hold the same contours.
+  if (z.size() == 2 && st.slices.size() == 2 && st.slices[0].source == st.slices[1].source) return {0.5 * (z[0] + z[1])};
+  return z;
+}
+
+namespace {
+
+// A DS value (at most 16 characters): 4 decimals of a mm (0.1 um) fit any
+// patient coordinate below 10^10 mm.
+std::string ds(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4f", v);
+  std::string t = buf;
+  while (t.size() > 1 && t.back() == '0') t.pop_back();
+  if (t.back() == '.') t.pop_back();
+  if (t == "-0") t = "0";
+  return t;
+}
+
+std::string new_uid(const char* root) {
+  char buf[100];
+  dcmGenerateUniqueIdentifier(buf, root);
+  return buf;
+}
+
+}  // namespace
+
+void write_rtstruct(const std::string& path, const std::string& source, const std::vector<RtRoiContours>& rois,
+                    const std::string& label) {
+  DcmFileFormat ff;
+  if (ff.loadFile(source.c_str()).bad()) throw InputError(source, "not a readable DICOM file");
+  auto rt = std::make_unique<DRTStructureSetIOD>();
+  if (rt->read(*ff.getDataset()).bad()) throw InputError(source, "not a valid RT Structure Set");
+  std::map<Sint32, const RtRoiContours*> keep;
+  for (const auto& r : rois) keep[r.roi->number] = &r;
+  auto kept = [&](Sint32 n) { return keep.count(n) > 0; };
+
+  // Identity of the new instance: a derived series of the same study.
+  char date[16], time[16];
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  localtime_r(&now, &tm);
+  std::strftime(date, sizeof date, "%Y%m%d", &tm);
+  std::strftime(time, sizeof time, "%H%M%S", &tm);
+  const std::string sop = new_uid(SITE_INSTANCE_UID_ROOT);
+  rt->setSOPInstanceUID(sop.c_str());
+  rt->setSeriesInstanceUID(new_uid(SITE_SERIES_UID_ROOT).c_str());
+  rt->setSeriesDescription("isoloft surfaces");
+  rt->setSeriesNumber("");
+  rt->setInstanceNumber("1");
+  rt->setInstanceCreationDate(date);
+  rt->setInstanceCreationTime(time);
+  rt->setStructureSetLabel(label.substr(0, 16).c_str());
+  rt->setStructureSetDate(date);
+  rt->setStructureSetTime(time);
+  rt->setManufacturer("isoloft");
+  rt->setSoftwareVersions(ISOLOFT_VERSION);
+  // Frame of Reference module (required of a structure set since DICOM 2021).
+  OFString frame;
+  if (rt->getStructureSetROISequence().getNumberOfItems() > 0)
+    rt->getStructureSetROISequence().getItem(0).getReferencedFrameOfReferenceUID(frame);
+  OFString have;
+  rt->getFrameOfReferenceUID(have);
+  if (have.empty() && !frame.empty()) rt->setFrameOfReferenceUID(frame);
+
+  DRTStructureSetROISequence& ss = rt->getStructureSetROISequence();
+  for (std::size_t i = ss.getNumberOfItems(); i-- > 0;) {
+    Sint32 n = -1;
+    ss.getItem(i).getROINumber(n);
+    if (!kept(n)) ss.removeItem(i);
+  }
+  DRTRTROIObservationsSequence& obs = rt->getRTROIObservationsSequence();
+  for (std::size_t i = obs.getNumberOfItems(); i-- > 0;) {
+    Sint32 n = -1;
+    obs.getItem(i).getReferencedROINumber(n);
+    if (!kept(n)) obs.removeItem(i);
+  }
+  DRTROIContourSequence& rcs = rt->getROIContourSequence();
+  for (std::size_t i = rcs.getNumberOfItems(); i-- > 0;) {
+    DRTROIContourSequence::Item& item = rcs.getItem(i);
+    Sint32 n = -1;
+    item.getReferencedROINumber(n);
+    if (!kept(n)) {
+      rcs.removeItem(i);
+      continue;
+    }
+    const RtRoiContours& out = *keep[n];
+    // The source's contours of this ROI by plane, for their image references.
+    DRTContourSequence& cs = item.getContourSequence();
+    std::vector<std::pair<double, DRTContourImageSequence>> images;
+    for (std::size_t k = 0; k < cs.getNumberOfItems(); ++k) {
+      Float64 z = 0;
+      if (cs.getItem(k).getContourData(z, 2).good() && cs.getItem(k).getContourImageSequence().getNumberOfItems() > 0)
+        images.emplace_back(z, cs.getItem(k).getContourImageSequence());
+    }
+    cs.clear();
+    int number = 0;
+    for (const auto& plane : out.planes) {
+      const DRTContourImageSequence* image = nullptr;
+      for (const auto& [z, seq] : images)
+        if (std::abs(z - plane.z) <= kPlanarToleranceMm) image = &seq;
+      for (const auto& loop : plane.loops) {
+        DRTContourSequence::Item* c = nullptr;
+        if (cs.addItem(c).bad()) throw InputError(path, "cannot add a contour (DCMTK)");
+        if (image) c->getContourImageSequence() = *image;
+        std::string data;
+        const std::string z = ds(plane.z);
+        for (const Vec2d& p : loop) data += (data.empty() ? "" : "\\") + ds(p.x()) + "\\" + ds(p.y()) + "\\" + z;
+        c->setContourNumber(std::to_string(++number).c_str());
+        c->setContourGeometricType("CLOSED_PLANAR");
+        c->setNumberOfContourPoints(std::to_string(loop.size()).c_str());
+        c->setContourData(data.c_str());
+      }
+    }
+  }
+  DcmFileFormat outf;
+  if (rt->write(*outf.getDataset()).bad()) throw InputError(path, "cannot build the RT Structure Set (DCMTK)");
+  outf.getDataset()->putAndInsertString(DCM_PositionReferenceIndicator, "", OFFalse);
+  outf.getDataset()->putAndInsertString(DCM_OperatorsName, "", OFFalse);
+  AtomicFile f(path);
+  if (outf.saveFile(f.temp_path().c_str(), EXS_LittleEndianExplicit).bad()) throw InputError(path, "cannot write file");
+  f.commit();
 }
 
 }  // namespace isoloft

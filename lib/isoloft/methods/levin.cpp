@@ -1,6 +1,6 @@
 // levin: the baseline (Levin 1986 style): every slice's exact signed
 // Euclidean distance to its contour pixels (or its mask's edge), no fit, no
-// filter; Hyman's monotone z spline.
+// filter; Hyman's monotone z spline and dome end caps.
 #include <chrono>
 
 #include "isoloft/methods/method.h"
@@ -12,11 +12,7 @@ MethodSpec levin_method() {
   return {
       .name = "levin",
       .doc = "baseline: exact per-slice EDT of the contour pixels (Levin 1986 style), no fit, no filter",
-      .defaults =
-          [](ReconstructParams& p) {
-            p.interp.spline = InterpParams{}.spline;
-            p.interp.planes_on_slices = InterpParams{}.planes_on_slices;
-          },
+      .defaults = detail::paper_interp_defaults,
       .rows = {},
       .fits_curves = false,
       .slice_field =

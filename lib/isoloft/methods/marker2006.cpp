@@ -1,7 +1,7 @@
 // marker2006: the paper's method (Marker, Braude, Museth & Breen 2006):
 // contour points and normals, the MPU curve (2.1), narrow-band distances and
 // their extension (2.2), the distance-dependent filter (2.3); Hyman's
-// monotone z spline (2.4).
+// monotone z spline (2.4), dome end caps (not in the paper).
 #include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
 
@@ -17,6 +17,12 @@ const std::vector<std::string>& curve_fit_rows() {
   return rows;
 }
 
+void paper_interp_defaults(ReconstructParams& p) {
+  p.interp.spline = InterpParams{}.spline;
+  p.interp.cap_shape = InterpParams{}.cap_shape;
+  p.interp.planes_on_slices = InterpParams{}.planes_on_slices;
+}
+
 }  // namespace detail
 
 MethodSpec marker2006_method() {
@@ -25,8 +31,7 @@ MethodSpec marker2006_method() {
       .doc = "the paper (Marker et al. 2006): MPU curve, distance extension, filter, Hyman's monotone z spline",
       .defaults =
           [](ReconstructParams& p) {
-            p.interp.spline = InterpParams{}.spline;
-            p.interp.planes_on_slices = InterpParams{}.planes_on_slices;
+            detail::paper_interp_defaults(p);
             p.mask_boundary = MaskBoundary::PixelCentres;
           },
       .rows = detail::curve_fit_rows(),

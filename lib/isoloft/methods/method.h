@@ -82,6 +82,9 @@ namespace detail {
 bool row_matches(const std::string& row, const std::string& key);
 /// The rows the curve-fitting methods read and the baseline does not (marker2006.cpp).
 const std::vector<std::string>& curve_fit_rows();
+/// The paper reproduction's z defaults (marker2006, levin): the stages' own
+/// InterpParams spline (Hyman's) and end caps (dome) over isoloft's (marker2006.cpp).
+void paper_interp_defaults(ReconstructParams& p);
 }  // namespace detail
 
 }  // namespace isoloft

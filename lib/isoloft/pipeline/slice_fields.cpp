@@ -369,24 +369,26 @@ float most_negative(float so_far, const Grid2f& f) {
 }
 
 Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
-                         const InterpParams& interp) {
+                         const InterpParams& interp, double gap_below, double gap_above) {
   // Empty slices (no inside) are all outside. One next to a non-empty slice
   // gets that neighbour's field moved 1 / cap_extent of the way to its cap
-  // slice (interp/spline.h, cap_slice), so the object closes between them
-  // like an end cap reaching cap_extent of the gap. With two non-empty
+  // slice (interp/spline.h, cap_slice, reaching cap_extent of the gap), so
+  // the object closes between them like an end cap. With two non-empty
   // neighbours it takes the lower of the two. Empty slices with no non-empty
   // neighbour take the most negative value of the object's fields.
   Grid2f g;
-  for (const Grid2f* nb : {below, above}) {
+  for (const auto& [nb, gap] : {std::pair{below, gap_below}, std::pair{above, gap_above}}) {
     if (!nb || nb->empty()) continue;
     const Grid2f& f = *nb;
-    Grid2f closed = f;
-    if (interp.cap_shape == CapShape::Flat) {
-      for (float& v : closed.data) v = float(v + (std::min(v, 0.0f) - interp.cap_depth - v) / interp.cap_extent);
-    } else {
+    Grid2f closed = cap_slice(f, interp, interp.cap_extent * gap);
+    if (interp.cap_shape == CapShape::Dome) {
+      // The dome's drop, as one float (its outputs unchanged).
       const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
       const float drop = float((top + interp.cap_depth) / interp.cap_extent);
-      for (float& v : closed.data) v -= drop;
+      for (std::size_t i = 0; i < closed.size(); ++i) closed.data[i] = f.data[i] - drop;
+    } else {
+      for (std::size_t i = 0; i < closed.size(); ++i)
+        closed.data[i] = float(f.data[i] + (double(closed.data[i]) - f.data[i]) / interp.cap_extent);
     }
     if (g.empty()) {
       g = std::move(closed);
@@ -397,14 +399,15 @@ Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_ne
   return g.empty() ? Grid2f(box.width(), box.height(), most_negative) : g;
 }
 
-void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp) {
+void fill_empty_slices(std::vector<Grid2f>& fields, const std::vector<double>& z, const PixelBox& box,
+                       const InterpParams& interp) {
   float lowest = -1.0f;
   for (const auto& f : fields) lowest = most_negative(lowest, f);
   std::vector<Grid2f> out(fields.size());
   for (std::size_t k = 0; k < fields.size(); ++k)
     if (fields[k].empty())
       out[k] = empty_slice_field(k > 0 ? &fields[k - 1] : nullptr, k + 1 < fields.size() ? &fields[k + 1] : nullptr, lowest,
-                                 box, interp);
+                                 box, interp, k > 0 ? z[k] - z[k - 1] : 0.0, k + 1 < fields.size() ? z[k + 1] - z[k] : 0.0);
   for (std::size_t k = 0; k < fields.size(); ++k)
     if (fields[k].empty()) fields[k] = std::move(out[k]);
 }

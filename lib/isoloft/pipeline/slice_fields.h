@@ -149,18 +149,21 @@ SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& para
 /// the distance-dependent filter if enabled.
 SliceField curve_slice(const SliceInput& in, const ReconstructParams& params);
 
-/// Gives every empty slice a field: a non-empty neighbour's field lowered by
-/// (max + cap_depth) / cap_extent (the lower of two), so the object closes in
-/// the gap like an end cap; without one the most negative value of all fields.
-void fill_empty_slices(std::vector<Grid2f>& fields, const PixelBox& box, const InterpParams& interp);
+/// Gives every empty slice a field: a non-empty neighbour's field moved
+/// 1 / cap_extent of the way to its cap_slice() for the gap (z: the slices'
+/// heights, px; the lower of two), so the object closes in the gap like an
+/// end cap; without one the most negative value of all fields.
+void fill_empty_slices(std::vector<Grid2f>& fields, const std::vector<double>& z, const PixelBox& box,
+                       const InterpParams& interp);
 
 /// min(-1, the lowest value of f): fold over the non-empty fields for the
 /// value of an empty slice without a non-empty neighbour.
 float most_negative(float so_far, const Grid2f& f);
 
 /// One empty slice's field as fill_empty_slices() gives it, from its
-/// neighbours' fields (null or empty: none) and most_negative() of all fields.
+/// neighbours' fields (null or empty: none), their distances (px) and
+/// most_negative() of all fields.
 Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
-                         const InterpParams& interp);
+                         const InterpParams& interp, double gap_below, double gap_above);
 
 }  // namespace isoloft::detail

@@ -16,6 +16,7 @@
 
 #include "isoloft/core/params.h"
 #include "isoloft/core/slice_stack.h"
+#include "isoloft/io/rtstruct.h"
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
 
@@ -36,6 +37,7 @@ struct Job {
   SliceStack stack;
   std::string name;          ///< "" (one object), or the ROI name (RT Structure Set)
   std::optional<Rgb> color;  ///< the ROI's display colour, if any
+  const RtRoi* roi = nullptr;  ///< RT Structure Sets: the ROI (in Inputs::rtstruct)
 };
 
 /// What to read and the input options given (std::nullopt / "" = not given).
@@ -63,6 +65,8 @@ struct Inputs {
   /// Volume input: the volume and how it was sliced (for a label map and the report).
   std::unique_ptr<Volume> volume;
   std::unique_ptr<VolumeStack> slicing;
+  /// RT Structure Set input: the set as read (ROI numbers, names, colours).
+  std::unique_ptr<RtStructureSet> rtstruct;
 
   [[nodiscard]] const SliceStack& first() const { return jobs.front().stack; }
   /// One object per label value (InputKind::Labels).

@@ -32,9 +32,17 @@ std::string with_suffix(const std::string& path, const std::string& suffix) {
   return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
 }
 
+std::string roi_file_tag(const Inputs& in, std::size_t job) {
+  const Job& j = in.jobs[job];
+  const std::string tag = file_safe(j.name);
+  for (std::size_t k = 0; k < in.jobs.size(); ++k)
+    if (k != job && file_safe(in.jobs[k].name) == tag && j.roi) return tag + "_" + std::to_string(j.roi->number);
+  return tag;
+}
+
 std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label) {
   if (in.labels()) return std::string("_label") + std::to_string(label);
-  return in.jobs.size() > 1 ? "_" + file_safe(in.jobs[job].name) : "";
+  return in.jobs.size() > 1 ? "_" + roi_file_tag(in, job) : "";
 }
 
 std::string object_text(const Inputs& in, const PlannedObject& o) {
@@ -63,9 +71,7 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
   auto staged = [&](const std::string& p) { return stage ? stage(p) : p; };
   const bool several = several_outputs(in, r);
   for (auto& o : r.objects) {
-    o.file = !several    ? output
-             : in.labels() ? with_suffix(output, std::string("_label") + std::to_string(o.object.label))
-                           : with_suffix(output, "_" + file_safe(in.jobs[o.job].name));
+    o.file = several ? with_suffix(output, object_suffix(in, o.job, o.object.label)) : output;
     MeshWriteOptions one = mo;
     one.label = object_cell_label(o);
     write_mesh(staged(o.file), o.mesh, one);

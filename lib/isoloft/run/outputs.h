@@ -42,8 +42,12 @@ std::string file_safe(const std::string& name);
 /// `path` with `suffix` before its extension ("a/b.ply", "_label2" -> "a/b_label2.ply").
 std::string with_suffix(const std::string& path, const std::string& suffix);
 
+/// The file name part of job `job`'s ROI: file_safe(name), with "_<number>"
+/// if another job's name gives the same (ROIs selected by number).
+std::string roi_file_tag(const Inputs& in, std::size_t job);
+
 /// The per-object suffix of a run's files: "_label<L>" (labels), "_<ROI>"
-/// (several ROIs), else "".
+/// (several ROIs: roi_file_tag()), else "".
 std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label);
 
 /// One object a run will make, known before the work: a volume's label, an

@@ -48,7 +48,7 @@ def _path_or_empty(path):
 
 
 def _rois(roi):
-    return [] if roi is None else [roi] if isinstance(roi, str) else list(roi)
+    return [] if roi is None else [str(roi)] if isinstance(roi, (str, int)) else [str(r) for r in roi]
 
 
 def _is_image(x):
@@ -95,7 +95,7 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
     masks or labels; z_spacing or slice_z; pixel_size), a polyline text file,
     a label volume (.nii .nii.gz .nrrd .nhdr .mha .mhd; input labels|masks,
     axis i|j|k, space lps|ras) or a DICOM RT Structure Set (roi: a name or a
-    list of names, voxel_size in mm, space). A nibabel or SimpleITK image
+    number, or a list of them; voxel_size in mm, space). A nibabel or SimpleITK image
     object is read as a volume file is (its voxels and its geometry).
     Options the input cannot use are a ParamError naming them. max_memory:
     the budget checked from the image headers before decoding ("4G",
@@ -127,8 +127,8 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
 
 def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
                 voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
-                progress=None, allow_empty=False, volume=None, labelmap=None, dump_stages=None, report=None,
-                max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
+                progress=None, allow_empty=False, volume=None, labelmap=None, dump_stages=None, rtstruct=None,
+                volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
     slices, one of:
@@ -155,8 +155,10 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     Files written with the run, all or none, as the CLI's flags of the same
     names: volume (OUT.nrrd, the signed distance volume per object),
     labelmap (a volume's dense label map, .nii.gz/.nii/.nrrd/.mha),
-    dump_stages (a directory: per-slice fields), report (the JSON of
-    .report). max_memory, max_output: the work budget ("4G", "512M", bytes;
+    dump_stages (a directory: per-slice fields), rtstruct (an RT Structure
+    Set input's surfaces back as OUT.dcm, cut at its contour planes), volumes
+    (the volume table, .csv or .json; .report["volumes"] always has it),
+    report (the JSON of .report). max_memory, max_output: the work budget ("4G", "512M", bytes;
     0 = no limit), checked before the work; max_files: the most files the run
     writes (0 = no limit). allow_external_data: as for read(). **params: reconstruction
     parameters by their --print-params names.
@@ -190,7 +192,8 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
         labels = [int(l) for l in labels]
     return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
                                  _path_or_empty(volume), _path_or_empty(labelmap), _path_or_empty(dump_stages),
-                                 _path_or_empty(report), str(max_memory), str(max_output), int(max_files))
+                                 _path_or_empty(rtstruct), _path_or_empty(volumes), _path_or_empty(report),
+                                 str(max_memory), str(max_output), int(max_files))
 
 
 def evaluate(mesh, truth, *, pixel_size=1.0):

@@ -1,0 +1,137 @@
+#include "isoloft/run/volume_table.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
+#include "isoloft/io/atomic_file.h"
+#include "isoloft/io/rtstruct.h"
+#include "isoloft/run.h"
+
+namespace fs = std::filesystem;
+
+namespace isoloft {
+
+namespace {
+
+// Area of polygons combined by the even-odd rule (a loop inside an odd
+// number of others is a hole), px^2.
+double even_odd_area(const std::vector<Polygon>& polys) {
+  auto area = [](const std::vector<Vec2d>& p) {
+    double a = 0;
+    for (std::size_t i = 0, j = p.size() - 1; i < p.size(); j = i++) a += p[j].x() * p[i].y() - p[i].x() * p[j].y();
+    return 0.5 * std::abs(a);
+  };
+  auto inside = [](const std::vector<Vec2d>& p, const Vec2d& q) {
+    bool in = false;
+    for (std::size_t i = 0, j = p.size() - 1; i < p.size(); j = i++)
+      if ((p[i].y() > q.y()) != (p[j].y() > q.y()) &&
+          q.x() < p[j].x() + (q.y() - p[j].y()) * (p[i].x() - p[j].x()) / (p[i].y() - p[j].y()))
+        in = !in;
+    return in;
+  };
+  double total = 0;
+  for (std::size_t a = 0; a < polys.size(); ++a) {
+    int depth = 0;
+    for (std::size_t b = 0; b < polys.size(); ++b)
+      if (b != a && !polys[a].points.empty() && inside(polys[b].points, polys[a].points.front())) ++depth;
+    total += (depth % 2 ? -1.0 : 1.0) * area(polys[a].points);
+  }
+  return total;
+}
+
+// The stack's typical step between slices (median), px.
+double typical_step(const SliceStack& st) {
+  std::vector<double> steps;
+  for (std::size_t k = 1; k < st.slices.size(); ++k) steps.push_back(st.slices[k].z - st.slices[k - 1].z);
+  if (steps.empty()) return 0;
+  std::nth_element(steps.begin(), steps.begin() + std::ptrdiff_t(steps.size() / 2), steps.end());
+  return steps[steps.size() / 2];
+}
+
+}  // namespace
+
+std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
+  std::vector<VolumeRow> rows;
+  for (const RunObject& o : r.objects) {
+    const Job& job = in.jobs[o.job];
+    const SliceStack& st = job.stack;
+    const double s = st.pixel_size;
+    VolumeRow row;
+    row.name = !job.name.empty() ? job.name : o.object.label ? "label " + std::to_string(o.object.label) : "object";
+    row.number = job.roi ? job.roi->number : int(o.object.label);
+    row.volume = o.object.check.volume * s * s * s;
+    row.area = o.object.check.area * s * s;
+    row.planes = in.format == InputFormat::RtStruct ? int(rt_planes(st).size()) : o.object.slices_with_contours;
+    row.closed = o.object.check.closed && o.object.check.manifold && o.object.check.oriented;
+    if (st.has_polygons()) {
+      double area = 0;
+      for (const Slice& sl : st.slices) area += even_odd_area(sl.polygons);
+      row.slab = area * typical_step(st) * s * s * s;
+    }
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_mm) {
+  std::ostringstream o;
+  const double v = patient_mm ? 1000.0 : 1.0, a = patient_mm ? 100.0 : 1.0;
+  o << std::left << std::setw(24) << "ROI" << std::right << std::setw(7) << "number" << std::setw(14)
+    << (patient_mm ? "volume (cc)" : "volume") << std::setw(12) << (patient_mm ? "slab (cc)" : "slab") << std::setw(16)
+    << (patient_mm ? "area (cm^2)" : "area") << std::setw(8) << "planes" << std::setw(8) << "closed" << "\n";
+  for (const VolumeRow& r : rows) {
+    o << std::left << std::setw(24) << ("'" + r.name + "'") << std::right << std::setw(7) << r.number << std::fixed
+      << std::setprecision(3) << std::setw(14) << r.volume / v << std::setw(12);
+    if (r.slab > 0) o << r.slab / v;
+    else o << "-";
+    o << std::setw(16) << std::setprecision(2) << r.area / a << std::setw(8) << r.planes << std::setw(8)
+      << (r.closed ? "yes" : "NO") << "\n";
+  }
+  return o.str();
+}
+
+std::string volume_table_csv(const std::vector<VolumeRow>& rows) {
+  std::ostringstream o;
+  o << "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed\n" << std::setprecision(10);
+  for (const VolumeRow& r : rows) {
+    std::string name = r.name;
+    if (name.find_first_of(",\"\n") != std::string::npos) {
+      std::string q = "\"";
+      for (char c : name) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+      name = q + "\"";
+    }
+    o << name << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
+      << (r.closed ? "true" : "false") << "\n";
+  }
+  return o.str();
+}
+
+nlohmann::json volume_table_json(const std::vector<VolumeRow>& rows) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const VolumeRow& r : rows)
+    a.push_back({{"name", r.name}, {"number", r.number}, {"volume_mm3", r.volume}, {"slab_volume_mm3", r.slab},
+                 {"area_mm2", r.area}, {"planes", r.planes}, {"closed", r.closed}});
+  return a;
+}
+
+VolumeTableOutput::VolumeTableOutput(std::string path) : path_(std::move(path)) {
+  const std::string ext = fs::path(path_).extension().string();
+  if (ext != ".csv" && ext != ".json")
+    throw ParamError(option_name("--volumes") + ": '" + path_ + "' must end in .csv or .json");
+}
+
+void VolumeTableOutput::finish(const RunContext& ctx, RunResult& r) {
+  const std::vector<VolumeRow> rows = volume_table(ctx.in, r);
+  write_text_atomic(ctx.files.stage(path_), fs::path(path_).extension() == ".csv"
+                                                ? volume_table_csv(rows)
+                                                : volume_table_json(rows).dump(2) + "\n");
+}
+
+void VolumeTableOutput::report(nlohmann::json& report) const { report["volumes_file"] = path_; }
+
+}  // namespace isoloft

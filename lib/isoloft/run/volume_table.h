@@ -1,0 +1,53 @@
+// @file run/volume_table.h
+// @brief The volume table: per object its closed surface's volume beside the
+// slab volume (contour area x slice spacing, the planning systems' and
+// dicompyler's convention), area, planes and whether it is closed; as text
+// (stdout), CSV or JSON (--volumes, the report's "volumes").
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "isoloft/run/outputs.h"
+
+namespace isoloft {
+
+/// One row of the volume table, in output units (patient mm for RT
+/// Structure Sets and volumes, else working pixels).
+struct VolumeRow {
+  std::string name;     ///< ROI name, "label <L>", or "object"
+  int number = 0;       ///< ROI number, or the label
+  double volume = 0;    ///< of the closed surface, output units^3
+  double area = 0;      ///< surface area, output units^2
+  double slab = 0;      ///< sum over contour planes of the contour area (even-odd) x the ROI's typical plane step; 0 if the input has no polygons
+  int planes = 0;       ///< slices with contours
+  bool closed = false;  ///< closed oriented 2-manifold
+};
+
+std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r);
+/// The table as aligned text (cc and cm^2 for patient mm), CSV, or JSON (mm^3, mm^2).
+std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_mm);
+std::string volume_table_csv(const std::vector<VolumeRow>& rows);
+nlohmann::json volume_table_json(const std::vector<VolumeRow>& rows);
+
+/// --volumes: the volume table as .csv or .json (the report always has it
+/// as "volumes").
+class VolumeTableOutput final : public RunOutput {
+ public:
+  /// \throw ParamError unless `path` ends in .csv or .json.
+  explicit VolumeTableOutput(std::string path);
+  [[nodiscard]] std::string option() const override { return "--volumes"; }
+  [[nodiscard]] std::string target() const override { return path_; }
+  void finish(const RunContext& ctx, RunResult& r) override;
+  void report(nlohmann::json& report) const override;
+  [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const override {
+    return {{path_, option()}};
+  }
+  [[nodiscard]] std::vector<std::string> files() const override { return {path_}; }
+
+ private:
+  std::string path_;
+};
+
+}  // namespace isoloft

@@ -1,0 +1,65 @@
+// mesh/plane_cut.h: loops of a plane through closed meshes made by hand (a
+// cube, a square tube), through vertices, and the orientation of islands and holes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "isoloft/mesh/mesh_check.h"
+#include "isoloft/mesh/plane_cut.h"
+
+using namespace isoloft;
+
+namespace {
+
+double signed_area(const std::vector<Vec2d>& p) {
+  double a = 0;
+  for (std::size_t i = 0, j = p.size() - 1; i < p.size(); j = i++) a += p[j].x() * p[i].y() - p[i].x() * p[j].y();
+  return 0.5 * a;
+}
+
+// An axis-aligned box as 12 triangles, counter-clockwise seen from outside;
+// `inward` flips it (the inner wall of a tube).
+void add_box(TriMesh& m, Vec3f lo, Vec3f hi, bool inward = false) {
+  const std::int32_t b = std::int32_t(m.vertices.size());
+  for (int i = 0; i < 8; ++i) m.vertices.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
+  const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    std::array<std::int32_t, 3> t0{b + f[0], b + f[1], b + f[2]}, t1{b + f[0], b + f[2], b + f[3]};
+    if (inward) std::swap(t0[1], t0[2]), std::swap(t1[1], t1[2]);
+    m.triangles.push_back(t0);
+    m.triangles.push_back(t1);
+  }
+}
+
+}  // namespace
+
+TEST(PlaneCut, CubeGivesItsSquareCounterClockwise) {
+  TriMesh m;
+  add_box(m, {0, 0, 0}, {2, 3, 4});
+  ASSERT_GT(check_mesh(m).volume, 0) << "the hand-made box is outward";
+  const auto loops = cut_mesh(m, 1.5);
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_NEAR(signed_area(loops[0]), 6.0, 1e-9) << "2 x 3, counter-clockwise seen from +z";
+  for (const Vec2d& p : loops[0]) EXPECT_TRUE(p.x() == 0 || p.x() == 2 || p.y() == 0 || p.y() == 3) << p.transpose();
+  EXPECT_TRUE(cut_mesh(m, 5.0).empty());
+  EXPECT_TRUE(cut_mesh(m, 0.0).empty()) << "a plane through the bottom face: its vertices count as above";
+  const auto top = cut_mesh(m, 4.0);  // through the top face's vertices: the loop of the triangles below
+  ASSERT_EQ(top.size(), 1u);
+  EXPECT_NEAR(signed_area(top[0]), 6.0, 1e-9);
+}
+
+// Two boxes and a hollow: islands counter-clockwise, a hole clockwise, so the
+// even-odd rule and the signed areas agree.
+TEST(PlaneCut, IslandsAndHolesKeepTheirOrientation) {
+  TriMesh m;
+  add_box(m, {0, 0, 0}, {10, 10, 2});
+  add_box(m, {3, 3, -1}, {7, 7, 3}, /*inward=*/true);  // not a valid solid, but every loop is closed
+  add_box(m, {20, 0, 0}, {21, 1, 2});
+  const auto loops = cut_mesh(m, 1.0);
+  ASSERT_EQ(loops.size(), 3u);
+  double sum = 0;
+  int negative = 0;
+  for (const auto& l : loops) sum += signed_area(l), negative += signed_area(l) < 0;
+  EXPECT_EQ(negative, 1) << "the hole";
+  EXPECT_NEAR(sum, 100.0 - 16.0 + 1.0, 1e-9);
+}
