@@ -33,6 +33,7 @@
 #include "isoloft/core/mesh.h"
 #include "isoloft/core/slice_stack.h"
 #include "isoloft/interp/spline.h"
+#include "isoloft/interp/track_params.h"
 #include "isoloft/mesh/decimate.h"
 #include "isoloft/mesh/marching_cubes.h"
 #include "isoloft/mesh/mesh_check.h"
@@ -77,6 +78,7 @@ struct ReconstructParams {
   ExtendParams extend;          ///< field/: paper 2.2
   FilterParams filter;          ///< field/: paper 2.3
   InterpParams interp{.spline = SplineKind::ExtremumPreserving};  ///< interp/: paper 2.4 (spline: isoloft's)
+  TrackParams track;            ///< interp/: the track z scheme (issue 23)
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };
