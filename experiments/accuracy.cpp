@@ -1,15 +1,17 @@
 // Question: how close to the truth is each method, per analytic shape and z
 // ratio? Every shape of synth/shapes.h is cut at z ratios 4, 8, 16 into 1-pixel
 // contour images and reconstructed by marker2006 (default; without filter;
-// with each spline kind) and by the Levin-style baseline. Each mesh is
+// with each spline kind), by the Levin-style baseline and by the default
+// method with the track z scheme (interp/track.h). Each mesh is
 // compared with the analytic surface by the validation oracles (two-sided
 // distances, Hausdorff interval, normal angle), inside the slice range (caps
 // are reported apart).
 //
-// usage: accuracy [--out DIR] [--size N] [--ratios 4,8,16] [--shapes a,b] [--threads N]
+// usage: accuracy [--out DIR] [--size N] [--ratios 4,8,16] [--shapes a,b] [--configs a,b] [--threads N]
 // writes DIR/accuracy.csv, DIR/accuracy.json, DIR/accuracy.md
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -32,6 +34,7 @@ struct Config {
   Method method;
   SplineKind spline;
   bool filter;
+  std::string z_scheme = "columns";
 };
 
 
@@ -41,7 +44,7 @@ int main(int argc, char** argv) {
   std::string out = "experiments/out/accuracy";
   int size = 128, threads = 0;
   std::vector<double> ratios{4, 8, 16};
-  std::vector<std::string> shapes = shape_names();
+  std::vector<std::string> shapes = shape_names(), config_names;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--out") out = v;
@@ -51,6 +54,7 @@ int main(int argc, char** argv) {
       ratios.clear();
       for (const auto& r : experiments::split(v)) ratios.push_back(std::stod(r));
     } else if (a == "--shapes") shapes = experiments::split(v);
+    else if (a == "--configs") config_names = experiments::split(v);
     else {
       std::cerr << "unknown option " << a << "\n";
       return 2;
@@ -58,7 +62,7 @@ int main(int argc, char** argv) {
   }
   std::unique_ptr<tbb::global_control> gc;
   if (threads > 0) gc = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
-  const std::vector<Config> configs = {
+  const std::vector<Config> all_configs = {
       {"isoloft", Method::Isoloft, SplineKind::ExtremumPreserving, true},
       {"marker2006", Method::Marker2006, SplineKind::Monotone, true},
       {"marker2006 no-filter", Method::Marker2006, SplineKind::Monotone, false},
@@ -67,7 +71,12 @@ int main(int argc, char** argv) {
       {"marker2006 natural", Method::Marker2006, SplineKind::Natural, true},
       {"marker2006 linear", Method::Marker2006, SplineKind::Linear, true},
       {"levin", Method::Levin, SplineKind::Monotone, false},
+      {"isoloft track", Method::Isoloft, SplineKind::ExtremumPreserving, true, "track"},
   };
+  std::vector<Config> configs;
+  for (const Config& c : all_configs)
+    if (config_names.empty() || std::find(config_names.begin(), config_names.end(), c.name) != config_names.end())
+      configs.push_back(c);
   fs::create_directories(out);
   std::ofstream csv(fs::path(out) / "accuracy.csv");
   csv << "shape,ratio,method,mean_two_sided_px,mean_mesh_to_truth_px,mean_truth_to_mesh_px,p99_mesh_to_truth_px,"
@@ -89,6 +98,7 @@ int main(int argc, char** argv) {
         ReconstructParams p = method_defaults(c.method);
         p.interp.spline = c.spline;
         p.filter.enabled = c.filter;
+        p.z_scheme = c.z_scheme;
         const auto t0 = std::chrono::steady_clock::now();
         const ReconstructResult r = reconstruct(syn.stack, p);
         const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -63,8 +63,14 @@ def two_labels(n=40, nz=13, every=3, a=3, b=7):
     return v
 
 
-def many_labels(count, side=512):
-    """`count` labels as 2 x 2 px squares on slices 0 and 2 of a side x side x 3 volume (uint16)."""
+def many_labels_side(count):
+    """The side of the square slices that hold `count` labels at a 4 px pitch."""
+    return 4 * math.isqrt(count - 1) + 4
+
+
+def many_labels(count):
+    """`count` labels as 2 x 2 px squares at a 4 px pitch on slices 0 and 2 of a side x side x 3 volume (uint16)."""
+    side = many_labels_side(count)
     v = [0] * (side * side * 3)
     per_row = side // 4
     for lab in range(1, count + 1):
@@ -135,7 +141,8 @@ def cases():
         return [os.path.join(d, "a.png"), os.path.join(d, "f.png")]
     c["a FIFO as a slice"] = (fifo, quiet)
     c["65535 labels (NIfTI 2x2 px each)"] = (
-        lambda d, cli: [nifti1(os.path.join(d, "many.nii.gz"), (512, 512, 3), many_labels(65535), "H"), "--method",
+        lambda d, cli: [nifti1(os.path.join(d, "many.nii.gz"), (many_labels_side(65535),) * 2 + (3,), many_labels(65535),
+                               "H"), "--method",
                         "levin"], quiet)
 
     # Reads outside what the user named.
@@ -205,7 +212,7 @@ def cases():
     c["x = 1e9 mm"] = (lambda d, cli: [nifti1(os.path.join(d, "v.nii.gz"), (n, n, 13), labels, origin=(1e9, 0, 0)),
                                        "--method", "levin"], loud)
     c["--max-memory 200M with 16384 labels"] = (
-        lambda d, cli: [nifti1(os.path.join(d, "many.nii.gz"), (512, 512, 3), many_labels(16384), "H"),
+        lambda d, cli: [nifti1(os.path.join(d, "many.nii.gz"), (many_labels_side(16384),) * 2 + (3,), many_labels(16384), "H"),
                         "--max-memory", "200M", "--method", "levin"], quiet)
 
     def same_file(d, cli):

@@ -76,10 +76,20 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   param_flags_.add_to(*R);
 
   synth_ = app.add_subcommand("synth", "Write an analytic test stack (contour PNGs + truth JSON)");
-  synth_->add_option("shape", s_.shape, "sphere, ellipsoid, torus, tilted-torus, branching-cylinders, two-blobs");
+  synth_->add_option("shape", s_.shape,
+                     "sphere, ellipsoid, torus, tilted-torus, branching-cylinders, two-blobs; oblique: tube, fork, helix, "
+                     "two-spheres, two-columns, two-bars-side, two-bars-end, or an oblique kit case (--list)");
   synth_->add_option("--out", s_.out, "Output directory (slice_000.png ... and shape.json)");
-  synth_->add_option("--size", s_.size, "Image width and height in pixels")->check(CLI::Range(8, 20000));
+  synth_->add_option("--size", s_.size, "Image width and height in pixels (default 128; not for the oblique shapes)")
+      ->check(CLI::Range(8, 20000));
   synth_->add_option("--z-spacing", s_.z_spacing, "Slice spacing in pixels (the z ratio)")->check(positive_finite);
+  synth_->add_option("--tilt", s_.tilt, "Oblique shapes: tube tilt, fork branch angle from the slice normal, deg (default 80)")
+      ->check(CLI::Range(0.0, 89.0));
+  synth_->add_option("--radius", s_.radius, "Oblique shapes: tube radius (two-spheres: sphere radius), px (default 3)")
+      ->check(positive_finite);
+  synth_->add_option("--gap", s_.gap, "Oblique shapes: gap between the separate objects' cross-sections, px (default 4)")
+      ->check(CLI::NonNegativeNumber);
+  synth_->add_option("--slices", s_.slices, "Oblique shapes: slices cut (default: the shape's)")->check(CLI::Range(2, 1000));
   synth_->add_option("--kind", s_.kind, "contours or masks (PNG images), or polylines (stack.txt)")->check(CLI::IsMember({"contours", "masks", "polylines"}));
   synth_->add_flag("--list", s_.list, "List the shapes and exit");
 

@@ -61,8 +61,10 @@ class ParamFlags {
 
 struct SynthOptions {
   std::string shape, out, kind = "contours";
-  int size = 128;
+  std::optional<int> size;  ///< default 128; the oblique shapes size their images themselves
   double z_spacing = 8.0;
+  std::optional<double> tilt, radius, gap;  ///< the oblique shapes only
+  std::optional<int> slices;
   bool list = false;
 };
 

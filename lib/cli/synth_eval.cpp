@@ -12,6 +12,7 @@
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
+#include "isoloft/synth/oblique.h"
 #include "isoloft/synth/synth.h"
 #if ISOLOFT_HAVE_VALIDATION
 #include "validation/hausdorff.h"
@@ -24,16 +25,36 @@ namespace isoloft::cli {
 int Commands::synth() {
   if (s_.list) {
     for (const auto& n : shape_names()) std::cout << n << "\n";
+    for (const auto& n : oblique_shape_names()) std::cout << n << "\n";
+    for (const auto& n : oblique_kit_names()) std::cout << n << "\n";
     return 0;
   }
   if (s_.shape.empty()) throw ParamError("synth: no SHAPE given (see isoloft synth --list)");
   if (s_.out.empty()) throw ParamError("synth: no --out directory given");
-  auto shape = make_default_shape(s_.shape, s_.size);
   SynthParams p;
-  p.size = s_.size;
   p.z_spacing = s_.z_spacing;
   p.kind = enum_from_string<InputKind>(s_.kind, "--kind");
-  SynthResult r = synthesize(*shape, p);
+  const std::vector<std::string> oblique = oblique_shape_names(), kit = oblique_kit_names();
+  const bool is_oblique = std::find(oblique.begin(), oblique.end(), s_.shape) != oblique.end();
+  const bool is_kit = std::find(kit.begin(), kit.end(), s_.shape) != kit.end();
+  SynthResult r;
+  if (is_oblique || is_kit) {
+    if (s_.size) throw ParamError("synth --size: the oblique shapes size their images to fit");
+    if (is_kit && (s_.tilt || s_.radius || s_.gap || s_.slices))
+      throw ParamError("synth: a kit case (" + s_.shape + ") has its own tilt, radius, gap and slices");
+    ObliqueOptions o;
+    o.spacing = s_.z_spacing;
+    o.tilt = s_.tilt.value_or(o.tilt), o.radius = s_.radius.value_or(o.radius), o.gap = s_.gap.value_or(o.gap);
+    o.slices = s_.slices.value_or(0);
+    const ObliqueCase c = is_kit ? oblique_kit_case(s_.shape) : make_oblique_shape(s_.shape, o);
+    r = synthesize(c, p.kind, p.polyline_step);
+  } else {
+    for (const auto& [flag, given] : {std::pair{"--tilt", bool(s_.tilt)}, {"--radius", bool(s_.radius)},
+                                      {"--gap", bool(s_.gap)}, {"--slices", bool(s_.slices)}})
+      if (given) throw ParamError(std::string("synth ") + flag + ": only with the oblique shapes (see isoloft synth --list)");
+    p.size = s_.size.value_or(p.size);
+    r = synthesize(*make_default_shape(s_.shape, p.size), p);
+  }
   fs::create_directories(s_.out);
   if (p.kind == InputKind::Polylines) {
     const std::string path = (fs::path(s_.out) / "stack.txt").string();
@@ -53,7 +74,17 @@ int Commands::synth() {
     write_png((fs::path(s_.out) / name.str()).string(), img);
   }
   r.description["stack"]["files"] = "slice_000.png ...";
-  r.description["reconstruct_hint"] = "isoloft reconstruct " + s_.out + " --z-spacing " + std::to_string(s_.z_spacing) +
+  // Slice k at k z_spacing (the analytic shapes), else the slices' own z (the oblique shapes).
+  bool uniform = true;
+  std::string slice_z;
+  for (std::size_t k = 0; k < r.stack.slices.size(); ++k) {
+    uniform = uniform && r.stack.slices[k].z == double(k) * s_.z_spacing;
+    std::ostringstream z;
+    z << r.stack.slices[k].z;
+    slice_z += (k ? "," : "") + z.str();
+  }
+  r.description["reconstruct_hint"] = "isoloft reconstruct " + s_.out +
+                                      (uniform ? " --z-spacing " + std::to_string(s_.z_spacing) : " --slice-z " + slice_z) +
                                       (p.kind == InputKind::Masks ? " --input masks" : "") + " -o out.ply";
   write_text_atomic((fs::path(s_.out) / "shape.json").string(), r.description.dump(2) + "\n");
   std::cerr << "isoloft: wrote " << r.stack.slices.size() << " slices and shape.json to " << s_.out << "\n";

@@ -110,6 +110,7 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
     ParamTable<P>::nest(rows, checks, "extend", &P::extend, params_table<ExtendParams>());
     ParamTable<P>::nest(rows, checks, "filter", &P::filter, params_table<FilterParams>());
     ParamTable<P>::nest(rows, checks, "interp", &P::interp, params_table<InterpParams>());
+    ParamTable<P>::nest(rows, checks, "track", &P::track, params_table<TrackParams>());
     ParamTable<P>::nest(rows, checks, "mc", &P::mc, params_table<MarchingCubesParams>());
     ParamTable<P>::nest(rows, checks, "decimate", &P::decimate, params_table<DecimateParams>());
     return ParamTable<P>(std::move(rows), std::move(checks));

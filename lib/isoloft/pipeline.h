@@ -34,6 +34,7 @@
 #include "isoloft/core/mesh.h"
 #include "isoloft/core/slice_stack.h"
 #include "isoloft/interp/spline.h"
+#include "isoloft/interp/track_params.h"
 #include "isoloft/mesh/decimate.h"
 #include "isoloft/mesh/marching_cubes.h"
 #include "isoloft/mesh/mesh_check.h"
@@ -92,6 +93,7 @@ struct ReconstructParams {
   MaskCurveParams mask_curve;    ///< contour/: the traced mask boundary
   /// interp/: paper 2.4 (spline, planes and end caps: isoloft's)
   InterpParams interp{.spline = SplineKind::ExtremumPreserving, .cap_shape = CapShape::Slab, .planes_on_slices = true};
+  TrackParams track;            ///< interp/track.h: the track z scheme
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
 };

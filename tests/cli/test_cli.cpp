@@ -41,6 +41,35 @@ TEST_F(Cli, ReconstructsASynthesizedSphereWithAReport) {
   EXPECT_LT(ev["mesh_to_truth"]["in_range"]["mean_distance_px"].get<double>(), 1.0);
 }
 
+// The oblique kit from the command line, reconstructed by the track z scheme
+// (one piece, where the default spline gives one per slice); its flags are
+// errors with another scheme, and the shape flags with another shape.
+TEST_F(Cli, SynthesizesAnObliqueTubeThatTheTrackSchemeKeepsWhole) {
+  const CliRun s = run("synth tube --tilt 80 --radius 3 --kind masks --out " + p("tube"));
+  ASSERT_EQ(s.code, 0) << s.err;
+  std::ifstream in(p("tube/shape.json"));
+  const auto truth = nlohmann::json::parse(in);
+  EXPECT_EQ(truth["components"], 1);
+  EXPECT_EQ(truth["shape"]["type"], "tubes");
+  const std::string hint = truth["reconstruct_hint"];
+  const std::string args = hint.substr(hint.find(' ', hint.find("reconstruct")) + 1);
+  const CliRun r = run("reconstruct " + args.substr(0, args.find(" -o ")) + " -o " + p("t.ply") + " --z-scheme track --report " +
+                       p("r.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream rep_in(p("r.json"));
+  const auto rep = nlohmann::json::parse(rep_in);
+  EXPECT_EQ(rep["objects"][0]["components"], 1);
+  EXPECT_EQ(rep["params"]["z_scheme"], "track");
+  const CliRun e = run("eval --mesh " + p("t.ply") + " --truth " + p("tube/shape.json"));
+  ASSERT_EQ(e.code, 0) << e.err;
+  const CliRun wrong = run("reconstruct " + p("tube") + " --input masks -o " + p("c.ply") + " --track-motion auto");
+  EXPECT_NE(wrong.code, 0);
+  EXPECT_NE(wrong.err.find("--z-scheme track"), std::string::npos) << wrong.err;
+  const CliRun tilt = run("synth sphere --tilt 80 --out " + p("sphere"));
+  EXPECT_NE(tilt.code, 0);
+  EXPECT_NE(tilt.err.find("oblique"), std::string::npos) << tilt.err;
+}
+
 TEST_F(Cli, PrintParamsRoundTripsThroughParamsFile) {
   const CliRun r = run("reconstruct --print-params --spline natural");
   ASSERT_EQ(r.code, 0) << r.err;

@@ -83,6 +83,32 @@ RC_GTEST_PROP(FieldEdt, SignedContourDistanceEqualsBruteForce, ()) {
   if (!diff.empty()) RC_FAIL(diff + ascii(contour));
 }
 
+// The nearest label's pixel lies at the brute-force nearest distance (ties
+// may go either way, the distance may not).
+RC_GTEST_PROP(FieldEdt, NearestLabelIsAtTheNearestDistance, ()) {
+  const Grid2u8 mask = *gen_mask();
+  Grid2i labels(mask.width, mask.height, -1);
+  for (std::size_t i = 0; i < mask.size(); ++i)
+    if (mask.data[i]) labels.data[i] = int(i % 3);  // three labels, interleaved
+  const Grid2i near = nearest_label(labels);
+  const Grid2f want = detail::nearest_label_brute_sq(labels);
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) {
+      const int l = near(x, y);
+      if (std::isinf(want(x, y))) {
+        if (l != -1) RC_FAIL("label without features at " + at(x, y) + "\n" + ascii(mask));
+        continue;
+      }
+      double best = std::numeric_limits<double>::infinity();
+      for (int fy = 0; fy < mask.height; ++fy)
+        for (int fx = 0; fx < mask.width; ++fx)
+          if (labels(fx, fy) == l) best = std::min(best, double((fx - x) * (fx - x) + (fy - y) * (fy - y)));
+      if (best != double(want(x, y)))
+        RC_FAIL("label " + std::to_string(l) + " at " + at(x, y) + " is " + std::to_string(best) + " px^2 away, the nearest " +
+                std::to_string(want(x, y)) + "\n" + ascii(mask));
+    }
+}
+
 RC_GTEST_PROP(FieldEdt, SignedMaskDistanceEqualsBruteForce, ()) {
   const Grid2u8 mask = *gen_mask();
   const std::string diff = grid_diff(distance_to_mask_edge_signed(mask),

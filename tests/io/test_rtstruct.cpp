@@ -10,6 +10,7 @@
 #include "dcmtk/dcmrt/drtstrct.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -509,4 +510,41 @@ TEST(RtStruct, SphereVolumeFollowsTheSlabRule) {
   const double mm3 = o.check.volume * std::pow(grid.voxel_size, 3);
   std::printf("10 mm sphere on 2 mm planes: %.1f mm^3, slab rule %.1f, truth %.1f\n", mm3, slab, 4.0 / 3 * M_PI * 125);
   EXPECT_NEAR(mm3, slab, kSlabCapShare * slab);
+}
+
+// A ROI whose contours enclose no area says so (not only "no contour"), and
+// contours of a ROI number the structure set does not list are counted, so
+// the run can warn about them instead of dropping them silently.
+TEST(RtStruct, ZeroAreaContoursAndUnlistedRoiContoursSayWhy) {
+  const std::string dir = testing::TempDir() + "isoloft_rt_zero_area";
+  std::filesystem::create_directories(dir);
+  const std::string flat = dir + "/flat.dcm";
+  write_heart_as(flat, {{{0, 0, 0}, {10, 10, 0}, {20, 20, 0}}, {{0, 0, 3}, {10, 10, 3}, {20, 20, 3}}});
+  std::vector<std::string> w;
+  try {
+    (void)roi_stack(*read_rtstruct(flat).find("Heart"), RoiGrid{}, flat, w);
+    ADD_FAILURE() << "collinear contours accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("2 of them no area at all: zero net area"), std::string::npos) << e.what();
+  }
+
+  const std::string unlisted = dir + "/unlisted.dcm";
+  DcmFileFormat ff;
+  ASSERT_TRUE(ff.loadFile(kRtss.c_str()).good());
+  DRTStructureSetIOD rt;
+  ASSERT_TRUE(rt.read(*ff.getDataset()).good());
+  DRTStructureSetROISequence& rois = rt.getStructureSetROISequence();
+  for (std::size_t i = 0; i < rois.getNumberOfItems(); ++i) {
+    Sint32 n = -1;
+    rois.getItem(i).getROINumber(n);
+    if (n == 5) ASSERT_TRUE(rois.removeItem(i).good());  // the Heart's entry; its contours stay
+  }
+  ASSERT_TRUE(rt.write(*ff.getDataset()).good());
+  ASSERT_TRUE(ff.saveFile(unlisted.c_str(), EXS_LittleEndianExplicit).good());
+  const RtStructureSet before = read_rtstruct(kRtss), after = read_rtstruct(unlisted);
+  EXPECT_EQ(after.find("Heart"), nullptr);
+  ASSERT_EQ(after.unlisted_contours.count(5), 1u);
+  EXPECT_EQ(after.unlisted_contours.at(5), int(before.find("Heart")->contours.size()));
+  EXPECT_TRUE(before.unlisted_contours.empty());
+  std::filesystem::remove_all(dir);
 }

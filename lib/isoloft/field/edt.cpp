@@ -112,6 +112,10 @@ double brute_sq(const Grid2u8& features, int x, int y) {
 namespace detail {
 
 void squared_dt_1d(const double* f, double* d, int n, std::vector<int>& v, std::vector<double>& z) {
+  squared_dt_1d_arg(f, d, nullptr, n, v, z);
+}
+
+void squared_dt_1d_arg(const double* f, double* d, int* arg, int n, std::vector<int>& v, std::vector<double>& z) {
   v.resize(std::size_t(n) + 1);
   z.resize(std::size_t(n) + 2);
   // Lower envelope of the parabolas y = f[p] + (x - p)^2 over present samples.
@@ -141,6 +145,7 @@ void squared_dt_1d(const double* f, double* d, int n, std::vector<int>& v, std::
   }
   if (k < 0) {
     std::fill(d, d + n, kInf);
+    if (arg) std::fill(arg, arg + n, -1);
     return;
   }
   // Values at integers are integers, so an intersection s that is off by
@@ -151,6 +156,7 @@ void squared_dt_1d(const double* f, double* d, int n, std::vector<int>& v, std::
     const int p = v[std::size_t(k)];
     const double dq = double(q - p);
     d[q] = dq * dq + f[p];
+    if (arg) arg[q] = p;
   }
 }
 
@@ -168,6 +174,12 @@ Grid2f distance_to_contour_signed_brute(const Grid2u8& contour, const Grid2u8& i
     for (int x = 0; x < contour.width; ++x)
       out(x, y) = contour_value(brute_sq(contour, x, y), contour(x, y) != 0, inside(x, y) != 0);
   return out;
+}
+
+Grid2f nearest_label_brute_sq(const Grid2i& labels) {
+  Grid2u8 features(labels.width, labels.height);
+  for (std::size_t i = 0; i < labels.size(); ++i) features.data[i] = labels.data[i] >= 0;
+  return squared_edt_brute(features);
 }
 
 Grid2f distance_to_mask_edge_signed_brute(const Grid2u8& mask) {
@@ -207,6 +219,48 @@ Grid2f distance_to_mask_edge_signed(const Grid2u8& mask) {
     const bool in = mask.data[i] != 0;
     out.data[i] = mask_value(in ? to_outside[i] : to_inside[i], in);
   }
+  return out;
+}
+
+Grid2i nearest_label(const Grid2i& labels) {
+  const int w = labels.width, h = labels.height;
+  Grid2i out(w, h, -1);
+  if (labels.empty()) return out;
+  // Pass 1, columns: the nearest labelled pixel of each column (a downward
+  // and an upward sweep); pass 2, rows: the lower envelope over the column
+  // results (squared_dt_1d_arg), whose minimiser names the column whose
+  // nearest pixel wins.
+  std::vector<double> g(labels.size(), kInf);
+  Grid2i near_in_column(w, h, -1);
+  tbb::parallel_for(tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
+    for (int x = r.begin(); x != r.end(); ++x) {
+      int last = -1;  // row of the last labelled pixel seen
+      for (int y = 0; y < h; ++y) {
+        if (labels(x, y) >= 0) last = y;
+        if (last >= 0) {
+          const double d = double(y - last);
+          g[labels.index(x, y)] = d * d;
+          near_in_column(x, y) = labels(x, last);
+        }
+      }
+      last = -1;
+      for (int y = h - 1; y >= 0; --y) {
+        if (labels(x, y) >= 0) last = y;
+        if (last < 0) continue;
+        const double d = double(last - y);
+        if (d * d < g[labels.index(x, y)]) g[labels.index(x, y)] = d * d, near_in_column(x, y) = labels(x, last);
+      }
+    }
+  });
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& r) {
+    std::vector<double> d(static_cast<std::size_t>(w));
+    std::vector<int> arg(static_cast<std::size_t>(w)), v;
+    std::vector<double> z;
+    for (int y = r.begin(); y != r.end(); ++y) {
+      detail::squared_dt_1d_arg(g.data() + labels.index(0, y), d.data(), arg.data(), w, v, z);
+      for (int x = 0; x < w; ++x) out(x, y) = arg[std::size_t(x)] < 0 ? -1 : near_in_column(arg[std::size_t(x)], y);
+    }
+  });
   return out;
 }
 

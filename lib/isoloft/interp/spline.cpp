@@ -142,12 +142,14 @@ double hermite(SplineKind kind, double z0, double z1, double f0, double f1, doub
   return HermiteBasis(kind, z0, z1, z).value(f0, f1, m0, m1);
 }
 
-namespace {
-std::size_t interval_of(const std::vector<double>& z, double q) {
-  auto it = std::upper_bound(z.begin(), z.end(), q);
-  std::size_t k = it == z.begin() ? 0 : std::size_t(it - z.begin()) - 1;
+std::size_t knot_interval(const std::vector<double>& z, double q) {
+  q = std::clamp(q, z.front(), z.back());
+  const auto it = std::upper_bound(z.begin(), z.end(), q);
+  const std::size_t k = it == z.begin() ? 0 : std::size_t(it - z.begin()) - 1;
   return std::min(k, z.size() - 2);
 }
+
+namespace {
 void check_knots(const std::vector<double>& z) {
   if (z.size() < 2) throw ParamError("spline needs at least 2 knots");
   for (std::size_t i = 1; i < z.size(); ++i)
@@ -165,7 +167,7 @@ Spline1D::Spline1D(std::vector<double> z, std::vector<double> f, SplineKind kind
 double Spline1D::operator()(double q) const {
   if (q <= z_.front()) return f_.front();
   if (q >= z_.back()) return f_.back();
-  const std::size_t k = interval_of(z_, q);
+  const std::size_t k = knot_interval(z_, q);
   return hermite(kind_, z_[k], z_[k + 1], f_[k], f_[k + 1], m_[k], m_[k + 1], q);
 }
 
@@ -194,7 +196,7 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   });
 }
 
-std::size_t ZInterpolator::interval(double q) const { return interval_of(z_, std::clamp(q, z_.front(), z_.back())); }
+std::size_t ZInterpolator::interval(double q) const { return knot_interval(z_, q); }
 
 void ZInterpolator::sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const {
   const int w = width(), h = height();

@@ -109,6 +109,10 @@ struct HermiteBasis {
 
 double hermite(SplineKind kind, double z0, double z1, double f0, double f1, double m0, double m1, double z);
 
+/// The knot interval k (z[k] <= q < z[k + 1]) holding q, clamped to the
+/// knots: the last interval holds z.back(). \pre z increasing, size >= 2.
+std::size_t knot_interval(const std::vector<double>& z, double q);
+
 /// A 1D spline through scalar data (figures, tests).
 class Spline1D {
  public:

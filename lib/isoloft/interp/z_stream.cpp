@@ -41,17 +41,10 @@ ZStream::~ZStream() {
 }
 
 void ZStream::count(long delta) const {
-  if (!count_) return;
-  if (delta > 0) count_->add(delta);
-  else count_->remove(-delta);
+  if (count_) count_->change(delta);
 }
 
-std::size_t ZStream::interval(double q) const {
-  q = std::clamp(q, z_.front(), z_.back());
-  const auto it = std::upper_bound(z_.begin(), z_.end(), q);
-  const std::size_t k = it == z_.begin() ? 0 : std::size_t(it - z_.begin()) - 1;
-  return std::min(k, z_.size() - 2);
-}
+std::size_t ZStream::interval(double q) const { return knot_interval(z_, q); }
 
 void ZStream::next_block() {
   const std::size_t n = z_.size();

@@ -59,6 +59,7 @@ struct ResidentCount {
   long now = 0, peak = 0;
   void add(long n) { now += n, peak = now > peak ? now : peak; }
   void remove(long n) { now -= n; }
+  void change(long delta) { delta > 0 ? add(delta) : remove(-delta); }
 };
 
 /// Knots on each side that a knot's tangent depends on (the one-sided end

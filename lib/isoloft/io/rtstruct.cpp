@@ -213,7 +213,10 @@ RtStructureSet read_rtstruct(const std::string& path) {
     Sint32 ref = -1;
     item.getReferencedROINumber(ref);
     const auto it = by_number.find(ref);
-    if (it == by_number.end()) continue;  // contours of no listed ROI
+    if (it == by_number.end()) {  // contours of no listed ROI: nobody's name, colour or number to give them
+      out.unlisted_contours[int(ref)] += int(item.getContourSequence().getNumberOfItems());
+      continue;
+    }
     RtRoi& roi = out.rois[it->second];
     if (roi.number_shared) continue;  // whose? selecting either ROI is an error
     Sint32 c[3];
@@ -303,7 +306,7 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
     std::vector<std::vector<Vec2d>> loops;  // patient x, y
   };
   std::vector<Plane> planes;
-  int skipped = 0, specks = 0;
+  int skipped = 0, specks = 0, flat = 0;  // flat: loops with no area at all (collinear points)
   for (std::size_t k = 0, kz = 0; k < roi.contours.size(); ++k) {
     const RtContour& c = roi.contours[k];
     if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) {
@@ -338,8 +341,10 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
     for (auto& loop : detail::split_keyholes(ring, kKeyholeTolerance)) {
       // A loop smaller than one pixel of the working grid has no pixel to be
       // represented by: dropped, with a warning below.
-      if (std::abs(signed_area(loop)) < grid.voxel_size * grid.voxel_size) {
+      const double area = std::abs(signed_area(loop));
+      if (area < grid.voxel_size * grid.voxel_size) {
         ++specks;
+        flat += area == 0.0;
         continue;
       }
       loops.push_back(std::move(loop));
@@ -360,7 +365,17 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   if (specks > 0)
     warnings.push_back(path + ": " + what + ": " + std::to_string(specks) + " contour loop(s) smaller than one pixel of the " +
                        std::to_string(grid.voxel_size) + " mm working grid dropped (give a smaller " + option_name("--voxel-size") + " to keep them)");
-  if (planes.empty()) throw InputError(path, what + " has no closed planar contour");
+  if (planes.empty()) {
+    std::string why;
+    if (specks > 0)
+      why = ": its " + std::to_string(specks) + " contour loop(s) each enclose less than one pixel of the " +
+            std::to_string(grid.voxel_size) + " mm working grid" +
+            (flat > 0 ? " (" + std::to_string(flat) + " of them no area at all: zero net area, e.g. collinear points)"
+                      : "");
+    else if (skipped > 0)
+      why = ": its " + std::to_string(skipped) + " contour(s) are not CLOSED_PLANAR with 3 or more points";
+    throw InputError(path, what + " has no closed planar contour that encloses an area" + why);
+  }
   std::sort(planes.begin(), planes.end(), [](const Plane& a, const Plane& b) { return a.z < b.z; });
   int joined = 0;
   double worst = 0;

@@ -14,6 +14,7 @@
 // one number are an error naming them, never merged or picked silently.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,6 +43,9 @@ struct RtRoi {
 struct RtStructureSet {
   std::vector<RtRoi> rois;  ///< in the order of the StructureSetROISequence
   std::string frame_of_reference;  ///< ReferencedFrameOfReferenceUID of the first ROI ("" if none)
+  /// ROI numbers that ROIContourSequence items refer to but the
+  /// StructureSetROISequence does not list, with their contour counts (not read).
+  std::map<int, int> unlisted_contours;
   /// The ROI named `name` (exact, then ignoring case), or nullptr (the first of duplicates).
   [[nodiscard]] const RtRoi* find(const std::string& name) const;
   /// ROIs by name (exact, then ignoring case) or number, in the order asked.

@@ -12,6 +12,7 @@ MethodSpec isoloft_method();
 MethodSpec marker2006_method();
 MethodSpec levin_method();
 ZSchemeSpec columns_z_scheme();
+ZSchemeSpec track_z_scheme();
 
 const std::vector<MethodSpec>& methods() {
   static const std::vector<MethodSpec> all{
@@ -25,6 +26,7 @@ const std::vector<MethodSpec>& methods() {
 const std::vector<ZSchemeSpec>& z_schemes() {
   static const std::vector<ZSchemeSpec> all{
       columns_z_scheme(),
+      track_z_scheme(),
   };
   return all;
 }

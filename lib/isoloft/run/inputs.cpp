@@ -147,6 +147,9 @@ Inputs read_rtstruct_input(const InputRequest& r) {
          "an RT Structure Set holds polygons in mm (give " + option_name("--voxel-size") + " for the working grid)");
   in.rtstruct = std::make_unique<RtStructureSet>(read_rtstruct(path));
   const RtStructureSet& set = *in.rtstruct;
+  for (const auto& [number, count] : set.unlisted_contours)
+    in.warnings.push_back(path + ": " + std::to_string(count) + " contour(s) refer to ROI number " +
+                          std::to_string(number) + ", which the StructureSetROISequence does not list: skipped");
   RoiGrid grid;
   if (r.voxel_size) grid.voxel_size = *r.voxel_size;
   grid.plane_spacing = typical_plane_spacing(set);

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "isoloft/core/error.h"
+#include "isoloft/synth/oblique.h"
 
 namespace isoloft {
 
@@ -203,6 +204,7 @@ std::unique_ptr<Shape> shape_from_json(const json& j) {
     if (caps.empty()) throw ParamError("shape: 'capsules' is empty");
     return std::make_unique<Capsules>(std::move(caps), num(j, "blend"), type);
   }
+  if (std::unique_ptr<Shape> oblique = oblique_shape_from_json(j)) return oblique;
   throw ParamError("unknown shape type '" + type + "'");
 }
 

@@ -54,37 +54,37 @@ std::vector<Polygon> implicit_slice_polygons(const std::function<double(const Ve
   return out;
 }
 
-SynthResult synthesize(const Shape& shape, const SynthParams& params) {
-  if (params.size < 8) throw ParamError("synth: --size must be at least 8");
-  if (!(params.z_spacing > 0)) throw ParamError("synth: --z-spacing must be positive");
+SynthResult synthesize_at(const Shape& shape, const std::vector<double>& z, int width, int height, const SynthParams& params) {
+  if (width < 8 || height < 8) throw ParamError("synth: images must be at least 8 pixels across");
   if (params.kind == InputKind::Labels) throw ParamError("synth: writes contours, masks or polylines");
+  if (z.size() < 2) throw ParamError("synth: fewer than 2 slices meet the shape; lower --z-spacing");
   const auto [lo, hi] = shape.bounds();
-  if (lo.x() < 1 || lo.y() < 1 || hi.x() > params.size - 2 || hi.y() > params.size - 2)
-    throw ParamError("synth: the shape does not fit in a " + std::to_string(params.size) + " pixel image");
-  const double z0 = lo.z() + params.first_offset * params.z_spacing;
+  if (lo.x() < 1 || lo.y() < 1 || hi.x() > width - 2 || hi.y() > height - 2)
+    throw ParamError("synth: the shape does not fit in a " + std::to_string(width) + "x" + std::to_string(height) +
+                     " pixel image");
   SynthResult r;
-  r.shape = shape.translated(Vec3d(0, 0, -z0));
-  r.stack.width = r.stack.height = params.size;
+  r.shape = shape.translated(Vec3d::Zero());
+  r.stack.width = width;
+  r.stack.height = height;
   r.stack.max_value = 255;
   r.stack.kind = params.kind;
-  for (int k = 0;; ++k) {
-    const double z = k * params.z_spacing;
-    if (z + z0 >= hi.z()) break;
+  for (std::size_t k = 0; k < z.size(); ++k) {
     Slice s;
-    s.z = z;
+    s.z = z[k];
     s.source = "synth slice " + std::to_string(k);
-    Grid2f f(params.size, params.size);
-    tbb::parallel_for(0, params.size, [&](int y) {
-      for (int x = 0; x < params.size; ++x) f(x, y) = float(r.shape->value(Vec3d(x, y, z)));
-    });
     if (params.kind == InputKind::Polylines) {
       const Shape& sh = *r.shape;
-      s.polygons = implicit_slice_polygons([&sh, z](const Vec2d& q) { return sh.value(Vec3d(q.x(), q.y(), z)); }, params.size,
-                                           params.size, params.polyline_step);
+      const double zk = z[k];
+      s.polygons = implicit_slice_polygons([&sh, zk](const Vec2d& q) { return sh.value(Vec3d(q.x(), q.y(), zk)); }, width,
+                                           height, params.polyline_step);
       r.stack.slices.push_back(std::move(s));
       continue;
     }
-    s.image = Grid2u32(params.size, params.size, 0);
+    Grid2f f(width, height);
+    tbb::parallel_for(0, height, [&](int y) {
+      for (int x = 0; x < width; ++x) f(x, y) = float(r.shape->value(Vec3d(x, y, z[k])));
+    });
+    s.image = Grid2u32(width, height, 0);
     if (params.kind == InputKind::Contours) {
       const Grid2u8 c = rasterize_implicit_contour(f);
       for (std::size_t i = 0; i < c.size(); ++i) s.image.data[i] = c.data[i] ? 255u : 0u;
@@ -93,16 +93,38 @@ SynthResult synthesize(const Shape& shape, const SynthParams& params) {
     }
     r.stack.slices.push_back(std::move(s));
   }
-  if (r.stack.slices.size() < 2) throw ParamError("synth: fewer than 2 slices meet the shape; lower --z-spacing");
   r.description = {{"shape", r.shape->to_json()},
                    {"stack",
-                    {{"size", params.size},
-                     {"z_spacing", params.z_spacing},
+                    {{"width", width},
+                     {"height", height},
                      {"slices", r.stack.slices.size()},
-                     {"z_first", r.stack.slices.front().z},
-                     {"z_last", r.stack.slices.back().z},
+                     {"z", z},
+                     {"z_first", z.front()},
+                     {"z_last", z.back()},
                      {"input", to_string(params.kind)},
-                     {"units", "pixels; pixel (i, j) of slice k is at (i, j, k * z_spacing)"}}}};
+                     {"units", "pixels; pixel (i, j) of slice k is at (i, j, z[k])"}}}};
+  return r;
+}
+
+SynthResult synthesize(const Shape& shape, const SynthParams& params) {
+  if (params.size < 8) throw ParamError("synth: --size must be at least 8");
+  if (!(params.z_spacing > 0)) throw ParamError("synth: --z-spacing must be positive");
+  if (params.kind == InputKind::Labels) throw ParamError("synth: writes contours, masks or polylines");
+  const auto [lo, hi] = shape.bounds();
+  if (lo.x() < 1 || lo.y() < 1 || hi.x() > params.size - 2 || hi.y() > params.size - 2)
+    throw ParamError("synth: the shape does not fit in a " + std::to_string(params.size) + " pixel image");
+  const double z0 = lo.z() + params.first_offset * params.z_spacing;
+  const std::unique_ptr<Shape> moved = shape.translated(Vec3d(0, 0, -z0));
+  std::vector<double> z;
+  for (int k = 0; k * params.z_spacing + z0 < hi.z(); ++k) z.push_back(k * params.z_spacing);
+  SynthResult r = synthesize_at(*moved, z, params.size, params.size, params);
+  r.description["stack"] = {{"size", params.size},
+                            {"z_spacing", params.z_spacing},
+                            {"slices", r.stack.slices.size()},
+                            {"z_first", r.stack.slices.front().z},
+                            {"z_last", r.stack.slices.back().z},
+                            {"input", to_string(params.kind)},
+                            {"units", "pixels; pixel (i, j) of slice k is at (i, j, k * z_spacing)"}};
   return r;
 }
 

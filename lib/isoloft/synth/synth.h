@@ -35,6 +35,13 @@ struct SynthResult {
 ///        leaves the image, or fewer than 2 planes meet it.
 SynthResult synthesize(const Shape& shape, const SynthParams& params);
 
+/// Cuts `shape` where it lies at the heights `z` (increasing) into
+/// width x height images (or polygons) of params.kind; params.size,
+/// z_spacing and first_offset are not read.
+/// \throw ParamError if a size is < 8, kind is Labels, the shape leaves the
+///        image, or z has fewer than 2 heights.
+SynthResult synthesize_at(const Shape& shape, const std::vector<double>& z, int width, int height, const SynthParams& params);
+
 /// The contour pixels of an implicit slice f (positive inside).
 Grid2u8 rasterize_implicit_contour(const Grid2f& f);
 
