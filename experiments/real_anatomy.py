@@ -258,7 +258,7 @@ def main():
                     d = os.path.join(a.out, "inputs", cid)
                     write_inputs(d, inp, kept, dz)
                     geo = dict(z_lo=ne[0] * dz, z_hi=ne[-1] * dz, planes=[z * dz for z in kept], spacing=k * dz,
-                               leftout=leftout)
+                               leftout=leftout, inputs={z: inp[z] for z in kept})
                     mdir = os.path.join(a.out, "meshes")
                     os.makedirs(mdir, exist_ok=True)
                     for s in todo:
