@@ -26,7 +26,8 @@ struct ReconstructArgs {
   std::vector<std::string> rois;   ///< RT Structure Sets: ROI names ("" = every ROI with closed contours)
   double voxel_size = 0.5;         ///< RT Structure Sets: working grid, mm
   std::string space;               ///< patient space of the outputs: lps (default) or ras
-  std::string labelmap;            ///< volumes: the dense label map out
+  std::string labelmap;            ///< the dense label map out (volumes; any input with --reference)
+  std::string reference;           ///< the grid of --labelmap: a CT series folder or a volume
   std::string rtstruct;            ///< RT Structure Sets: the surfaces back as an RT Structure Set (or -o OUT.dcm)
   std::string volumes;             ///< the volume table as CSV or JSON
   int threads = 0;

@@ -20,10 +20,12 @@
 #include "cli/commands.h"
 #include "cli/inputs.h"
 #include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/run/reference_labelmap.h"
 
 namespace fs = std::filesystem;
 
@@ -164,8 +166,18 @@ int Commands::reconstruct() {
   if (!o.rtstruct.empty()) run.outputs.push_back(std::make_unique<RtStructOutput>(o.rtstruct));
   if (!o.volumes.empty()) run.outputs.push_back(std::make_unique<VolumeTableOutput>(o.volumes));
   if (!o.volume.empty()) run.outputs.push_back(std::make_unique<VolumeOutput>(o.volume));
+  if (!o.reference.empty() && o.labelmap.empty())
+    throw ParamError(option_name("--reference") + " " + o.reference + ": gives the grid of a label map; give " +
+                     option_name("--labelmap") + " OUT.nii.gz with it");
   LabelmapOutput* labelmap = nullptr;
-  if (!o.labelmap.empty()) {
+  ReferenceLabelmapOutput* reference_labelmap = nullptr;
+  if (!o.labelmap.empty() && !o.reference.empty()) {
+    // The reference's headers (its voxels dropped), before the input is read.
+    auto out = std::make_unique<ReferenceLabelmapOutput>(o.labelmap,
+                                                        std::make_shared<const ReferenceGrid>(read_reference(o.reference)));
+    reference_labelmap = out.get();
+    run.outputs.push_back(std::move(out));
+  } else if (!o.labelmap.empty()) {
     auto out = std::make_unique<LabelmapOutput>(o.labelmap);
     labelmap = out.get();
     run.outputs.push_back(std::move(out));
@@ -212,6 +224,10 @@ int Commands::reconstruct() {
                   << ")\n";
     if (!dcm_output && several_outputs(in, result)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
     if (labelmap) std::cerr << "isoloft: wrote " << o.labelmap << " (dense label map)\n";
+    if (reference_labelmap) {
+      for (const auto& note : reference_labelmap->notes()) std::cerr << "isoloft: " << note << "\n";
+      std::cerr << "isoloft: wrote " << o.labelmap << " (label map on the grid of " << o.reference << ")\n";
+    }
   }
   return 0;
 }

@@ -25,6 +25,7 @@
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/run.h"
+#include "isoloft/run/reference_labelmap.h"
 #include "isoloft/synth/synth.h"
 
 namespace py = pybind11;
@@ -423,6 +424,7 @@ struct CallbackStopped : std::exception {
 // The outputs a reconstruct() call writes besides its meshes (save() writes those).
 struct PyOutputs {
   std::string volume, labelmap, dump_stages, rtstruct, volumes, report;
+  std::string reference;  ///< the grid of labelmap (a CT series folder or a volume)
 };
 
 PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<std::uint32_t>& labels,
@@ -438,7 +440,14 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
   if (max_files < 0) throw ParamError("max_files: must be >= 0 (0 = no limit), got " + std::to_string(max_files));
   o.budget = {parse_size(max_memory, "max_memory"), parse_size(max_output, "max_output"), max_files};
   if (!files.volume.empty()) o.outputs.push_back(std::make_unique<VolumeOutput>(files.volume));
-  if (!files.labelmap.empty()) o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
+  if (!files.reference.empty() && files.labelmap.empty())
+    throw ParamError(option_name("--reference") + ": gives the grid of a label map; give " + option_name("--labelmap") +
+                     " with it");
+  if (!files.labelmap.empty() && !files.reference.empty())
+    o.outputs.push_back(std::make_unique<ReferenceLabelmapOutput>(
+        files.labelmap, std::make_shared<const ReferenceGrid>(read_reference(files.reference))));
+  else if (!files.labelmap.empty())
+    o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
   if (!files.dump_stages.empty()) o.outputs.push_back(std::make_unique<StageDumpOutput>(files.dump_stages));
   if (!files.rtstruct.empty()) o.outputs.push_back(std::make_unique<RtStructOutput>(files.rtstruct));
   if (!files.volumes.empty()) o.outputs.push_back(std::make_unique<VolumeTableOutput>(files.volumes));
@@ -747,12 +756,15 @@ PYBIND11_MODULE(_isoloft, m) {
                            std::optional<int> threads, const py::object& progress, bool allow_empty,
                            const std::string& volume, const std::string& labelmap, const std::string& dump_stages,
                            const std::string& rtstruct, const std::string& volumes, const std::string& report,
-                           const std::string& max_memory, const std::string& max_output, long max_files) {
+                           const std::string& max_memory, const std::string& max_output, long max_files,
+                           const std::string& reference) {
           return run(input, params, labels, threads, progress, allow_empty,
-                     {volume, labelmap, dump_stages, rtstruct, volumes, report}, max_memory, max_output, max_files);
+                     {volume, labelmap, dump_stages, rtstruct, volumes, report, reference}, max_memory, max_output,
+                     max_files);
         }, py::arg("input"), py::arg("params"), py::arg("labels"), py::arg("threads"), py::arg("progress"),
         py::arg("allow_empty"), py::arg("volume"), py::arg("labelmap"), py::arg("dump_stages"), py::arg("rtstruct"),
-        py::arg("volumes"), py::arg("report"), py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"));
+        py::arg("volumes"), py::arg("report"), py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"),
+        py::arg("reference"));
   m.def("_synth", &synth, py::arg("shape"), py::arg("size"), py::arg("z_spacing"), py::arg("kind"));
   m.def("_evaluate", &evaluate, py::arg("mesh"), py::arg("truth"), py::arg("pixel_size"));
   m.def("shapes", &shape_names, "the analytic shapes isoloft.synth() makes");

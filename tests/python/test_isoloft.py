@@ -200,6 +200,33 @@ def test_rtstruct_gives_the_cli_mesh_bytes(tmp_path, data_dir):
     assert res.objects[0].vertices[:, 2].min() > -101 and res.objects[0].vertices[:, 2].max() < 1
 
 
+
+def test_rtstruct_labelmap_on_a_reference_grid(tmp_path, data_dir):
+    """labelmap= with reference= (issue 25): the CLI's label map, on the reference's grid."""
+    nib = pytest.importorskip("nibabel")
+    rtss = data_dir / "rtstruct" / "rtss.dcm"
+    # A CT-like grid around Scar (ROI 8) as NIfTI stores one: RAS, i towards
+    # the patient's left (LPS +x), j posterior, 3 mm slices on its contour planes.
+    affine = np.array([[-1.0, 0, 0, -120.3], [0, -1.0, 0, 345.2], [0, 0, 3.0, -26.44], [0, 0, 0, 1]])
+    nib.save(nib.Nifti1Image(np.zeros((25, 50, 9), np.int16), affine), tmp_path / "ct.nii.gz")
+    res = isoloft.reconstruct(rtss, roi="Scar", reference=tmp_path / "ct.nii.gz", labelmap=tmp_path / "py.nii.gz")
+    run_cli("reconstruct", rtss, "--roi", "Scar", "-o", tmp_path / "cli.ply", "--reference", tmp_path / "ct.nii.gz",
+            "--labelmap", tmp_path / "cli.nii.gz")
+    py, cli = nib.load(tmp_path / "py.nii.gz"), nib.load(tmp_path / "cli.nii.gz")
+    assert np.allclose(py.affine, affine, atol=1e-4) and py.shape == (25, 50, 9)
+    labels = np.asarray(py.dataobj)
+    assert np.array_equal(labels, np.asarray(cli.dataobj))
+    assert set(np.unique(labels)) == {0, 8}
+    row = res.report["labelmap_labels"][0]
+    assert row["label"] == 8 and row["labelled_voxels"] == int((labels == 8).sum())
+    with pytest.raises(isoloft.ParamError, match="reference: gives the grid of a label map; give labelmap"):
+        isoloft.reconstruct(rtss, roi="Scar", reference=tmp_path / "ct.nii.gz")
+    (tmp_path / "notes.txt").write_text("not an image")
+    with pytest.raises(isoloft.InputError, match="notes.txt: not a reference grid"):
+        isoloft.reconstruct(rtss, roi="Scar", reference=tmp_path / "notes.txt", labelmap=tmp_path / "x.nii.gz")
+    assert not (tmp_path / "x.nii.gz").exists()
+
+
 # ---------------------------------------------------------------- parameters
 
 def test_parameters_by_keyword_match_the_cli_flags(tmp_path, sphere_dir):

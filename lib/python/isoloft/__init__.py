@@ -127,8 +127,8 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
 
 def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
                 voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
-                progress=None, allow_empty=False, volume=None, labelmap=None, dump_stages=None, rtstruct=None,
-                volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
+                progress=None, allow_empty=False, volume=None, labelmap=None, reference=None, dump_stages=None,
+                rtstruct=None, volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
     slices, one of:
@@ -154,7 +154,9 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     allow_empty: return a surface with no triangles instead of raising on it.
     Files written with the run, all or none, as the CLI's flags of the same
     names: volume (OUT.nrrd, the signed distance volume per object),
-    labelmap (a volume's dense label map, .nii.gz/.nii/.nrrd/.mha),
+    labelmap (a volume's dense label map, .nii.gz/.nii/.nrrd/.mha; with
+    reference, a CT series folder or a volume file, on that grid: one label
+    per ROI number or label, the smallest object on top where they overlap),
     dump_stages (a directory: per-slice fields), rtstruct (an RT Structure
     Set input's surfaces back as OUT.dcm, cut at its contour planes), volumes
     (the volume table, .csv or .json; .report["volumes"] always has it),
@@ -193,7 +195,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
                                  _path_or_empty(volume), _path_or_empty(labelmap), _path_or_empty(dump_stages),
                                  _path_or_empty(rtstruct), _path_or_empty(volumes), _path_or_empty(report),
-                                 str(max_memory), str(max_output), int(max_files))
+                                 str(max_memory), str(max_output), int(max_files), _path_or_empty(reference))
 
 
 def evaluate(mesh, truth, *, pixel_size=1.0):
