@@ -550,4 +550,28 @@ TEST_F(BadInput, TooManyFilesStopTheRunBeforeTheWork) {
   EXPECT_EQ(exact.code, 0) << exact.err;
 }
 
+// A label partition streams every label's fields together, so the budget
+// adds them up over the labels (per run), not only per label: 1,024 labels of
+// 2x2 px fit 16 MiB one at a time but not together (about 18 KiB of fields
+// each), while independent labels hold only their meshes together.
+TEST_F(BadInput, ThePartitionsFieldsAreCountedTogetherAgainstTheBudget) {
+  Volume v;
+  v.nx = v.ny = 128, v.nz = 3;
+  v.integer = true;
+  v.data.assign(std::size_t(v.nx) * v.ny * v.nz, 0.0f);
+  for (int label = 1; label <= 1024; ++label) {
+    const int x = 4 * ((label - 1) % 32), y = 4 * ((label - 1) / 32);
+    for (int k : {0, 2})
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) v.data[v.index(x + dx, y + dy, k)] = float(label);
+  }
+  write_volume(p("many.nii.gz"), v);
+  expect_error("reconstruct " + p("many.nii.gz") + " -o " + p("out/m.ply") + " --method levin --max-memory 16M", 1,
+               "--max-memory: the labels' fields and meshes held together up to label");
+  EXPECT_FALSE(fs::exists(p("out")));
+  const CliRun apart = run("reconstruct " + p("many.nii.gz") + " -o " + p("apart/m.ply") +
+                           " --method levin --max-memory 16M --independent-labels");
+  EXPECT_EQ(apart.code, 0) << apart.err;
+}
+
 }  // namespace

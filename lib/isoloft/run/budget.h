@@ -27,7 +27,7 @@ inline constexpr long kDefaultMaxFiles = 4096;
 
 /// Limits, 0 = no limit.
 struct Budget {
-  double max_memory = 0;  ///< --max-memory, bytes: per object and, for the meshes held until written, per run
+  double max_memory = 0;  ///< --max-memory, bytes: per object and per run (meshes held until written; a partition's fields)
   double max_output = 0;  ///< --max-output, bytes
   long max_files = 0;     ///< --max-files: files planned before the work (meshes, volumes, label map, report)
 };
