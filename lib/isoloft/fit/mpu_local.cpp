@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 
@@ -333,9 +334,23 @@ std::vector<std::vector<int>> connected_parts(const std::vector<Vec2d>& points, 
     return a;
   };
   const double l2 = link * link;
-  for (int i = 0; i < m; ++i)
-    for (int j = i + 1; j < m; ++j)
-      if ((points[ids[i]] - points[ids[j]]).squaredNorm() <= l2) parent[find(j)] = find(i);
+  auto link_pair = [&](int i, int j) {
+    if ((points[ids[i]] - points[ids[j]]).squaredNorm() <= l2) parent[find(j)] = find(i);
+  };
+  // Only pairs less than `link` apart in x can be linked: a sweep over the
+  // points in x order tests those (with a margin for rounding), the same
+  // links as testing every pair, so the same parts (union order does not
+  // matter).
+  std::vector<std::pair<double, int>> by_x(m);
+  for (int i = 0; i < m; ++i) by_x[i] = {points[ids[i]].x(), i};
+  std::sort(by_x.begin(), by_x.end());
+  // x gaps up to `link` plus a rounding margin: a pair the squared-norm test
+  // links is never skipped by its x gap.
+  constexpr double kSweepRelativeMargin = 1e-6, kSweepAbsoluteMargin = 1e-12;
+  const double reach = link * (1.0 + kSweepRelativeMargin) + kSweepAbsoluteMargin;
+  for (int a = 0; a < m; ++a)
+    for (int b = a + 1; b < m && by_x[b].first - by_x[a].first <= reach; ++b)
+      link_pair(std::min(by_x[a].second, by_x[b].second), std::max(by_x[a].second, by_x[b].second));
   std::vector<int> label(m, -1);
   std::vector<std::vector<int>> parts;
   for (int i = 0; i < m; ++i) {
