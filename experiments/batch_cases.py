@@ -5,8 +5,8 @@ MetaImage, the RT-STRUCT's Heart and Breast (or Lt Lung: --lung), and the
 116 AAL structures from every 4th axial slice in four cases. Writes DIR/cases.csv (the manifest) and DIR/loop.sh (the same
 commands one after the other, --threads 1, as the batch runs them), so that
 
-    farm-bench -n 3 --timeout 1800 -- build/isoloft batch DIR/cases.csv --out DIR/out --workers 2 --force -q \\
-        --vs 'sh DIR/loop.sh'
+    farm-bench -n 3 --timeout 1800 --vs 'sh DIR/loop.sh' -- \\
+        build/isoloft batch DIR/cases.csv --out DIR/out --workers 2 --force -q
 
 times the two (the mesh bytes of DIR/out and DIR/loop match: loop.sh ends
 with that check).
@@ -60,7 +60,7 @@ def main():
             w.writerow([str(src), name, options])
     lines = ["set -e", f"rm -rf {d}/loop", f"mkdir -p {d}/loop"]
     for name, src, options in cases:
-        lines.append(f"mkdir -p {d}/loop/{name} && cd {d}/loop/{name} && {shlex.quote(a.cli)} reconstruct "
+        lines.append(f"mkdir -p {d}/loop/{name} && cd {d}/loop/{name} && {shlex.quote(str(pathlib.Path(a.cli).absolute()))} reconstruct "
                      f"{shlex.quote(str(src))} {options} -o {name}.ply --report {name}.json --threads 1 -q")
     lines.append(f"cd {d} && for f in $(cd loop && find . -name '*.ply'); do cmp -s loop/$f out/$f || "
                  "{ echo \"differs: $f\" >&2; exit 1; }; done")
