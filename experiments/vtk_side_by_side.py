@@ -78,7 +78,12 @@ def read_white(path):
 def slice_polygons(path):
     """Closed polygons through contour pixel centres (integer x, y, as
     vtkVoxelContoursToSurfaceFilter requires), one per contour curve."""
-    w = np.pad(read_white(path), 1)  # black border: every curve closes
+    return white_polygons(read_white(path))
+
+
+def white_polygons(white):
+    """slice_polygons() of a bool contour image [row, col]."""
+    w = np.pad(white, 1)  # black border: every curve closes
     # Contour the background (black = 255): VTK's marching squares cuts off the
     # above-value corners of a saddle cell, so black stays 4-connected and the
     # 8-connected white curves stay closed, as in isoloft's even-odd fill.

@@ -79,6 +79,10 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
               "the distance to it; not in the paper; mask_curve.*) or pixel-centres (the paper 2.1: boundary pixel "
               "centres moved mask_edge_offset out, the MPU fit)")
             .cli("--mask-boundary"),
+        field("polyline_boundary", &P::polyline_boundary, "",
+              "polylines: drawn (the polygons as drawn: the slice field is the exact distance to their edges, no fit; "
+              "not in the paper) or fit (the paper 2.1: points along the edges, the MPU fit)")
+            .cli("--polyline-boundary"),
         field("mask_min_feature", &P::mask_min_feature, "px",
               "marker2006, masks/labels: mask features (lines, spurs, islands; notches, holes, gaps) narrower than this "
               "are removed before the contour points are taken, by an opening and a closing with a square of this side "

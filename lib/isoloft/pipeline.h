@@ -37,6 +37,7 @@
 #include "isoloft/interp/track_params.h"
 #include "isoloft/mesh/decimate.h"
 #include "isoloft/mesh/marching_cubes.h"
+#include "isoloft/eval/point_mesh.h"
 #include "isoloft/mesh/mesh_check.h"
 
 namespace isoloft {
@@ -69,6 +70,15 @@ inline constexpr std::array<EnumName<MaskBoundary>, 2> kMaskBoundaryNames{
     {{MaskBoundary::PixelCentres, "pixel-centres"}, {MaskBoundary::Traced, "traced"}}};
 constexpr std::span<const EnumName<MaskBoundary>> enum_names(MaskBoundary) { return kMaskBoundaryNames; }
 
+/// Where the slice curve of polygon input comes from (curve-fitting methods).
+enum class PolylineBoundary {
+  Fit,    ///< the paper's: points sampled along the edges (polyline_spacing), the MPU fit
+  Drawn,  ///< field/narrow_band.h polygon_narrow_band: the polygons themselves, the exact distance to their edges
+};
+inline constexpr std::array<EnumName<PolylineBoundary>, 2> kPolylineBoundaryNames{
+    {{PolylineBoundary::Fit, "fit"}, {PolylineBoundary::Drawn, "drawn"}}};
+constexpr std::span<const EnumName<PolylineBoundary>> enum_names(PolylineBoundary) { return kPolylineBoundaryNames; }
+
 /// The pipeline's own parameters, then one struct per stage; docs in the rows
 /// of params_table<ReconstructParams>() (pipeline.cpp).
 struct ReconstructParams {
@@ -82,6 +92,7 @@ struct ReconstructParams {
   double mpu_band = 4.0;
   int mask_min_feature = 2;
   MaskBoundary mask_boundary = MaskBoundary::Traced;  ///< the isoloft method's; marker2006: pixel-centres
+  PolylineBoundary polyline_boundary = PolylineBoundary::Drawn;  ///< the isoloft method's; marker2006: fit
   int crop_margin = 32;
   bool label_partition = true;
   FillParams fill;              ///< contour/: even-odd fill, open contours
@@ -136,6 +147,9 @@ struct ObjectResult {
   TriMesh mesh;                ///< closed, outward-oriented, pixel units (possibly empty: empty_reason)
   std::string empty_reason;    ///< why the mesh has no triangles ("" if it has some)
   MeshCheck check;
+  /// run_jobs(), polygon inputs: how far the input's contour vertices lie
+  /// from the mesh (working pixels): the geometric error of the working grid.
+  std::optional<DistanceSummary> contour_distance;
   long triangles_before_decimation = 0;
   int slices_with_contours = 0;
   FitStats fit;                ///< marker2006: summed over slices

@@ -2,11 +2,15 @@
 
 #include <sys/resource.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
+#include <exception>
+#include <numeric>
 #include <map>
 #include <mutex>
 #include <cmath>
@@ -172,17 +176,99 @@ void check_surfaces(const Inputs& in, const RunResult& r, bool allow_empty) {
   }
 }
 
+namespace {
+
+// The contour vertices of a polygon stack, at their slice z (working pixels).
+std::vector<Vec3d> contour_vertices(const SliceStack& st) {
+  std::vector<Vec3d> v;
+  for (const Slice& s : st.slices)
+    for (const Polygon& poly : s.polygons)
+      for (const Vec2d& p : poly.points) v.emplace_back(p.x(), p.y(), s.z);
+  return v;
+}
+
+bool sees_objects_one_by_one(const ReconstructOptions& o) { return o.on_slice_fields || o.on_plane || o.on_sample; }
+
+// Pixel work of a job, to start the largest first.
+double job_work(const Job& job) {
+  const SliceStack& st = job.stack;
+  return double(st.slices.size()) * double(st.width) * double(st.height);
+}
+
+// reconstruct() on every job. Side by side when no job has a per-plane,
+// per-sample or per-slice hook (those see objects one at a time): the
+// largest first, at most one per worker thread, each job's own parallel
+// loops isolated (a waiting thread does not start another job inside them),
+// on_estimate called one at a time. The results are those of running the
+// jobs in turn; the first error in job order is rethrown. Otherwise in turn.
+std::vector<ReconstructResult> reconstruct_jobs(const Inputs& in, const ReconstructParams& params,
+                                                const std::vector<std::uint32_t>& labels,
+                                                const std::function<void(std::size_t, ReconstructOptions&)>& configure,
+                                                const std::function<void(std::size_t)>& finished) {
+  const std::size_t n = in.jobs.size();
+  std::vector<ReconstructResult> results(n);
+  std::vector<ReconstructOptions> options(n);
+  bool one_by_one = n < 2;
+  for (std::size_t j = 0; j < n; ++j) {
+    options[j].labels = labels;
+    if (configure) configure(j, options[j]);
+    one_by_one = one_by_one || sees_objects_one_by_one(options[j]);
+  }
+  auto run_one = [&](std::size_t j) {
+    results[j] = reconstruct(in.jobs[j].stack, params, options[j]);
+    if (finished) finished(j);
+    if (in.jobs[j].stack.has_polygons())
+      for (ObjectResult& ob : results[j].objects)
+        if (!ob.mesh.empty())
+          ob.contour_distance = summarize_distances(point_mesh_distances(ob.mesh, contour_vertices(in.jobs[j].stack)));
+  };
+  if (one_by_one) {
+    for (std::size_t j = 0; j < n; ++j) run_one(j);
+    return results;
+  }
+  std::mutex estimates;
+  for (ReconstructOptions& o : options)
+    if (o.on_estimate)
+      o.on_estimate = [&estimates, f = o.on_estimate](const WorkEstimate& e) {
+        const std::lock_guard lock(estimates);
+        f(e);
+      };
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return job_work(in.jobs[a]) > job_work(in.jobs[b]); });
+  std::vector<std::exception_ptr> errors(n);
+  std::atomic<std::size_t> next{0};
+  const std::size_t workers = std::min<std::size_t>(n, std::size_t(std::max(1, tbb::this_task_arena::max_concurrency())));
+  tbb::parallel_for(std::size_t(0), workers, [&](std::size_t) {
+    for (std::size_t i; (i = next++) < n;) {
+      const std::size_t j = order[i];
+      tbb::this_task_arena::isolate([&] {
+        try {
+          run_one(j);
+        } catch (...) {
+          errors[j] = std::current_exception();
+        }
+      });
+    }
+  });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  return results;
+}
+
+}  // namespace
+
 RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std::vector<std::uint32_t>& labels,
-                   const std::function<void(std::size_t, ReconstructOptions&)>& configure) {
+                   const std::function<void(std::size_t, ReconstructOptions&)>& configure,
+                   const std::function<void(std::size_t)>& finished) {
   RunResult all;
   all.warnings = in.warnings;
   all.threads = int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  std::vector<ReconstructResult> results = reconstruct_jobs(in, params, labels, configure, finished);
   for (std::size_t j = 0; j < in.jobs.size(); ++j) {
     const Job& job = in.jobs[j];
-    ReconstructOptions ropt;
-    ropt.labels = labels;
-    if (configure) configure(j, ropt);
-    ReconstructResult r = reconstruct(job.stack, params, ropt);
+    ReconstructResult& r = results[j];
     for (auto& w : r.warnings) all.warnings.push_back(job.name.empty() ? w : "ROI '" + job.name + "': " + w);
     all.times += r.times;
     for (auto& ob : r.objects) {
@@ -209,6 +295,8 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   // their fields too. 16,384 labels of 2x2 px: 1.2 GiB of fields together.
   const bool joint_fields = params.label_partition && in.labels();
   double held_bytes = 0;
+  // ROIs run side by side (run_jobs): the fields of the jobs in flight.
+  std::vector<double> job_fields(in.jobs.size(), 0.0);
   std::mutex held_mutex;
   auto check_object = [&](const Job& job, const WorkEstimate& e) {
     const std::string what = object_text(job, e);
@@ -216,10 +304,14 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     {
       std::lock_guard lock(held_mutex);
       held_bytes += e.mesh_bytes + (joint_fields ? e.field_bytes : 0.0);
+      if (!joint_fields) job_fields[&job - in.jobs.data()] = std::max(job_fields[&job - in.jobs.data()], e.field_bytes);
+      double in_flight = 0;
+      for (const double b : job_fields) in_flight += b;
       check_budget(option_name("--max-memory"),
-                   (joint_fields ? "the labels' fields and meshes held together up to " : "the meshes held up to ") +
+                   (joint_fields ? "the labels' fields and meshes held together up to "
+                                 : "the meshes held and the fields of the jobs running up to ") +
                        what,
-                   in_bytes + held_bytes, o.budget.max_memory);
+                   in_bytes + held_bytes + (joint_fields ? 0.0 : in_flight), o.budget.max_memory);
     }
     double bytes = 0;
     std::string note;
@@ -246,6 +338,9 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
           RunProgress p{j, job.name, label, stage, done, total};
           if (tracker.step(p)) o.progress(p);
         };
+    }, [&](std::size_t j) {
+      const std::lock_guard lock(held_mutex);
+      job_fields[j] = 0;  // its fields are freed
     });
   });
   r.threads = std::min(arena.max_concurrency(),
@@ -279,6 +374,7 @@ nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method metho
     j["vertices"] = ob.mesh.vertices.size();
     j["triangles"] = ob.mesh.triangles.size();
     j["triangles_before_decimation"] = ob.triangles_before_decimation;
+    if (ob.contour_distance) j["contour_vertex_distance"] = ob.contour_distance->to_json(s);
     j["slices_with_contours"] = ob.slices_with_contours;
     j["closed"] = ob.check.closed;
     j["manifold"] = ob.check.manifold;

@@ -93,14 +93,19 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& opt
 /// What must hold before the input is read (cheap): every output's check_format().
 void check_outputs_format(const RunOptions& options, InputFormat format);
 
-/// reconstruct() on every job in turn; `configure` (optional) adds per-job
-/// options (progress, volume planes, ...) before each. No object at all (no
+/// reconstruct() on every job; `configure` (optional) adds per-job options
+/// (progress, volume planes, ...), for every job before any runs; `finished`
+/// (optional) is told each job's end. Jobs without per-plane, per-sample or
+/// per-slice hooks run side by side (largest first, on_estimate one at a
+/// time), else in turn; the result is the same. No object at all (no
 /// contour anywhere) leaves `objects` empty: the caller's error to raise.
 RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std::vector<std::uint32_t>& labels,
-                   const std::function<void(std::size_t job, ReconstructOptions&)>& configure = {});
+                   const std::function<void(std::size_t job, ReconstructOptions&)>& configure = {},
+                   const std::function<void(std::size_t)>& finished = {});
 
 /// The report's "objects": per object its label, file, ROI, counts, checks,
-/// volume and area (output units) and MPU statistics (marker2006).
+/// volume and area (output units), MPU statistics (marker2006) and, for
+/// polygon inputs, the contour vertices' distance to the mesh (output units).
 nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method method);
 
 /// Wall seconds of the parts of a run outside the pipeline.

@@ -116,6 +116,26 @@ TEST(ContourRasterize, PolygonWithHole) {
   EXPECT_TRUE(inside(40, 12)) << at(40, 12);
 }
 
+// even_odd_inside is rasterize_polygons' inside without the contour pixels: a
+// pixel an edge crosses whose centre lies outside is outside.
+TEST(ContourRasterize, EvenOddInsideLeavesOutContourPixelsWhoseCentreIsOutside) {
+  Polygon tri;
+  tri.points = {{3.4, 3.2}, {20.6, 5.1}, {9.3, 18.7}};
+  const std::vector<Polygon> polys{tri};
+  Grid2u8 contour, inside;
+  rasterize_polygons(polys, 24, 24, contour, inside);
+  const Grid2u8 centres = even_odd_inside(polys, 24, 24);
+  int contour_outside = 0;
+  for (int y = 0; y < 24; ++y)
+    for (int x = 0; x < 24; ++x) {
+      ASSERT_EQ(inside(x, y), centres(x, y) | contour(x, y)) << at(x, y);
+      contour_outside += contour(x, y) && !centres(x, y);
+    }
+  EXPECT_GT(contour_outside, 0) << "no contour pixel with its centre outside: the case is not exercised";
+  EXPECT_TRUE(centres(10, 8)) << at(10, 8);
+  EXPECT_FALSE(centres(3, 3)) << at(3, 3);
+}
+
 TEST(ContourRasterize, NestedIslandAndAxisAlignedEdges) {
   // Integer vertices put pixel centres exactly on edges and vertices.
   Polygon a, b, c;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/field/narrow_band.h"
@@ -130,6 +131,46 @@ TEST(NarrowBand, LinksCloseTheCurve) {
       ASSERT_EQ(r.segments[std::size_t(n)][be], r.segments[k][e]) << "segment " << k << " end " << e;
     }
   }
+}
+
+// polygon_narrow_band (drawn polygons): a concave outline with a triangular
+// hole, one vertex repeated and the first repeated at the end. The band is the
+// exact distance to the edges (a brute-force twin over the edges listed by
+// hand), signed by the even-odd rule; repeats add no edge; links go around.
+TEST(NarrowBand, PolygonBandIsTheExactDistanceToTheDrawnEdges) {
+  constexpr int kSize = 64;
+  Polygon outer, hole;
+  outer.points = {{5.3, 6.7}, {50.2, 4.1}, {50.2, 4.1}, {57.6, 30.5}, {31.4, 24.9}, {44.8, 55.2}, {8.9, 51.3}, {5.3, 6.7}};
+  hole.points = {{15.2, 30.1}, {22.7, 29.4}, {21.9, 38.8}};
+  const std::vector<Polygon> polys{outer, hole};
+  const std::vector<Vec2d> o{{5.3, 6.7}, {50.2, 4.1}, {57.6, 30.5}, {31.4, 24.9}, {44.8, 55.2}, {8.9, 51.3}};
+  std::vector<Segment2d> edges;
+  const std::vector<Vec2d>& h = hole.points;
+  for (const std::vector<Vec2d>* loop : {&o, &h})
+    for (std::size_t i = 0; i < loop->size(); ++i) edges.push_back(Segment2d{(*loop)[i], (*loop)[(i + 1) % loop->size()]});
+  const Grid2u8 inside = even_odd_inside(polys, kSize, kSize);
+  const NarrowBandParams params;
+  const NarrowBandResult r = polygon_narrow_band(polys, inside, params);
+  ASSERT_EQ(r.segments.size(), edges.size());
+  const Grid2d brute = detail::distance_to_segments_brute(edges, kSize, kSize);
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      ASSERT_EQ(r.inside(x, y), inside(x, y)) << px(x, y);
+      if (r.known(x, y)) {
+        ASSERT_NEAR(std::abs(r.distance(x, y)), brute(x, y), kFloatTol) << px(x, y);
+        ASSERT_EQ(r.distance(x, y) > 0.0f, inside(x, y) == 1) << px(x, y);
+      } else {
+        ASSERT_GT(brute(x, y), params.band_width) << px(x, y) << " should be in the band";
+      }
+    }
+  for (std::size_t k = 0; k < r.segments.size(); ++k)
+    for (int e = 0; e < 2; ++e) {
+      const std::int32_t n = r.links[k][e];
+      ASSERT_GE(n, 0) << "segment " << k << " end " << e << " is open on a closed polygon";
+      ASSERT_EQ(r.links[std::size_t(n)][1 - e], std::int32_t(k)) << "segment " << k << " end " << e;
+      ASSERT_EQ(r.segments[std::size_t(n)][1 - e], r.segments[k][e]) << "segment " << k << " end " << e;
+    }
+  EXPECT_THROW(polygon_narrow_band(polys, Grid2u8{}), InputError);
 }
 
 TEST(NarrowBand, SaddleFollowsTheCentreValue) {

@@ -25,6 +25,7 @@
 #include "isoloft/mesh/mesh_check.h"
 #include "isoloft/mesh/plane_cut.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/run/inputs.h"
 #include "validation/hausdorff.h"
 
 using namespace isoloft;
@@ -129,12 +130,16 @@ TEST(RtStruct, ReadsTheRoisOfTheBreastStructureSet) {
 }
 
 // Acceptance (medical-formats issue): 95 % of the contour vertices of Heart
-// and Lt Lung within 0.5 mm of their mesh, all within 1 mm. The vertices are
-// the input itself, so this bounds the fit (mpu.tol 0.75 px = 0.375 mm on the
-// default 0.5 mm grid) plus Marching Cubes' chords. Lt Lung holds sub-pixel
-// specks (4-point contours 0.1-0.7 mm across) that the grid cannot hold and
-// roi_stack drops; they are at most this share of its vertices.
+// and Lt Lung within 0.5 mm of their mesh, all within 1 mm, for the paper's
+// fit (mpu.tol 0.75 px = 0.375 mm on the default 0.5 mm grid, plus Marching
+// Cubes' chords). The default takes the polygons as drawn: the slice field is
+// the exact distance to their edges, so only Marching Cubes' chords between
+// pixel samples part the mesh from a vertex: 95 % within a fifth of a pixel,
+// all within one. Lt Lung holds sub-pixel specks (4-point contours 0.1-0.7 mm
+// across) that the grid cannot hold and roi_stack drops; they are at most this
+// share of its vertices.
 constexpr double kP95Mm = 0.5, kMaxMm = 1.0;
+constexpr double kDrawnP95Mm = 0.1, kDrawnMaxMm = 0.5;
 constexpr double kMaxDroppedShare = 0.005;
 
 TEST(RtStruct, HeartAndLungMeshesPassThroughTheirContours) {
@@ -144,19 +149,56 @@ TEST(RtStruct, HeartAndLungMeshesPassThroughTheirContours) {
     std::vector<std::string> warnings;
     const SliceStack st = roi_stack(roi, RoiGrid{}, kRtss, warnings);
     ASSERT_TRUE(st.patient.has_value());
-    const ReconstructResult r = reconstruct(st, ReconstructParams{});
-    ASSERT_EQ(r.objects.size(), 1u) << name;
-    EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold) << name;
     const std::vector<Vec3d> vertices = kept_vertices(st);
     EXPECT_LE(double(closed_vertices(roi) - vertices.size()), kMaxDroppedShare * double(closed_vertices(roi))) << name;
-    const std::vector<double> d = point_to_mesh_distances(in_patient_mm(r.objects[0].mesh, *st.patient), vertices);
-    const double p95 = quantile(d, 0.95), worst = *std::max_element(d.begin(), d.end());
-    const double mean = std::accumulate(d.begin(), d.end(), 0.0) / double(d.size());
-    std::printf("%s: %zu of %zu vertices kept, mean %.3f mm, p95 %.3f mm, max %.3f mm\n", name, d.size(),
-                closed_vertices(roi), mean, p95, worst);
-    EXPECT_LE(p95, kP95Mm) << name;
-    EXPECT_LE(worst, kMaxMm) << name;
+    double p95_of[2] = {0, 0};
+    for (const PolylineBoundary boundary : {PolylineBoundary::Fit, PolylineBoundary::Drawn}) {
+      ReconstructParams params;
+      params.polyline_boundary = boundary;
+      const ReconstructResult r = reconstruct(st, params);
+      ASSERT_EQ(r.objects.size(), 1u) << name;
+      EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold) << name;
+      const std::vector<double> d = point_to_mesh_distances(in_patient_mm(r.objects[0].mesh, *st.patient), vertices);
+      const double p95 = quantile(d, 0.95), worst = *std::max_element(d.begin(), d.end());
+      const double mean = std::accumulate(d.begin(), d.end(), 0.0) / double(d.size());
+      const bool drawn = boundary == PolylineBoundary::Drawn;
+      std::printf("%s, %s: %zu of %zu vertices kept, mean %.3f mm, p95 %.3f mm, max %.3f mm\n", name,
+                  drawn ? "drawn" : "fit", d.size(), closed_vertices(roi), mean, p95, worst);
+      EXPECT_LE(p95, drawn ? kDrawnP95Mm : kP95Mm) << name << (drawn ? " drawn" : " fit");
+      EXPECT_LE(worst, drawn ? kDrawnMaxMm : kMaxMm) << name << (drawn ? " drawn" : " fit");
+      p95_of[drawn] = p95;
+    }
+    EXPECT_LT(p95_of[1], p95_of[0]) << name << ": the polygons as drawn should be nearer their own vertices than the fit";
   }
+}
+
+// The triangle budget (run/inputs.cpp): without --voxel-size, BODY (about 5 M
+// triangles at 0.5 mm by its contours) gets the grid that keeps its mesh
+// within 1.5 M triangles, with a warning naming it; the other ROIs keep their
+// grid; --voxel-size keeps the grid asked for.
+constexpr double kRtMeshBudget = 1.5e6;
+
+TEST(RtStruct, TheLargestRoiGetsTheGridOfTheTriangleBudget) {
+  InputRequest request;
+  request.paths = {kRtss};
+  const Inputs in = read_inputs(request);
+  const Job* body = nullptr;
+  for (const Job& job : in.jobs) {
+    if (job.name == "BODY") body = &job;
+    else EXPECT_LE(job.stack.pixel_size, 0.5) << job.name;
+  }
+  ASSERT_NE(body, nullptr);
+  EXPECT_GT(body->stack.pixel_size, 0.5);
+  EXPECT_TRUE(std::any_of(in.warnings.begin(), in.warnings.end(), [](const std::string& w) {
+    return w.find("ROI 'BODY': working grid") != std::string::npos;
+  }));
+  const ReconstructResult r = reconstruct(body->stack, ReconstructParams{});
+  ASSERT_EQ(r.objects.size(), 1u);
+  EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold);
+  EXPECT_LE(double(r.objects[0].mesh.triangles.size()), kRtMeshBudget);
+  request.voxel_size = 0.5;
+  request.rois = {"BODY"};
+  EXPECT_EQ(read_inputs(request).jobs.at(0).stack.pixel_size, 0.5);
 }
 
 // Holes and islands by the XOR (even-odd) rule: a 40 mm square with a 16 mm

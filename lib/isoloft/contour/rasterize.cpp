@@ -63,8 +63,9 @@ std::vector<std::array<int, 2>> segment_pixels(const Vec2d& p, const Vec2d& q, i
 
 }  // namespace detail
 
-void rasterize_polygons(const std::vector<Polygon>& polys, int width, int height, Grid2u8& contour,
-                        Grid2u8& inside) {
+namespace {
+
+void check_polygons(const std::vector<Polygon>& polys, int width, int height) {
   if (width < 0 || height < 0)
     throw ParamError("rasterize_polygons: grid size " + std::to_string(width) + "x" +
                      std::to_string(height) + " is negative");
@@ -73,9 +74,13 @@ void rasterize_polygons(const std::vector<Polygon>& polys, int width, int height
       if (!polys[k].points[i].allFinite())
         throw InputError("", "polygon " + std::to_string(k) + " vertex " + std::to_string(i) +
                                  " is not finite");
-  contour = Grid2u8(width, height);
-  inside = Grid2u8(width, height);
+}
 
+}  // namespace
+
+Grid2u8 even_odd_inside(const std::vector<Polygon>& polys, int width, int height) {
+  check_polygons(polys, width, height);
+  Grid2u8 inside(width, height);
   // Per row, the x of every edge crossing the horizontal line through the
   // pixel centres; half-open in y ((a.y > y) != (b.y > y)) so a vertex on
   // the line counts once, as in the crossing-number point-in-polygon test.
@@ -86,7 +91,6 @@ void rasterize_polygons(const std::vector<Polygon>& polys, int width, int height
     for (std::size_t i = 0; i < n; ++i) {
       const Vec2d& a = pts[i];
       const Vec2d& b = pts[(i + 1) % n];
-      visit_segment(a, b, width, height, [&](int x, int y) { contour(x, y) = 1; });
       if (a.y() == b.y()) continue;
       const double lo = std::max(std::ceil(std::min(a.y(), b.y())), 0.0);
       const double hi = std::min(std::ceil(std::max(a.y(), b.y())) - 1.0, double(height) - 1.0);
@@ -106,6 +110,18 @@ void rasterize_polygons(const std::vector<Polygon>& polys, int width, int height
       const double hi = std::min(std::ceil(xs[k + 1]) - 1.0, double(width) - 1.0);
       for (double x = lo; x <= hi; x += 1.0) inside(int(x), y) = 1;
     }
+  }
+  return inside;
+}
+
+void rasterize_polygons(const std::vector<Polygon>& polys, int width, int height, Grid2u8& contour,
+                        Grid2u8& inside) {
+  inside = even_odd_inside(polys, width, height);
+  contour = Grid2u8(width, height);
+  for (const Polygon& poly : polys) {
+    const auto& pts = poly.points;
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      visit_segment(pts[i], pts[(i + 1) % pts.size()], width, height, [&](int x, int y) { contour(x, y) = 1; });
   }
   for (std::size_t i = 0; i < inside.size(); ++i) inside.data[i] |= contour.data[i];
 }

@@ -1,7 +1,8 @@
 // @file contour/rasterize.h
 // @brief Polygons (polyline input) to contour pixels and inside pixels.
 // Contour: a DDA over each edge's real endpoints (Bresenham generalised), a
-// closed 8-curve per polygon; inside: the even-odd rule at pixel centres.
+// closed 8-curve per polygon; inside: the even-odd rule at pixel centres,
+// plus the contour pixels.
 // @warning Polygons closer than ~3 px merge in the contour, whose fill then
 // differs from `inside`: use `inside` (docs/decisions.md: polygon inside).
 #pragma once
@@ -22,6 +23,11 @@ namespace isoloft {
 /// @warning 0, 1 or 2 vertices give nothing, a pixel, a segment (no inside).
 void rasterize_polygons(const std::vector<Polygon>& polys, int width, int height, Grid2u8& contour,
                         Grid2u8& inside);
+
+/// The even-odd rule at pixel centres alone (rasterize_polygons' inside
+/// also holds every contour pixel, whose centre may lie outside).
+/// \throw as rasterize_polygons.
+Grid2u8 even_odd_inside(const std::vector<Polygon>& polys, int width, int height);
 
 /// Centres of the non-zero pixels, row-major.
 std::vector<Vec2d> contour_points(const Grid2u8& contour);

@@ -201,29 +201,17 @@ Grid2d distance_to_segments_brute(const std::vector<Segment2d>& segments, int wi
 
 }  // namespace detail
 
-NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn& f, const NarrowBandParams& params) {
-  params_table<NarrowBandParams>().validate(params);
-  if (f_samples.empty()) throw InputError("implicit samples", "grid is empty");
-  const int w = f_samples.width, h = f_samples.height;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (std::isnan(f_samples(x, y)))
-        throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+namespace detail {
 
-  NarrowBandResult r;
-  detail::ZeroSet zs = detail::marching_squares(f_samples, f, params.refine_iterations, params.segment_splits);
-  r.segments = std::move(zs.segments);
-  r.links = std::move(zs.links);
-  r.inside = Grid2u8(w, h, 0);
-  for (std::size_t i = 0; i < f_samples.size(); ++i) r.inside.data[i] = f_samples.data[i] > 0.0f ? 1 : 0;
+void fill_band(NarrowBandResult& r, double bw) {
+  const int w = r.inside.width, h = r.inside.height;
   r.known = Grid2u8(w, h, 0);
   r.nearest_segment = Grid2i(w, h, -1);
 
   // Exact distance to the nearest segment for every pixel within the band:
   // each segment visits the pixels of its bounding box grown by band_width.
   // Work is O(#segments * band_width^2), i.e. proportional to the curve length.
-  const double bw = params.band_width;
-  std::vector<double> best(f_samples.size(), std::numeric_limits<double>::infinity());
+  std::vector<double> best(r.inside.size(), std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < r.segments.size(); ++k) {
     const Segment2d& sg = r.segments[k];
     const int x0 = std::max(0, int(std::ceil(std::min(sg[0].x(), sg[1].x()) - bw)));
@@ -253,6 +241,49 @@ NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn&
       r.nearest_segment.data[i] = -1;
     }
   }
+}
+
+}  // namespace detail
+
+NarrowBandResult polygon_narrow_band(const std::vector<Polygon>& polygons, const Grid2u8& inside,
+                                     const NarrowBandParams& params) {
+  params_table<NarrowBandParams>().validate(params);
+  if (inside.empty()) throw InputError("polygon narrow band", "grid is empty");
+  NarrowBandResult r;
+  r.inside = inside;
+  for (const Polygon& poly : polygons) {
+    // The polygon's edges without zero-length ones (repeated vertices), closed.
+    std::vector<Vec2d> v;
+    for (const Vec2d& q : poly.points)
+      if (v.empty() || q != v.back()) v.push_back(q);
+    while (v.size() > 1 && v.front() == v.back()) v.pop_back();
+    if (v.size() < 2) continue;
+    const auto first = std::int32_t(r.segments.size()), n = std::int32_t(v.size());
+    for (std::int32_t i = 0; i < n; ++i) {
+      r.segments.push_back({v[std::size_t(i)], v[std::size_t((i + 1) % n)]});
+      r.links.push_back({first + (i + n - 1) % n, first + (i + 1) % n});
+    }
+  }
+  detail::fill_band(r, params.band_width);
+  return r;
+}
+
+NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn& f, const NarrowBandParams& params) {
+  params_table<NarrowBandParams>().validate(params);
+  if (f_samples.empty()) throw InputError("implicit samples", "grid is empty");
+  const int w = f_samples.width, h = f_samples.height;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (std::isnan(f_samples(x, y)))
+        throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+
+  NarrowBandResult r;
+  detail::ZeroSet zs = detail::marching_squares(f_samples, f, params.refine_iterations, params.segment_splits);
+  r.segments = std::move(zs.segments);
+  r.links = std::move(zs.links);
+  r.inside = Grid2u8(w, h, 0);
+  for (std::size_t i = 0; i < f_samples.size(); ++i) r.inside.data[i] = f_samples.data[i] > 0.0f ? 1 : 0;
+  detail::fill_band(r, params.band_width);
   return r;
 }
 

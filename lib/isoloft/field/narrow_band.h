@@ -15,6 +15,7 @@
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
 #include "isoloft/core/params.h"
+#include "isoloft/core/slice_stack.h"
 
 namespace isoloft {
 
@@ -68,7 +69,18 @@ struct NarrowBandResult {
 NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn& f,
                                       const NarrowBandParams& params = {});
 
+/// Narrow-band signed distance to drawn polygons (pixel units, closed, even-odd):
+/// their edges are the zero set, exactly; `inside` (the even-odd rule at pixel
+/// centres, contour/rasterize.h even_odd_inside) signs every pixel. Zero-length edges are
+/// dropped; links follow each polygon around.
+/// \throw InputError if inside is empty; ParamError for a parameter out of range.
+/// @warning A polygon of fewer than 2 distinct vertices adds no segment.
+NarrowBandResult polygon_narrow_band(const std::vector<Polygon>& polygons, const Grid2u8& inside,
+                                     const NarrowBandParams& params = {});
+
 namespace detail {
+/// The band of r.segments over r.inside's grid: known, nearest_segment, distance.
+void fill_band(NarrowBandResult& r, double band_width);
 
 /// Nearest point of [a, b] to p (a == b allowed).
 Vec2d closest_point_on_segment(const Vec2d& p, const Vec2d& a, const Vec2d& b);

@@ -12,7 +12,7 @@ namespace detail {
 const std::vector<std::string>& curve_fit_rows() {
   static const std::vector<std::string> rows{
       "mask_edge_offset", "polyline_spacing", "polyline_raster_width", "sign_guard", "mpu_band", "mask_min_feature",
-      "mask_boundary",    "mask_curve.",      "normals.",              "mpu.",       "band.",    "extend.",
+      "mask_boundary",    "polyline_boundary", "mask_curve.",      "normals.",              "mpu.",       "band.",    "extend.",
       "filter."};
   return rows;
 }
@@ -33,6 +33,7 @@ MethodSpec marker2006_method() {
           [](ReconstructParams& p) {
             detail::paper_interp_defaults(p);
             p.mask_boundary = MaskBoundary::PixelCentres;
+            p.polyline_boundary = PolylineBoundary::Fit;
           },
       .rows = detail::curve_fit_rows(),
       .fits_curves = true,

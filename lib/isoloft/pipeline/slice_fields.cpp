@@ -353,9 +353,27 @@ SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& p) {
   return r;
 }
 
+SliceField drawn_polygon_slice(const SliceInput& in, const ReconstructParams& p) {
+  SliceField r;
+  const auto t0 = Clock::now();
+  std::vector<Polygon> shifted = in.slice.polygons;
+  for (auto& poly : shifted)
+    for (auto& q : poly.points) q -= Vec2d(in.box.x0, in.box.y0);
+  // The sign by the even-odd rule alone: a contour pixel whose centre lies
+  // outside is outside (the masks' inside holds every contour pixel).
+  const NarrowBandResult nb = polygon_narrow_band(shifted, even_odd_inside(shifted, in.box.width(), in.box.height()), p.band);
+  // No edge (degenerate polygons): the exact pixel distances, as a fit with too few points.
+  r.field = nb.segments.empty() ? levin_field(in.masks, in.box, in.kind) : extend_distance(nb, p.extend);
+  r.fallback = nb.segments.empty();
+  r.t_dist = seconds_since(t0);
+  if (in.keep_stages) r.mpu = nb.distance, r.distance = r.field;
+  return r;
+}
+
 SliceField curve_slice(const SliceInput& in, const ReconstructParams& p) {
   const bool traced = (in.kind == InputKind::Masks || in.kind == InputKind::Labels) && p.mask_boundary == MaskBoundary::Traced;
-  SliceField r = traced ? traced_mask_slice(in, p) : marker_slice(in, p);
+  const bool drawn = in.kind == InputKind::Polylines && p.polyline_boundary == PolylineBoundary::Drawn;
+  SliceField r = traced ? traced_mask_slice(in, p) : drawn ? drawn_polygon_slice(in, p) : marker_slice(in, p);
   if (p.filter.enabled) {
     const auto t0 = Clock::now();
     r.field = distance_filter(r.field, p.filter);

@@ -144,8 +144,13 @@ SliceField marker_slice(const SliceInput& in, const ReconstructParams& params);
 /// allow. SliceField::mpu keeps the traced function (figures).
 SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& params);
 
+/// A polygon slice taken as drawn: the exact distance to its edges in the band
+/// (polygon_narrow_band), extended. No fit. SliceField::mpu keeps the band.
+SliceField drawn_polygon_slice(const SliceInput& in, const ReconstructParams& p);
+
 /// The curve-fitting methods' slice field (paper 2.1-2.3): traced_mask_slice()
-/// for masks and labels with mask_boundary traced, else marker_slice(); then
+/// for masks and labels with mask_boundary traced, drawn_polygon_slice() for
+/// polylines with polyline_boundary drawn, else marker_slice(); then
 /// the distance-dependent filter if enabled.
 SliceField curve_slice(const SliceInput& in, const ReconstructParams& params);
 

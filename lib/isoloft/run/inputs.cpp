@@ -120,6 +120,42 @@ constexpr double kPixelsAcross = 16;
 // ...but no finer than this (mm), and no more than this many pixels across the loop.
 constexpr double kMinRoiVoxelMm = 0.05, kMaxRoiPixels = 4000;
 
+// RT triangle budget (docs/decisions.md: RT triangle budget): without
+// --voxel-size, a ROI whose mesh would exceed this many triangles gets the
+// grid that keeps it within (the largest ROIs, e.g. a BODY, only).
+constexpr double kRtMeshBudget = 1.5e6;
+// Marching Cubes triangles per pixel of contour wall (perimeter x plane
+// spacing, plus both end planes' areas, over the pixel area): on the shared
+// structure set's ROIs the meshes have 2.6-2.9 triangles per pixel of their
+// own area, and the contours' wall underestimates that area (walls slant in
+// z); 3.6 keeps every ROI's mesh under the estimate (measured 1.22-1.75 times
+// the 2-per-pixel count).
+constexpr double kTrianglesPerWallPixel = 3.6;
+
+// A ROI's estimated mesh area from its contours (mm^2): each closed contour's
+// perimeter times the plane spacing, plus the areas on its lowest and highest
+// planes (the end caps).
+double estimated_wall_area(const RtRoi& roi, double spacing) {
+  double wall = 0, zlo = INFINITY, zhi = -INFINITY, end_lo = 0, end_hi = 0;
+  const double tol = 0.2 * spacing;
+  for (const RtContour& c : roi.contours) {
+    if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) continue;
+    double a = 0, perimeter = 0;
+    for (std::size_t i = 0, j = c.points.size() - 1; i < c.points.size(); j = i++) {
+      const Vec3d &p = c.points[i], &q = c.points[j];
+      a += q.x() * p.y() - p.x() * q.y();
+      perimeter += (p - q).head<2>().norm();
+    }
+    wall += perimeter * spacing;
+    const double z = c.points.front().z(), area = 0.5 * std::abs(a);
+    if (z < zlo - tol) zlo = z, end_lo = 0;
+    if (std::abs(z - zlo) <= tol) end_lo += area;
+    if (z > zhi + tol) zhi = z, end_hi = 0;
+    if (std::abs(z - zhi) <= tol) end_hi += area;
+  }
+  return wall + end_lo + end_hi;
+}
+
 // The largest closed contour of a ROI (by area): its thickness 2 area /
 // perimeter (a circle's radius) and its extent (longer bounding-box side), mm.
 std::pair<double, double> largest_loop_size(const RtRoi& roi) {
@@ -164,6 +200,17 @@ Inputs read_rtstruct_input(const InputRequest& r) {
       const double fine = std::max({kMinRoiVoxelMm, thickness / kPixelsAcross, extent / kMaxRoiPixels});
       if (!r.voxel_size) {
         g.voxel_size = std::min(grid.voxel_size, fine);
+        const double triangles = kTrianglesPerWallPixel * estimated_wall_area(*roi, grid.plane_spacing) /
+                                 (g.voxel_size * g.voxel_size);
+        if (grid.plane_spacing > 0 && triangles > kRtMeshBudget) {
+          g.voxel_size *= std::sqrt(triangles / kRtMeshBudget);
+          std::ostringstream o;
+          o << path << ": ROI '" << roi->name << "': working grid " << g.voxel_size << " mm instead of "
+            << grid.voxel_size << " mm, so that its mesh stays within " << long(kRtMeshBudget)
+            << " triangles (about " << long(triangles) << " at " << grid.voxel_size << " mm; "
+            << option_name("--voxel-size") << " sets the grid; the report's contour_vertex_distance is its error)";
+          in.warnings.push_back(o.str());
+        }
       } else if (fine < g.voxel_size) {
         std::ostringstream o;
         o << path << ": ROI '" << roi->name << "': its largest contour is " << thickness / g.voxel_size

@@ -1,6 +1,8 @@
 #include "isoloft/run/outputs.h"
 
 #include <Eigen/Dense>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
@@ -70,13 +72,22 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
                       const std::function<std::string(const std::string&)>& stage) {
   auto staged = [&](const std::string& p) { return stage ? stage(p) : p; };
   const bool several = several_outputs(in, r);
+  // Paths first (staging is not thread-safe), then the files side by side.
+  std::vector<std::string> paths;
   for (auto& o : r.objects) {
     o.file = several ? with_suffix(output, object_suffix(in, o.job, o.object.label)) : output;
-    MeshWriteOptions one = mo;
-    one.label = object_cell_label(o);
-    write_mesh(staged(o.file), o.mesh, one);
+    paths.push_back(staged(o.file));
   }
-  if (several) {
+  const std::string combined_path = several ? staged(output) : std::string();
+  auto write_objects = [&] {
+    tbb::parallel_for(std::size_t(0), r.objects.size(), [&](std::size_t i) {
+      MeshWriteOptions one = mo;
+      one.label = object_cell_label(r.objects[i]);
+      write_mesh(paths[i], r.objects[i].mesh, one);
+    });
+  };
+  auto write_combined = [&] {
+    if (!several) return;
     std::vector<TriMesh> parts;
     std::vector<Rgb> colours;
     std::vector<std::uint32_t> triangle_labels;
@@ -89,8 +100,9 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
     MeshWriteOptions co = mo;
     co.colors = &vertex_colours;
     co.triangle_labels = &triangle_labels;
-    write_mesh(staged(output), combined, co);
-  }
+    write_mesh(combined_path, combined, co);
+  };
+  tbb::parallel_invoke(write_objects, write_combined);
 }
 
 // ---------------------------------------------------------------- hooks

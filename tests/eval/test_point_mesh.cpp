@@ -1,0 +1,66 @@
+// eval/point_mesh.h: distances from points to a mesh over its triangle grid
+// equal the brute-force minimum over every triangle (the decimator's own
+// point-triangle distance, an independent twin), and the summary's
+// percentile is a nearest-rank one.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "isoloft/eval/point_mesh.h"
+#include "isoloft/mesh/decimate_bound.h"
+#include "isoloft/mesh/marching_cubes.h"
+
+using namespace isoloft;
+
+namespace {
+
+// Both are exact point-triangle distances in double from the same float
+// corners; they differ only by rounding.
+constexpr double kRounding = 1e-9;
+
+// A Marching Cubes sphere of radius 9 in a 24^3 grid: ~2k small triangles.
+TriMesh sphere_mesh() {
+  std::vector<Grid2f> planes;
+  std::vector<double> z;
+  for (int k = 0; k < 24; ++k) {
+    Grid2f g(24, 24);
+    for (int y = 0; y < 24; ++y)
+      for (int x = 0; x < 24; ++x) g(x, y) = float(9.0 - std::sqrt((x - 11.5) * (x - 11.5) + (y - 12.0) * (y - 12.0) + (k - 11.7) * (k - 11.7)));
+    planes.push_back(std::move(g));
+    z.push_back(k);
+  }
+  return marching_cubes(planes, z);
+}
+
+TEST(PointMesh, GridDistancesEqualTheBruteForceMinimum) {
+  const TriMesh mesh = sphere_mesh();
+  ASSERT_GT(mesh.triangles.size(), 1000u);
+  std::vector<detail::PreparedTriangle> tris;
+  for (const auto& t : mesh.triangles)
+    tris.emplace_back(mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(), mesh.vertices[t[2]].cast<double>());
+  std::mt19937 rng(24);
+  std::uniform_real_distribution<double> u(-10.0, 34.0);  // inside, near and well beyond the mesh's box
+  std::vector<Vec3d> points;
+  for (int i = 0; i < 400; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  const std::vector<double> got = point_mesh_distances(mesh, points);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : tris) best = std::min(best, t.distance_sq(points[i]));
+    EXPECT_NEAR(got[i], std::sqrt(best), kRounding) << "point " << i;
+  }
+  EXPECT_TRUE(std::isinf(point_mesh_distances(TriMesh{}, {Vec3d(0, 0, 0)}).front()));
+}
+
+TEST(PointMesh, SummaryUsesNearestRank) {
+  std::vector<double> d;
+  for (int i = 1; i <= 40; ++i) d.push_back(double(i));
+  const DistanceSummary s = summarize_distances(d);
+  EXPECT_EQ(s.count, 40);
+  EXPECT_DOUBLE_EQ(s.mean, 20.5);
+  EXPECT_DOUBLE_EQ(s.p95, 38.0);  // the 38th of 40 values: 95 % at or below it
+  EXPECT_DOUBLE_EQ(s.max, 40.0);
+}
+
+}  // namespace
