@@ -53,6 +53,27 @@ TEST(PointMesh, GridDistancesEqualTheBruteForceMinimum) {
   EXPECT_TRUE(std::isinf(point_mesh_distances(TriMesh{}, {Vec3d(0, 0, 0)}).front()));
 }
 
+// Points on three planes, as contour vertices are: the first rounds search
+// only the triangles near those planes, later rounds farther (points up to
+// 22 px off the mesh), and every distance is still the brute-force minimum.
+TEST(PointMesh, PointsOnAFewPlanesEqualTheBruteForceMinimum) {
+  const TriMesh mesh = sphere_mesh();
+  std::vector<detail::PreparedTriangle> tris;
+  for (const auto& t : mesh.triangles)
+    tris.emplace_back(mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(), mesh.vertices[t[2]].cast<double>());
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-10.0, 34.0);
+  std::vector<Vec3d> points;
+  for (const double z : {5.0, 11.7, 16.25})
+    for (int i = 0; i < 150; ++i) points.emplace_back(u(rng), u(rng), z);
+  const std::vector<double> got = point_mesh_distances(mesh, points);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : tris) best = std::min(best, t.distance_sq(points[i]));
+    EXPECT_NEAR(got[i], std::sqrt(best), kRounding) << "point " << i;
+  }
+}
+
 TEST(PointMesh, SummaryUsesNearestRank) {
   std::vector<double> d;
   for (int i = 1; i <= 40; ++i) d.push_back(double(i));

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numeric>
 
 
 namespace isoloft {
@@ -41,26 +42,32 @@ double triangle_distance_sq(const Vec3d& p, const Vec3d& a, const Vec3d& b, cons
   return (ap - v * ab - w * ac).squaredNorm();
 }
 
+// Triangles within this many mean triangle extents of a point's plane are
+// searched first, then this many times farther each round (point_mesh_distances).
+constexpr double kPlaneReachExtents = 2.0, kReachGrowth = 4.0;
+
 // The triangles bucketed by the cells their boxes meet (cells of about twice
 // the mean triangle extent; only the occupied ones, by sorted key).
 class TriangleGrid {
  public:
-  explicit TriangleGrid(const TriMesh& mesh) : mesh_(mesh) {
-    if (mesh.triangles.empty()) return;
+  /// The mesh's triangles `ids`.
+  TriangleGrid(const TriMesh& mesh, std::vector<std::int32_t> ids) : mesh_(mesh) {
+    if (ids.empty()) return;
     Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
     double extent = 0;
-    for (const auto& t : mesh.triangles) {
+    for (const std::int32_t i : ids) {
+      const auto& t = mesh.triangles[std::size_t(i)];
       const Vec3d tlo = box_lo(t), thi = box_hi(t);
       lo = lo.cwiseMin(tlo), hi = hi.cwiseMax(thi);
       extent += (thi - tlo).maxCoeff();
     }
     lo_ = lo;
-    cell_ = std::max(kCellExtents * extent / double(mesh.triangles.size()), 1e-6);
+    cell_ = std::max(kCellExtents * extent / double(ids.size()), 1e-6);
     for (int a = 0; a < 3; ++a) n_[a] = std::max(1, int(std::floor((hi[a] - lo[a]) / cell_)) + 1);
     std::vector<std::pair<std::uint64_t, std::int32_t>> entries;
-    entries.reserve(2 * mesh.triangles.size());
-    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-      const auto c0 = cell_of(box_lo(mesh.triangles[i])), c1 = cell_of(box_hi(mesh.triangles[i]));
+    entries.reserve(2 * ids.size());
+    for (const std::int32_t i : ids) {
+      const auto c0 = cell_of(box_lo(mesh.triangles[std::size_t(i)])), c1 = cell_of(box_hi(mesh.triangles[std::size_t(i)]));
       for (int z = c0[2]; z <= c1[2]; ++z)
         for (int y = c0[1]; y <= c1[1]; ++y)
           for (int x = c0[0]; x <= c1[0]; ++x) entries.emplace_back(key(x, y, z), std::int32_t(i));
@@ -75,7 +82,7 @@ class TriangleGrid {
   }
 
   [[nodiscard]] double distance(const Vec3d& p) const {
-    if (mesh_.triangles.empty()) return std::numeric_limits<double>::infinity();
+    if (keys_.empty()) return std::numeric_limits<double>::infinity();
     const auto c = cell_of(p);
     double best2 = std::numeric_limits<double>::infinity();
     // Shells of cells at Chebyshev index distance r: a triangle not in them
@@ -136,9 +143,42 @@ class TriangleGrid {
 }  // namespace
 
 std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<Vec3d>& points) {
-  const TriangleGrid grid(mesh);
-  std::vector<double> d(points.size());
-  tbb::parallel_for(std::size_t(0), points.size(), [&](std::size_t i) { d[i] = grid.distance(points[i]); });
+  std::vector<double> d(points.size(), std::numeric_limits<double>::infinity());
+  if (mesh.triangles.empty() || points.empty()) return d;
+  // Contour vertices lie on a few planes: each round searches only the
+  // triangles within `reach` of the z of a point still to do; a triangle
+  // nearer than reach to a point is among them, so a distance <= reach is
+  // exact. The others go on with kReachGrowth times the reach, until the
+  // round that holds every triangle.
+  std::vector<std::array<double, 2>> zr(mesh.triangles.size());
+  double extent = 0;
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const auto& t = mesh.triangles[i];
+    const Eigen::Vector3f a = mesh.vertices[std::size_t(t[0])], b = mesh.vertices[std::size_t(t[1])],
+                          c = mesh.vertices[std::size_t(t[2])];
+    extent += double((a.cwiseMax(b).cwiseMax(c) - a.cwiseMin(b).cwiseMin(c)).maxCoeff());
+    zr[i] = {double(std::min({a.z(), b.z(), c.z()})), double(std::max({a.z(), b.z(), c.z()}))};
+  }
+  double reach = kPlaneReachExtents * extent / double(mesh.triangles.size());
+  std::vector<std::size_t> todo(points.size());
+  std::iota(todo.begin(), todo.end(), std::size_t(0));
+  while (!todo.empty()) {
+    std::vector<double> zs;
+    for (const std::size_t i : todo) zs.push_back(points[i].z());
+    std::sort(zs.begin(), zs.end());
+    zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
+    std::vector<std::int32_t> ids;
+    for (std::size_t i = 0; i < zr.size(); ++i) {
+      const auto it = std::lower_bound(zs.begin(), zs.end(), zr[i][0] - reach);
+      if (it != zs.end() && *it <= zr[i][1] + reach) ids.push_back(std::int32_t(i));
+    }
+    const bool every = ids.size() == mesh.triangles.size();
+    const TriangleGrid grid(mesh, std::move(ids));
+    tbb::parallel_for(std::size_t(0), todo.size(), [&](std::size_t k) { d[todo[k]] = grid.distance(points[todo[k]]); });
+    if (every) break;
+    std::erase_if(todo, [&](std::size_t i) { return d[i] <= reach; });
+    reach *= kReachGrowth;
+  }
   return d;
 }
 
