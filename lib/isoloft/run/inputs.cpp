@@ -337,7 +337,8 @@ nlohmann::json input_report(const Inputs& in) {
   }
   if (in.format == InputFormat::RtStruct) {
     nlohmann::json rois = nlohmann::json::array();
-    for (const auto& job : in.jobs) rois.push_back({{"name", job.name}, {"planes", job.stack.slices.size()}});
+    for (const auto& job : in.jobs)
+      rois.push_back({{"name", job.name}, {"planes", job.stack.slices.size()}, {"pixel_size", job.stack.pixel_size}});
     input["rois"] = rois;
   }
   return input;
