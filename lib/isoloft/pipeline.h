@@ -147,8 +147,9 @@ struct ObjectResult {
   TriMesh mesh;                ///< closed, outward-oriented, pixel units (possibly empty: empty_reason)
   std::string empty_reason;    ///< why the mesh has no triangles ("" if it has some)
   MeshCheck check;
-  /// run_jobs(), polygon inputs: how far the input's contour vertices lie
-  /// from the mesh (working pixels): the geometric error of the working grid.
+  /// run_jobs(), RT Structure Set ROIs: how far the input's contour vertices
+  /// lie from the mesh (working pixels): the geometric error of the working
+  /// grid the reader chose.
   std::optional<DistanceSummary> contour_distance;
   long triangles_before_decimation = 0;
   int slices_with_contours = 0;

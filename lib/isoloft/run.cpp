@@ -217,7 +217,8 @@ std::vector<ReconstructResult> reconstruct_jobs(const Inputs& in, const Reconstr
   auto run_one = [&](std::size_t j) {
     results[j] = reconstruct(in.jobs[j].stack, params, options[j]);
     if (finished) finished(j);
-    if (in.jobs[j].stack.has_polygons())
+    // RT ROIs: the error of the working grid isoloft chose for them (RT grid, triangle budget).
+    if (in.jobs[j].roi && in.jobs[j].stack.has_polygons())
       for (ObjectResult& ob : results[j].objects)
         if (!ob.mesh.empty())
           ob.contour_distance = summarize_distances(point_mesh_distances(ob.mesh, contour_vertices(in.jobs[j].stack)));

@@ -104,8 +104,8 @@ RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std:
                    const std::function<void(std::size_t)>& finished = {});
 
 /// The report's "objects": per object its label, file, ROI, counts, checks,
-/// volume and area (output units), MPU statistics (marker2006) and, for
-/// polygon inputs, the contour vertices' distance to the mesh (output units).
+/// volume and area (output units), MPU statistics (marker2006) and, for RT
+/// Structure Set ROIs, the contour vertices' distance to the mesh (output units).
 nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method method);
 
 /// Wall seconds of the parts of a run outside the pipeline.

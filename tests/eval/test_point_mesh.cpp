@@ -74,6 +74,23 @@ TEST(PointMesh, PointsOnAFewPlanesEqualTheBruteForceMinimum) {
   }
 }
 
+// A few points far from the mesh (as specks a grid drops): searched by their
+// own boxes, round after round, until the nearest triangle is in reach.
+TEST(PointMesh, AFewFarPointsEqualTheBruteForceMinimum) {
+  const TriMesh mesh = sphere_mesh();
+  std::vector<detail::PreparedTriangle> tris;
+  for (const auto& t : mesh.triangles)
+    tris.emplace_back(mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(), mesh.vertices[t[2]].cast<double>());
+  const std::vector<Vec3d> points{{-8.0, 12.0, 11.7}, {40.0, 30.0, 5.0}, {11.5, 12.0, 11.7}, {30.0, -6.0, 20.0}};
+  const std::vector<double> got = point_mesh_distances(mesh, points);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : tris) best = std::min(best, t.distance_sq(points[i]));
+    EXPECT_GT(std::sqrt(best), 5.0) << "point " << i << " should be far from the mesh";
+    EXPECT_NEAR(got[i], std::sqrt(best), kRounding) << "point " << i;
+  }
+}
+
 TEST(PointMesh, SummaryUsesNearestRank) {
   std::vector<double> d;
   for (int i = 1; i <= 40; ++i) d.push_back(double(i));

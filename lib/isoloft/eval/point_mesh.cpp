@@ -1,12 +1,15 @@
 #include "isoloft/eval/point_mesh.h"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <numeric>
 
@@ -45,33 +48,53 @@ double triangle_distance_sq(const Vec3d& p, const Vec3d& a, const Vec3d& b, cons
 // Triangles within this many mean triangle extents of a point's plane are
 // searched first, then this many times farther each round (point_mesh_distances).
 constexpr double kPlaneReachExtents = 2.0, kReachGrowth = 4.0;
+// At most this many points left: candidates by each point's own box, not its plane.
+constexpr std::size_t kFewPoints = 64;
 
 // The triangles bucketed by the cells their boxes meet (cells of about twice
 // the mean triangle extent; only the occupied ones, by sorted key).
 class TriangleGrid {
  public:
   /// The mesh's triangles `ids`.
-  TriangleGrid(const TriMesh& mesh, std::vector<std::int32_t> ids) : mesh_(mesh) {
+  TriangleGrid(const TriMesh& mesh, const std::vector<std::int32_t>& ids) : mesh_(mesh) {
     if (ids.empty()) return;
-    Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-    double extent = 0;
-    for (const std::int32_t i : ids) {
-      const auto& t = mesh.triangles[std::size_t(i)];
-      const Vec3d tlo = box_lo(t), thi = box_hi(t);
-      lo = lo.cwiseMin(tlo), hi = hi.cwiseMax(thi);
-      extent += (thi - tlo).maxCoeff();
-    }
-    lo_ = lo;
-    cell_ = std::max(kCellExtents * extent / double(ids.size()), 1e-6);
-    for (int a = 0; a < 3; ++a) n_[a] = std::max(1, int(std::floor((hi[a] - lo[a]) / cell_)) + 1);
-    std::vector<std::pair<std::uint64_t, std::int32_t>> entries;
-    entries.reserve(2 * ids.size());
-    for (const std::int32_t i : ids) {
-      const auto c0 = cell_of(box_lo(mesh.triangles[std::size_t(i)])), c1 = cell_of(box_hi(mesh.triangles[std::size_t(i)]));
-      for (int z = c0[2]; z <= c1[2]; ++z)
-        for (int y = c0[1]; y <= c1[1]; ++y)
-          for (int x = c0[0]; x <= c1[0]; ++x) entries.emplace_back(key(x, y, z), std::int32_t(i));
-    }
+    struct Bounds {
+      Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+      double extent = 0;
+    };
+    const Bounds all = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, ids.size()), Bounds{},
+        [&](const tbb::blocked_range<std::size_t>& r, Bounds b) {
+          for (std::size_t k = r.begin(); k < r.end(); ++k) {
+            const auto& t = mesh.triangles[std::size_t(ids[k])];
+            const Vec3d tlo = box_lo(t), thi = box_hi(t);
+            b.lo = b.lo.cwiseMin(tlo), b.hi = b.hi.cwiseMax(thi);
+            b.extent += (thi - tlo).maxCoeff();
+          }
+          return b;
+        },
+        [](Bounds a, const Bounds& b) {
+          a.lo = a.lo.cwiseMin(b.lo), a.hi = a.hi.cwiseMax(b.hi), a.extent += b.extent;
+          return a;
+        });
+    lo_ = all.lo;
+    cell_ = std::max(kCellExtents * all.extent / double(ids.size()), 1e-6);
+    for (int a = 0; a < 3; ++a) n_[a] = std::max(1, int(std::floor((all.hi[a] - all.lo[a]) / cell_)) + 1);
+    // Each triangle in every cell its box meets; the sort below orders them.
+    using Entries = std::vector<std::pair<std::uint64_t, std::int32_t>>;
+    tbb::enumerable_thread_specific<Entries> parts;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ids.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+      Entries& out = parts.local();
+      for (std::size_t k = r.begin(); k < r.end(); ++k) {
+        const auto& t = mesh.triangles[std::size_t(ids[k])];
+        const auto c0 = cell_of(box_lo(t)), c1 = cell_of(box_hi(t));
+        for (int z = c0[2]; z <= c1[2]; ++z)
+          for (int y = c0[1]; y <= c1[1]; ++y)
+            for (int x = c0[0]; x <= c1[0]; ++x) out.emplace_back(key(x, y, z), ids[k]);
+      }
+    });
+    Entries entries;
+    for (const Entries& e : parts) entries.insert(entries.end(), e.begin(), e.end());
     tbb::parallel_sort(entries.begin(), entries.end());
     ids_.reserve(entries.size());
     for (std::size_t e = 0; e < entries.size(); ++e) {
@@ -146,34 +169,55 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
   std::vector<double> d(points.size(), std::numeric_limits<double>::infinity());
   if (mesh.triangles.empty() || points.empty()) return d;
   // Contour vertices lie on a few planes: each round searches only the
-  // triangles within `reach` of the z of a point still to do; a triangle
-  // nearer than reach to a point is among them, so a distance <= reach is
-  // exact. The others go on with kReachGrowth times the reach, until the
-  // round that holds every triangle.
+  // triangles within `reach` of the z of a point still to do (of the point
+  // itself when few are left); a triangle nearer than reach to a point is
+  // among them, so a distance <= reach is exact. The others go on with
+  // kReachGrowth times the reach, until the round that holds every triangle.
   std::vector<std::array<double, 2>> zr(mesh.triangles.size());
-  double extent = 0;
-  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-    const auto& t = mesh.triangles[i];
-    const Eigen::Vector3f a = mesh.vertices[std::size_t(t[0])], b = mesh.vertices[std::size_t(t[1])],
-                          c = mesh.vertices[std::size_t(t[2])];
-    extent += double((a.cwiseMax(b).cwiseMax(c) - a.cwiseMin(b).cwiseMin(c)).maxCoeff());
-    zr[i] = {double(std::min({a.z(), b.z(), c.z()})), double(std::max({a.z(), b.z(), c.z()}))};
-  }
+  const double extent = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, mesh.triangles.size()), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& r, double sum) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+          const auto& t = mesh.triangles[i];
+          const Eigen::Vector3f a = mesh.vertices[std::size_t(t[0])], b = mesh.vertices[std::size_t(t[1])],
+                                c = mesh.vertices[std::size_t(t[2])];
+          sum += double((a.cwiseMax(b).cwiseMax(c) - a.cwiseMin(b).cwiseMin(c)).maxCoeff());
+          zr[i] = {double(std::min({a.z(), b.z(), c.z()})), double(std::max({a.z(), b.z(), c.z()}))};
+        }
+        return sum;
+      },
+      std::plus<double>());
   double reach = kPlaneReachExtents * extent / double(mesh.triangles.size());
   std::vector<std::size_t> todo(points.size());
   std::iota(todo.begin(), todo.end(), std::size_t(0));
   while (!todo.empty()) {
-    std::vector<double> zs;
-    for (const std::size_t i : todo) zs.push_back(points[i].z());
-    std::sort(zs.begin(), zs.end());
-    zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
     std::vector<std::int32_t> ids;
-    for (std::size_t i = 0; i < zr.size(); ++i) {
-      const auto it = std::lower_bound(zs.begin(), zs.end(), zr[i][0] - reach);
-      if (it != zs.end() && *it <= zr[i][1] + reach) ids.push_back(std::int32_t(i));
+    if (todo.size() <= kFewPoints) {
+      // A few points left (e.g. contour specks the grid dropped): the
+      // triangles whose box comes within reach of one of them.
+      for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+        const auto& t = mesh.triangles[i];
+        const Eigen::Vector3f a = mesh.vertices[std::size_t(t[0])], b = mesh.vertices[std::size_t(t[1])],
+                              c = mesh.vertices[std::size_t(t[2])];
+        const Vec3d lo = a.cwiseMin(b).cwiseMin(c).cast<double>(), hi = a.cwiseMax(b).cwiseMax(c).cast<double>();
+        for (const std::size_t k : todo)
+          if (((points[k].array() >= lo.array() - reach) && (points[k].array() <= hi.array() + reach)).all()) {
+            ids.push_back(std::int32_t(i));
+            break;
+          }
+      }
+    } else {
+      std::vector<double> zs;
+      for (const std::size_t i : todo) zs.push_back(points[i].z());
+      std::sort(zs.begin(), zs.end());
+      zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
+      for (std::size_t i = 0; i < zr.size(); ++i) {
+        const auto it = std::lower_bound(zs.begin(), zs.end(), zr[i][0] - reach);
+        if (it != zs.end() && *it <= zr[i][1] + reach) ids.push_back(std::int32_t(i));
+      }
     }
     const bool every = ids.size() == mesh.triangles.size();
-    const TriangleGrid grid(mesh, std::move(ids));
+    const TriangleGrid grid(mesh, ids);
     tbb::parallel_for(std::size_t(0), todo.size(), [&](std::size_t k) { d[todo[k]] = grid.distance(points[todo[k]]); });
     if (every) break;
     std::erase_if(todo, [&](std::size_t i) { return d[i] <= reach; });
