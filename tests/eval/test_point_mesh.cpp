@@ -1,7 +1,8 @@
 // eval/point_mesh.h: distances from points to a mesh over its triangle grid
-// equal the brute-force minimum over every triangle (the decimator's own
-// point-triangle distance, an independent twin), and the summary's
-// percentile is a nearest-rank one.
+// and its rounds near the points' planes equal the brute-force minimum over
+// every triangle (the same point-triangle distance, the decimator's, whose own
+// tests cover it: what is tested here is which triangles the search visits),
+// and the summary's percentile is a nearest-rank one.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,8 +17,9 @@ using namespace isoloft;
 
 namespace {
 
-// Both are exact point-triangle distances in double from the same float
-// corners; they differ only by rounding.
+// Both take the same point-triangle distance in double from the same float
+// corners: a visited set that misses the nearest triangle shows as far more
+// than this.
 constexpr double kRounding = 1e-9;
 
 // A Marching Cubes sphere of radius 9 in a 24^3 grid: ~2k small triangles.

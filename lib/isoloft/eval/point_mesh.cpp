@@ -13,37 +13,11 @@
 #include <limits>
 #include <numeric>
 
+#include "isoloft/mesh/decimate_bound.h"
 
 namespace isoloft {
 
 namespace {
-
-// Squared distance from p to triangle abc (Ericson, Real-Time Collision
-// Detection 5.1.5: the Voronoi region of p, then its closest point).
-double triangle_distance_sq(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  const Vec3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return ap.squaredNorm();
-  const Vec3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bp.squaredNorm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (ap - (d1 / (d1 - d3)) * ab).squaredNorm();
-  const Vec3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cp.squaredNorm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (ap - (d2 / (d2 - d6)) * ac).squaredNorm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return (bp - w * (c - b)).squaredNorm();
-  }
-  const double sum = va + vb + vc;
-  if (!(sum > 0)) return std::min({ap.squaredNorm(), bp.squaredNorm(), cp.squaredNorm()});  // degenerate
-  const double v = vb / sum, w = vc / sum;
-  return (ap - v * ab - w * ac).squaredNorm();
-}
 
 // Triangles within this many mean triangle extents of a point's plane are
 // searched first, then this many times farther each round (point_mesh_distances).
@@ -51,12 +25,17 @@ constexpr double kPlaneReachExtents = 2.0, kReachGrowth = 4.0;
 // At most this many points left: candidates by each point's own box, not its plane.
 constexpr std::size_t kFewPoints = 64;
 
+// A triangle's bounding box.
+struct Box {
+  Eigen::Vector3f lo, hi;
+};
+
 // The triangles bucketed by the cells their boxes meet (cells of about twice
 // the mean triangle extent; only the occupied ones, by sorted key).
 class TriangleGrid {
  public:
-  /// The mesh's triangles `ids`.
-  TriangleGrid(const TriMesh& mesh, const std::vector<std::int32_t>& ids) : mesh_(mesh) {
+  /// The mesh's triangles `ids`; boxes[i] is triangle i's box.
+  TriangleGrid(const TriMesh& mesh, const std::vector<Box>& boxes, const std::vector<std::int32_t>& ids) : mesh_(mesh) {
     if (ids.empty()) return;
     struct Bounds {
       Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
@@ -66,8 +45,8 @@ class TriangleGrid {
         tbb::blocked_range<std::size_t>(0, ids.size()), Bounds{},
         [&](const tbb::blocked_range<std::size_t>& r, Bounds b) {
           for (std::size_t k = r.begin(); k < r.end(); ++k) {
-            const auto& t = mesh.triangles[std::size_t(ids[k])];
-            const Vec3d tlo = box_lo(t), thi = box_hi(t);
+            const Box& t = boxes[std::size_t(ids[k])];
+            const Vec3d tlo = t.lo.cast<double>(), thi = t.hi.cast<double>();
             b.lo = b.lo.cwiseMin(tlo), b.hi = b.hi.cwiseMax(thi);
             b.extent += (thi - tlo).maxCoeff();
           }
@@ -86,8 +65,8 @@ class TriangleGrid {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ids.size()), [&](const tbb::blocked_range<std::size_t>& r) {
       Entries& out = parts.local();
       for (std::size_t k = r.begin(); k < r.end(); ++k) {
-        const auto& t = mesh.triangles[std::size_t(ids[k])];
-        const auto c0 = cell_of(box_lo(t)), c1 = cell_of(box_hi(t));
+        const Box& t = boxes[std::size_t(ids[k])];
+        const auto c0 = cell_of(t.lo.cast<double>()), c1 = cell_of(t.hi.cast<double>());
         for (int z = c0[2]; z <= c1[2]; ++z)
           for (int y = c0[1]; y <= c1[1]; ++y)
             for (int x = c0[0]; x <= c1[0]; ++x) out.emplace_back(key(x, y, z), ids[k]);
@@ -120,7 +99,7 @@ class TriangleGrid {
             const std::size_t k = std::size_t(it - keys_.begin());
             for (std::uint32_t q = start_[k]; q < start_[k + 1]; ++q) {
               const auto& t = mesh_.triangles[std::size_t(ids_[q])];
-              best2 = std::min(best2, triangle_distance_sq(p, vertex(t[0]), vertex(t[1]), vertex(t[2])));
+              best2 = std::min(best2, detail::PreparedTriangle(vertex(t[0]), vertex(t[1]), vertex(t[2])).distance_sq(p));
             }
           }
       // Every unseen triangle lies outside the block of cells within r of c:
@@ -139,12 +118,6 @@ class TriangleGrid {
   static constexpr double kCellExtents = 2.0;
 
   [[nodiscard]] Vec3d vertex(std::int32_t v) const { return mesh_.vertices[std::size_t(v)].cast<double>(); }
-  [[nodiscard]] Vec3d box_lo(const std::array<std::int32_t, 3>& t) const {
-    return vertex(t[0]).cwiseMin(vertex(t[1])).cwiseMin(vertex(t[2]));
-  }
-  [[nodiscard]] Vec3d box_hi(const std::array<std::int32_t, 3>& t) const {
-    return vertex(t[0]).cwiseMax(vertex(t[1])).cwiseMax(vertex(t[2]));
-  }
   [[nodiscard]] std::array<int, 3> cell_of(const Vec3d& p) const {
     std::array<int, 3> c{};
     for (int a = 0; a < 3; ++a) c[a] = std::clamp(int(std::floor((p[a] - lo_[a]) / cell_)), 0, n_[a] - 1);
@@ -173,16 +146,16 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
   // itself when few are left); a triangle nearer than reach to a point is
   // among them, so a distance <= reach is exact. The others go on with
   // kReachGrowth times the reach, until the round that holds every triangle.
-  std::vector<std::array<double, 2>> zr(mesh.triangles.size());
+  std::vector<Box> boxes(mesh.triangles.size());
   const double extent = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, mesh.triangles.size()), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double sum) {
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
           const auto& t = mesh.triangles[i];
-          const Eigen::Vector3f a = mesh.vertices[std::size_t(t[0])], b = mesh.vertices[std::size_t(t[1])],
-                                c = mesh.vertices[std::size_t(t[2])];
-          sum += double((a.cwiseMax(b).cwiseMax(c) - a.cwiseMin(b).cwiseMin(c)).maxCoeff());
-          zr[i] = {double(std::min({a.z(), b.z(), c.z()})), double(std::max({a.z(), b.z(), c.z()}))};
+          const Eigen::Vector3f &a = mesh.vertices[std::size_t(t[0])], &b = mesh.vertices[std::size_t(t[1])],
+                                &c = mesh.vertices[std::size_t(t[2])];
+          boxes[i] = {a.cwiseMin(b).cwiseMin(c), a.cwiseMax(b).cwiseMax(c)};
+          sum += double((boxes[i].hi - boxes[i].lo).maxCoeff());
         }
         return sum;
       },
@@ -195,11 +168,8 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
     if (todo.size() <= kFewPoints) {
       // A few points left (e.g. contour specks the grid dropped): the
       // triangles whose box comes within reach of one of them.
-      for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-        const auto& t = mesh.triangles[i];
-        const Eigen::Vector3f a = mesh.vertices[std::size_t(t[0])], b = mesh.vertices[std::size_t(t[1])],
-                              c = mesh.vertices[std::size_t(t[2])];
-        const Vec3d lo = a.cwiseMin(b).cwiseMin(c).cast<double>(), hi = a.cwiseMax(b).cwiseMax(c).cast<double>();
+      for (std::size_t i = 0; i < boxes.size(); ++i) {
+        const Vec3d lo = boxes[i].lo.cast<double>(), hi = boxes[i].hi.cast<double>();
         for (const std::size_t k : todo)
           if (((points[k].array() >= lo.array() - reach) && (points[k].array() <= hi.array() + reach)).all()) {
             ids.push_back(std::int32_t(i));
@@ -211,13 +181,13 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
       for (const std::size_t i : todo) zs.push_back(points[i].z());
       std::sort(zs.begin(), zs.end());
       zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
-      for (std::size_t i = 0; i < zr.size(); ++i) {
-        const auto it = std::lower_bound(zs.begin(), zs.end(), zr[i][0] - reach);
-        if (it != zs.end() && *it <= zr[i][1] + reach) ids.push_back(std::int32_t(i));
+      for (std::size_t i = 0; i < boxes.size(); ++i) {
+        const auto it = std::lower_bound(zs.begin(), zs.end(), double(boxes[i].lo.z()) - reach);
+        if (it != zs.end() && *it <= double(boxes[i].hi.z()) + reach) ids.push_back(std::int32_t(i));
       }
     }
     const bool every = ids.size() == mesh.triangles.size();
-    const TriangleGrid grid(mesh, ids);
+    const TriangleGrid grid(mesh, boxes, ids);
     tbb::parallel_for(std::size_t(0), todo.size(), [&](std::size_t k) { d[todo[k]] = grid.distance(points[todo[k]]); });
     if (every) break;
     std::erase_if(todo, [&](std::size_t i) { return d[i] <= reach; });

@@ -231,6 +231,18 @@ PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, 
   return {std::max(0, x0 - margin), std::max(0, y0 - margin), std::min(width, x1 + margin + 1), std::min(height, y1 + margin + 1)};
 }
 
+namespace {
+
+// The slice's polygons in the box's coordinates.
+std::vector<Polygon> polygons_in_box(const Slice& s, const PixelBox& b) {
+  std::vector<Polygon> out = s.polygons;
+  for (auto& poly : out)
+    for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
+  return out;
+}
+
+}  // namespace
+
 Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind) {
   const Grid2u8 inside = crop(m.inside, b);
   if (kind == InputKind::Contours || kind == InputKind::Polylines)
@@ -270,10 +282,7 @@ SliceField marker_slice(const SliceInput& in, const ReconstructParams& p) {
     rasterize_polygons(polys, fit_w, fit_h, fine_contour, fine_inside);
     r.points = contour_normals(fine_contour, fine_inside, p.normals);
   } else if (polylines) {
-    std::vector<Polygon> shifted = s.polygons;
-    for (auto& poly : shifted)
-      for (auto& q : poly.points) q -= Vec2d(b.x0, b.y0);
-    r.points = polygon_points(shifted, p.polyline_spacing);
+    r.points = polygon_points(polygons_in_box(s, b), p.polyline_spacing);
   } else {
     r.points = contour_normals(contour, inside, p.normals);
     if (kind != InputKind::Contours && p.mask_edge_offset != 0)
@@ -356,9 +365,7 @@ SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& p) {
 SliceField drawn_polygon_slice(const SliceInput& in, const ReconstructParams& p) {
   SliceField r;
   const auto t0 = Clock::now();
-  std::vector<Polygon> shifted = in.slice.polygons;
-  for (auto& poly : shifted)
-    for (auto& q : poly.points) q -= Vec2d(in.box.x0, in.box.y0);
+  const std::vector<Polygon> shifted = polygons_in_box(in.slice, in.box);
   // The sign by the even-odd rule alone: a contour pixel whose centre lies
   // outside is outside (the masks' inside holds every contour pixel).
   const NarrowBandResult nb = polygon_narrow_band(shifted, even_odd_inside(shifted, in.box.width(), in.box.height()), p.band);

@@ -132,6 +132,17 @@ constexpr double kRtMeshBudget = 1.5e6;
 // the 2-per-pixel count).
 constexpr double kTrianglesPerWallPixel = 3.6;
 
+// A closed contour's area and perimeter in its plane (mm^2, mm).
+std::pair<double, double> area_perimeter(const RtContour& c) {
+  double a = 0, perimeter = 0;
+  for (std::size_t i = 0, j = c.points.size() - 1; i < c.points.size(); j = i++) {
+    const Vec3d &p = c.points[i], &q = c.points[j];
+    a += q.x() * p.y() - p.x() * q.y();
+    perimeter += (p - q).head<2>().norm();
+  }
+  return {0.5 * std::abs(a), perimeter};
+}
+
 // A ROI's estimated mesh area from its contours (mm^2): each closed contour's
 // perimeter times the plane spacing, plus the areas on its lowest and highest
 // planes (the end caps).
@@ -140,14 +151,9 @@ double estimated_wall_area(const RtRoi& roi, double spacing) {
   const double tol = 0.2 * spacing;
   for (const RtContour& c : roi.contours) {
     if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) continue;
-    double a = 0, perimeter = 0;
-    for (std::size_t i = 0, j = c.points.size() - 1; i < c.points.size(); j = i++) {
-      const Vec3d &p = c.points[i], &q = c.points[j];
-      a += q.x() * p.y() - p.x() * q.y();
-      perimeter += (p - q).head<2>().norm();
-    }
+    const auto [area, perimeter] = area_perimeter(c);
     wall += perimeter * spacing;
-    const double z = c.points.front().z(), area = 0.5 * std::abs(a);
+    const double z = c.points.front().z();
     if (z < zlo - tol) zlo = z, end_lo = 0;
     if (std::abs(z - zlo) <= tol) end_lo += area;
     if (z > zhi + tol) zhi = z, end_hi = 0;
@@ -162,15 +168,12 @@ std::pair<double, double> largest_loop_size(const RtRoi& roi) {
   double best = 0, thickness = 0, extent = 0;
   for (const RtContour& c : roi.contours) {
     if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) continue;
-    double a = 0, perimeter = 0, xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
-    for (std::size_t i = 0, j = c.points.size() - 1; i < c.points.size(); j = i++) {
-      const Vec3d &p = c.points[i], &q = c.points[j];
-      a += q.x() * p.y() - p.x() * q.y();
-      perimeter += (p - q).head<2>().norm();
+    const auto [a, perimeter] = area_perimeter(c);
+    if (!(a > best && perimeter > 0)) continue;
+    double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
+    for (const Vec3d& p : c.points)
       xlo = std::min(xlo, p.x()), xhi = std::max(xhi, p.x()), ylo = std::min(ylo, p.y()), yhi = std::max(yhi, p.y());
-    }
-    a = 0.5 * std::abs(a);
-    if (a > best && perimeter > 0) best = a, thickness = 2 * a / perimeter, extent = std::max(xhi - xlo, yhi - ylo);
+    best = a, thickness = 2 * a / perimeter, extent = std::max(xhi - xlo, yhi - ylo);
   }
   return {thickness, extent};
 }
