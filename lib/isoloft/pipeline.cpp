@@ -22,6 +22,7 @@
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/mesh/stream_mesher.h"
+#include "isoloft/pipeline/field_band.h"
 #include "isoloft/pipeline/slice_fields.h"
 
 namespace isoloft {
@@ -334,13 +335,17 @@ void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const F
 // slices at a time in parallel, handed out in slice order.
 class SliceFields {
  public:
-  SliceFields(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks>& masks, ResidentCount& count)
+  // band: the fields are exact only where they reach the mesh (pipeline/field_band.h).
+  SliceFields(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks>& masks, ResidentCount& count,
+              const std::optional<detail::FieldBand::Setup>& band)
       : run_(run),
         obj_(obj),
         masks_(masks),
         count_(count),
         window_(detail::slice_window()),
-        method_(method_spec(run.params.method.name())) {}
+        method_(method_spec(run.params.method.name())) {
+    if (band) band_.emplace(masks, obj.box, *band);
+  }
 
   // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
   // fit statistics and stage fields are recorded as it is handed out.
@@ -388,9 +393,10 @@ class SliceFields {
     const auto t0 = Clock::now();
     const SliceMasks m = detail::unpack_masks(masks_[k]);
     masks_[k] = {};
+    const std::optional<detail::SliceBand> band = band_ ? band_->band(k) : std::nullopt;
     c.t_contour = seconds_since(t0);
     const SliceInput in{m, run.stack.slices[k], obj_.box, run.stack.kind, run.stack.width,
-                        bool(run.options.on_slice_fields)};
+                        bool(run.options.on_slice_fields), band ? &*band : nullptr};
     c.slice = method_.slice_field(in, run.params);
     return c;
   }
@@ -400,6 +406,7 @@ class SliceFields {
     const std::size_t k1 = std::min(run_.slices(), k0 + window_);
     ready_.resize(k1 - k0);
     count_.add(long(k1 - k0));  // in flight, then held until the knot feed drops them
+    if (band_) band_->prepare(k0, k1);
     const char* stage = method_.fits_curves ? "mpu+distance" : "distance";
     for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { ready_[k - k0] = one(k); });
     for (const Computed& c : ready_) {
@@ -415,6 +422,7 @@ class SliceFields {
   ResidentCount& count_;
   std::size_t window_;
   const MethodSpec& method_;
+  std::optional<detail::FieldBand> band_;
   std::deque<Computed> ready_;
   std::size_t next_ = 0;
   std::atomic<long> done_{0};
@@ -666,7 +674,8 @@ class ObjectStream {
   /// Each knot the stream pulls, with its index, goes to `tap` too (if set).
   using KnotTap = std::function<void(std::size_t, const Grid2f&)>;
 
-  ObjectStream(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks> masks, KnotTap tap = {})
+  ObjectStream(const Run& run, ObjectResult& obj, std::vector<detail::PackedMasks> masks, KnotTap tap = {},
+               const std::optional<detail::FieldBand::Setup>& band = std::nullopt)
       : run_(run), obj_(obj), masks_(std::move(masks)), empty_(masks_.size()), z_(knot_z(run)), tap_(std::move(tap)) {
     const ReconstructParams& p = run.params;
     for (std::size_t k = 0; k < masks_.size(); ++k) empty_[k] = masks_[k].empty;
@@ -677,7 +686,7 @@ class ObjectStream {
         << " / the slice z)";
       throw InputError(run.stack.slices.front().source, o.str());
     }
-    slices_.emplace(run, obj, masks_, count_);
+    slices_.emplace(run, obj, masks_, count_, band);
     feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_);
     stream_ = z_scheme_spec(p.z_scheme).make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, p);
   }
@@ -738,9 +747,11 @@ StreamMeshOptions mesh_options(const Run& run, const ObjectResult& obj) {
   return o;
 }
 
-// Stages (paper 2.1-2.5 but decimation) of one object: its stream meshed plane by plane.
-void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj) {
-  ObjectStream s(run, obj, std::move(masks));
+// Stages (paper 2.1-2.5 but decimation) of one object: its stream meshed
+// plane by plane, the fields exact only where they reach the mesh if `band`.
+void stream_stages_once(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj,
+                        const std::optional<detail::FieldBand::Setup>& band) {
+  ObjectStream s(run, obj, std::move(masks), {}, band);
   std::optional<Sampling> sampling;
   if (run.options.on_sample) sampling.emplace(s.field(), run, obj, s.knots());
   PlaneSource& field = sampling ? static_cast<PlaneSource&>(*sampling) : s.field();
@@ -748,6 +759,27 @@ void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, Objec
   if (sampling) sampling->reach(s.knots().size() - 2);  // any sample the planes did not pass
   const double interp = r.interp_seconds + (sampling ? sampling->seconds() : 0.0);
   s.finish(std::move(r), interp);
+}
+
+// The fields banded (pipeline/field_band.h) unless a hook sees them or the
+// options ask for whole fields. An empty mesh is made again with whole
+// fields: its reason quotes the fields' maximum, which a band does not keep.
+void stream_stages(const Run& run, std::vector<detail::PackedMasks> masks, ObjectResult& obj) {
+  const ReconstructOptions& o = run.options;
+  const bool seen = o.on_slice_fields || o.on_plane || o.on_sample || o.whole_fields;
+  const std::optional<detail::FieldBand::Setup> band =
+      seen ? std::nullopt : detail::field_band_setup(run.params, run.stack.kind, masks);
+  if (!band) return stream_stages_once(run, std::move(masks), obj, std::nullopt);
+  ReconstructResult part;
+  const Run banded{run.stack, run.params, run.options, part, run.label};
+  const ObjectResult before = obj;
+  stream_stages_once(banded, masks, obj, band);
+  if (obj.mesh.triangles.empty()) {
+    obj = before;
+    return stream_stages_once(run, std::move(masks), obj, std::nullopt);
+  }
+  for (auto& w : part.warnings) run.warn(std::move(w));
+  run.result.times += part.times;
 }
 
 // What bounds a label's partition field psi_l = phi_l - max(phi_m (m != l),

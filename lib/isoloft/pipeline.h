@@ -204,6 +204,9 @@ struct ReconstructOptions {
   /// The object's label (0: the only object, or the label scan shared by
   /// every label), stage name, items done, items total; from worker threads.
   std::function<void(std::uint32_t label, const std::string& stage, long done, long total)> progress;
+  /// Every slice field computed over the whole crop box, not only where it
+  /// can reach the mesh (the same mesh bit for bit; pipeline/field_band.h).
+  bool whole_fields = false;
 };
 
 struct ReconstructResult {

@@ -4,11 +4,13 @@
 #include <rapidcheck/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <set>
 
 #include "isoloft/contour/mask_curve.h"
 #include "isoloft/field/narrow_band.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/pipeline/field_band.h"
 #include "isoloft/pipeline/slice_fields.h"
 
 namespace isoloft {
@@ -94,6 +96,26 @@ TEST(MaskCurve, ThinFeaturesKeepTheirWidth) {
   constexpr double kMinThinWidth = 0.6;
   EXPECT_GE(width(MaskCurveParams{}), kMinThinWidth);
   EXPECT_LT(width(broad), width(MaskCurveParams{}));
+}
+
+// The window test and the distance transform name the same thin pixels
+// (twins) on random masks, for widths whose window is 3 x 3 to 7 x 7 and
+// beyond (the EDT itself), with sides touching the grid's border.
+TEST(MaskCurve, ThinSideWindowMatchesTheDistanceTransform) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 12; ++trial) {
+    Grid2u8 m(37, 29, 0);
+    std::bernoulli_distribution seed(0.08 + 0.04 * (trial % 4));
+    for (auto& v : m.data) v = seed(rng);
+    // Grown blobs: thick and thin parts side by side.
+    for (int grow = 0; grow < trial % 3; ++grow) m = detail::dilate_square(m, 1);
+    for (const double width : {0.5, 1.0, 2.0, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0, 9.0}) {
+      const Grid2u8 want = detail::thin_side_edt(m, width), got = detail::thin_side(m, width);
+      for (int y = 0; y < m.height; ++y)
+        for (int x = 0; x < m.width; ++x)
+          ASSERT_EQ(got(x, y), want(x, y)) << "trial " << trial << " width " << width << " pixel (" << x << ", " << y << ")";
+    }
+  }
 }
 
 }  // namespace

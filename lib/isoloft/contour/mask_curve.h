@@ -50,4 +50,20 @@ inline const ParamTable<MaskCurveParams>& params_table<MaskCurveParams>() {
 /// @warning An empty mask gives a field without zero crossing (all < 0).
 Grid2f clamped_smoothed_mask(const Grid2u8& inside, const MaskCurveParams& params = {});
 
+namespace detail {
+
+/// Widths whose deep test reaches farther than this (px) take the EDT.
+inline constexpr int kThinWindowReach = 3;
+
+/// Per pixel: is its own side (mask or complement) thinner than `width` here?
+/// A side is thin at p when no pixel of it within one step (3 x 3) lies
+/// width / 2 or more from the side's edge (distance_to_mask_edge_signed).
+/// By a window test where that distance is decided within kThinWindowReach px
+/// (the default width 3: the 3 x 3 around a pixel), else thin_side_edt.
+Grid2u8 thin_side(const Grid2u8& m, double width);
+/// The same from the exact distance transform (any width): thin_side's twin.
+Grid2u8 thin_side_edt(const Grid2u8& m, double width);
+
+}  // namespace detail
+
 }  // namespace isoloft

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -40,8 +41,40 @@ double filter_sigma(double abs_d, const FilterParams& p) {
   return p.sigma_min + (p.sigma_max - p.sigma_min) * 0.5 * (1.0 - std::cos(std::numbers::pi * t));
 }
 
-Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
+int filter_reach(const FilterParams& p) {
+  return p.enabled ? stencil_radius(double(std::lround(p.sigma_max / kSigmaQuantum)) * kSigmaQuantum) : 0;
+}
+
+namespace {
+
+// Per row y, the columns [lo, hi] whose row pass the far pixels of `only`
+// read (rows y - r .. y + r); lo > hi: none. Without `only`, every column.
+std::vector<std::pair<int, int>> row_pass_spans(const Grid2f& d, const Grid2u8* only, double d_max, int r) {
+  const int w = d.width, h = d.height;
+  std::vector<std::pair<int, int>> span(std::size_t(h), {0, w - 1});
+  if (!only) return span;
+  std::vector<std::pair<int, int>> far(std::size_t(h), {w, -1});  // needed far pixels of each row
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (only->data[d.index(x, y)] && std::abs(double(d(x, y))) >= d_max)
+        far[std::size_t(y)].first = std::min(far[std::size_t(y)].first, x), far[std::size_t(y)].second = x;
+  for (int y = 0; y < h; ++y) {
+    auto& s = span[std::size_t(y)];
+    s = {w, -1};
+    for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy)
+      s.first = std::min(s.first, far[std::size_t(yy)].first), s.second = std::max(s.second, far[std::size_t(yy)].second);
+  }
+  return span;
+}
+
+}  // namespace
+
+Grid2f distance_filter(const Grid2f& d, const FilterParams& p, const Grid2u8* only) {
   params_table<FilterParams>().validate(p);
+  if (only && (only->width != d.width || only->height != d.height))
+    throw ParamError("distance filter: the mask of pixels to filter is " + std::to_string(only->width) + "x" +
+                     std::to_string(only->height) + ", the field " + std::to_string(d.width) + "x" +
+                     std::to_string(d.height));
   if (!p.enabled || d.empty()) return d;
   check_field(d);
   // 1D weights per quantized sigma: kernel k has sigma k * kSigmaQuantum.
@@ -71,8 +104,11 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
   Grid2f rows_pass;
   if (any_far) {
     rows_pass = Grid2f(w, h);
+    const std::vector<std::pair<int, int>> spans = row_pass_spans(d, only, p.d_max, far.r);
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
       for (int y = rows.begin(); y != rows.end(); ++y) {
+        const auto [x_lo, x_hi] = spans[std::size_t(y)];
+        if (x_lo > x_hi) continue;
         const float* row = d.data.data() + d.index(0, y);
         const auto one = [&](int x) {
           const int xa = std::max(0, x - far.r), xb = std::min(w - 1, x + far.r);
@@ -90,9 +126,11 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
         const int n = 2 * far.r + 1, interior0 = far.r, interior1 = w - far.r;  // [interior0, interior1)
         float whole = 0.0f;
         for (int j = 0; j < n; ++j) whole += far.g[std::size_t(j)];
-        int x = 0;
-        for (; x < std::min(w, interior0); ++x) one(x);
-        for (; x + 4 <= interior1; x += 4) {
+        for (int x = x_lo; x <= x_hi;) {
+          if (x < interior0 || x + 4 > std::min(interior1, x_hi + 1)) {
+            one(x++);
+            continue;
+          }
           const float* src = row + (x - far.r);
           float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
           for (int j = 0; j < n; ++j) {
@@ -101,8 +139,8 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
           }
           float* o = &rows_pass(x, y);
           o[0] = s0 / whole, o[1] = s1 / whole, o[2] = s2 / whole, o[3] = s3 / whole;
+          x += 4;
         }
-        for (; x < w; ++x) one(x);
       }
     });
   }
@@ -112,8 +150,14 @@ Grid2f distance_filter(const Grid2f& d, const FilterParams& p) {
       const int ya_far = std::max(0, y - far.r), yb_far = std::min(h - 1, y + far.r);
       const float* gy_far = far.g.data() + (far.r - y);
       const auto is_far = [&](int x) { return std::abs(double(d(x, y))) >= p.d_max; };
+      const std::uint8_t* wanted = only ? &only->data[d.index(0, y)] : nullptr;
+      const auto all_wanted = [&](int x) { return !wanted || (wanted[x] && wanted[x + 1] && wanted[x + 2] && wanted[x + 3]); };
       for (int x = 0; x < w; ++x) {
-        if (any_far && x + 4 <= w && is_far(x) && is_far(x + 1) && is_far(x + 2) && is_far(x + 3)) {
+        if (wanted && !wanted[x]) {
+          out(x, y) = d(x, y);
+          continue;
+        }
+        if (any_far && x + 4 <= w && all_wanted(x) && is_far(x) && is_far(x + 1) && is_far(x + 2) && is_far(x + 3)) {
           // Four far pixels side by side: the column pass below, each sum in
           // its own order (the same doubles), over contiguous loads.
           double acc0 = 0.0, acc1 = 0.0, acc2 = 0.0, acc3 = 0.0, sy = 0.0;

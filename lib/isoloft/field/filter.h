@@ -51,10 +51,17 @@ inline const ParamTable<FilterParams>& params_table<FilterParams>() {
 double filter_sigma(double abs_d, const FilterParams& params);
 
 /// The filter, parallel over rows; d itself if !params.enabled.
+/// \param only if given (d's size): only its non-zero pixels are filtered,
+///        each to the value of the whole run bit for bit; the others keep d.
 /// \throw ParamError for parameters out of range or d_min >= d_max or
-///        sigma_min > sigma_max; InputError if d holds NaN.
+///        sigma_min > sigma_max, or `only` of another size; InputError if d
+///        holds NaN.
 /// @warning +-infinity passes only where the whole stencil shares it.
-Grid2f distance_filter(const Grid2f& d, const FilterParams& params = {});
+Grid2f distance_filter(const Grid2f& d, const FilterParams& params = {}, const Grid2u8* only = nullptr);
+
+/// Stencil radius of the filter at its widest (sigma_max), px: a filtered
+/// pixel reads d within this (Chebyshev) distance.
+int filter_reach(const FilterParams& params);
 
 namespace detail {
 

@@ -76,6 +76,25 @@ std::vector<std::uint8_t> initial_status(const detail::ExtendState& s) {
   return status;
 }
 
+// Required pixels not known yet: a march may stop when none is left.
+class RequiredLeft {
+ public:
+  RequiredLeft(const Grid2u8* required, const std::vector<std::uint8_t>& status, int width, int height) : required_(required) {
+    if (!required) return;
+    if (required->width != width || required->height != height)
+      throw ParamError("distance extension: the required-pixel mask is " + std::to_string(required->width) + "x" +
+                       std::to_string(required->height) + ", the grid " + std::to_string(width) + "x" +
+                       std::to_string(height));
+    for (std::size_t i = 0; i < status.size(); ++i) left_ += required->data[i] && status[i] != kKnown;
+  }
+  void known(int i) { left_ -= required_ && required_->data[std::size_t(i)]; }
+  [[nodiscard]] bool done() const { return required_ && left_ == 0; }
+
+ private:
+  const Grid2u8* required_;
+  long left_ = 0;
+};
+
 }  // namespace
 
 namespace detail {
@@ -202,9 +221,10 @@ Grid2f finish_extend(const NarrowBandResult& band, const ExtendState& s, ExtendU
 
 }  // namespace detail
 
-Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update) {
+Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required) {
   detail::ExtendState s = detail::init_extend_state(band, update);
   std::vector<std::uint8_t> status = initial_status(s);
+  RequiredLeft left(required, status, s.width, s.height);
   using Entry = std::pair<double, int>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
   // Lazy deletion: a pixel is pushed each time its value drops; stale entries
@@ -215,20 +235,22 @@ Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update) {
   };
   for (int i = 0; i < int(status.size()); ++i)
     if (status[i] == kKnown) offer(s, status, i, update, push);
-  while (!heap.empty()) {
+  while (!heap.empty() && !left.done()) {
     const auto [v, i] = heap.top();
     heap.pop();
     if (status[i] == kKnown || v != s.value[i]) continue;
     status[i] = kKnown;
+    left.known(i);
     settle(s, i, update);
     offer(s, status, i, update, push);
   }
   return detail::finish_extend(band, s, update);
 }
 
-Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update) {
+Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required) {
   detail::ExtendState s = detail::init_extend_state(band, update);
   std::vector<std::uint8_t> status = initial_status(s);
+  RequiredLeft left(required, status, s.width, s.height);
   std::vector<int> trial, newly;
   auto add = [&](int q) {
     if (status[q] == kFar) {
@@ -239,7 +261,7 @@ Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update) {
   for (int i = 0; i < int(status.size()); ++i)
     if (status[i] == kKnown) offer(s, status, i, update, add);
   const bool squared = update == ExtendUpdate::ClosestPoint;
-  while (!trial.empty()) {
+  while (!trial.empty() && !left.done()) {
     double m = kInf;
     for (int i : trial) m = std::min(m, s.value[i]);
     // Every trial value <= min + delta is final: any later update comes from a
@@ -253,6 +275,7 @@ Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update) {
       if (s.value[i] <= threshold) {
         newly.push_back(i);
         status[i] = kKnown;
+        left.known(i);
       } else {
         trial[keep++] = i;
       }
@@ -264,11 +287,11 @@ Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update) {
   return detail::finish_extend(band, s, update);
 }
 
-Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params) {
+Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params, const Grid2u8* required) {
   params_table<ExtendParams>().validate(params);
   switch (params.method) {
-    case ExtendMethod::FastMarching: return extend_fast_marching(band, params.update);
-    case ExtendMethod::MarchingCorrectness: return extend_marching_cc(band, params.update);
+    case ExtendMethod::FastMarching: return extend_fast_marching(band, params.update, required);
+    case ExtendMethod::MarchingCorrectness: return extend_marching_cc(band, params.update, required);
     case ExtendMethod::FastSweeping: return extend_fast_sweeping(band, params.update, params.max_sweep_cycles);
   }
   throw ParamError("distance extension: unknown method");

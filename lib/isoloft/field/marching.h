@@ -60,15 +60,22 @@ inline const ParamTable<ExtendParams>& params_table<ExtendParams>() {
 
 /// Signed distance on the whole grid: band pixels unchanged, the others by
 /// params.method, signed by band.inside. \pre band from narrow_band_distance.
-/// \throw ParamError if the band's grids or links disagree or a parameter is
-///        out of range.
+/// \param required if given (the grid's size): the marching methods stop once
+///        its non-zero pixels are known; those hold the values of the whole
+///        run bit for bit (a march is a prefix of the whole one), the others
+///        only their sign (magnitude unspecified). Fast sweeping ignores it.
+/// \throw ParamError if the band's grids or links disagree, `required` has
+///        another size, or a parameter is out of range.
 /// @warning No known band pixel (no curve): +-kNoSurfaceDistance by band.inside.
-Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params = {});
+Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params = {},
+                       const Grid2u8* required = nullptr);
 
 /// The methods themselves; the contract of extend_distance.
-Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update = ExtendUpdate::ClosestPoint);
+Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update = ExtendUpdate::ClosestPoint,
+                            const Grid2u8* required = nullptr);
 
-Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update = ExtendUpdate::ClosestPoint);
+Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update = ExtendUpdate::ClosestPoint,
+                          const Grid2u8* required = nullptr);
 
 namespace detail {
 

@@ -356,7 +356,7 @@ SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& p) {
   band.refine_iterations = 0;
   band.segment_splits = 1;
   const NarrowBandResult nb = narrow_band_distance(f, [](const Vec2d&) { return 1.0; }, band);
-  r.field = extend_distance(nb, p.extend);
+  r.field = extend_distance(nb, p.extend, in.band ? &in.band->required : nullptr);
   r.t_dist = seconds_since(t0);
   if (in.keep_stages) r.mpu = f, r.distance = r.field;
   return r;
@@ -370,20 +370,28 @@ SliceField drawn_polygon_slice(const SliceInput& in, const ReconstructParams& p)
   // outside is outside (the masks' inside holds every contour pixel).
   const NarrowBandResult nb = polygon_narrow_band(shifted, even_odd_inside(shifted, in.box.width(), in.box.height()), p.band);
   // No edge (degenerate polygons): the exact pixel distances, as a fit with too few points.
-  r.field = nb.segments.empty() ? levin_field(in.masks, in.box, in.kind) : extend_distance(nb, p.extend);
+  r.field = nb.segments.empty() ? levin_field(in.masks, in.box, in.kind)
+                                 : extend_distance(nb, p.extend, in.band ? &in.band->required : nullptr);
   r.fallback = nb.segments.empty();
   r.t_dist = seconds_since(t0);
   if (in.keep_stages) r.mpu = nb.distance, r.distance = r.field;
   return r;
 }
 
+bool takes_given_boundary(InputKind kind, const ReconstructParams& p) {
+  const bool traced = (kind == InputKind::Masks || kind == InputKind::Labels) && p.mask_boundary == MaskBoundary::Traced;
+  return traced || (kind == InputKind::Polylines && p.polyline_boundary == PolylineBoundary::Drawn);
+}
+
 SliceField curve_slice(const SliceInput& in, const ReconstructParams& p) {
-  const bool traced = (in.kind == InputKind::Masks || in.kind == InputKind::Labels) && p.mask_boundary == MaskBoundary::Traced;
-  const bool drawn = in.kind == InputKind::Polylines && p.polyline_boundary == PolylineBoundary::Drawn;
-  SliceField r = traced ? traced_mask_slice(in, p) : drawn ? drawn_polygon_slice(in, p) : marker_slice(in, p);
+  if (in.band && !takes_given_boundary(in.kind, p))
+    throw ParamError("curve_slice: a field band needs the input's own boundary (pipeline/field_band.h)");
+  SliceField r = !takes_given_boundary(in.kind, p) ? marker_slice(in, p)
+                 : in.kind == InputKind::Polylines ? drawn_polygon_slice(in, p)
+                                                   : traced_mask_slice(in, p);
   if (p.filter.enabled) {
     const auto t0 = Clock::now();
-    r.field = distance_filter(r.field, p.filter);
+    r.field = distance_filter(r.field, p.filter, in.band ? &in.band->needed : nullptr);
     r.t_filter = seconds_since(t0);
   }
   return r;

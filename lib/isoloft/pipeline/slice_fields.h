@@ -89,6 +89,22 @@ Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
 
 }  // namespace isoloft::detail
 
+namespace isoloft::detail {
+
+/// Where one slice's field must be exact (pipeline/field_band.h): `needed`
+/// (the values the splines and Marching Cubes read), `required` (needed grown
+/// by the filter's reach: where the extension must have finished).
+struct SliceBand {
+  Grid2u8 needed, required;
+};
+
+/// Whether the slice path keeps the boundary the input gives, with its sign:
+/// masks and labels traced (mask_boundary traced), polygons drawn
+/// (polyline_boundary drawn); else the MPU fit.
+bool takes_given_boundary(InputKind kind, const ReconstructParams& params);
+
+}  // namespace isoloft::detail
+
 namespace isoloft {
 
 /// One slice of one object, as a method reads it (methods/method.h).
@@ -99,6 +115,8 @@ struct SliceInput {
   InputKind kind = InputKind::Contours;
   int stack_width = 0;              ///< working grid width (fine polyline rasters)
   bool keep_stages = false;         ///< keep SliceField::mpu and distance (--dump-stages)
+  /// If set: the field need only be exact there (pipeline/field_band.h); elsewhere only its sign counts.
+  const detail::SliceBand* band = nullptr;
 };
 
 /// A method's field for one slice over the crop box, positive inside, with

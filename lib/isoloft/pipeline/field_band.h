@@ -1,0 +1,89 @@
+// @file pipeline/field_band.h
+// @brief Where a slice's field can reach the mesh: the pixels whose exact
+// value the z splines and Marching Cubes read (docs/decisions.md, "Fields
+// only where they reach the mesh").
+//
+// A slice field's sign is known from its masks alone beyond `unknown_within`
+// of a contour pixel: the traced mask boundary keeps every pixel centre on its
+// mask side (contour/mask_curve.h, clamped_smoothed_mask), drawn polygons sign
+// by the even-odd rule, which is the masks' inside but on contour pixels. Over
+// a knot interval whose two knots keep one known side at a pixel, a monotone,
+// extremum-preserving or linear spline keeps that side (interp/spline.h), so
+// no Marching Cubes edge at that pixel is crossed there and its value is
+// never read. A knot's exact value is needed at a pixel (`needed`) if the
+// pixel or a neighbour lies in a knot interval whose sides are unknown or
+// differ, among the intervals whose splines read the knot (the tangent
+// reach); the distance filter reads the stencils of `needed` pixels
+// (`required`, where the extension stops). Elsewhere any value of the known
+// side gives the same mesh, bit for bit.
+//
+// End slices, the slices the caps' trend reads (the second and the second to
+// last) and slices next to an empty slice are `full`: caps and the closing of
+// empty slices read them whole. Empty slices and the caps are outside
+// everywhere (cap_extent <= 1). Inside pixels on the ring of the crop box
+// count as unknown: the mesher's outside pad meets them.
+// @warning Only for the paths whose sign is the masks' (traced masks, drawn
+// polygons); field_band_setup() says which runs qualify.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <vector>
+
+#include "isoloft/core/grid.h"
+#include "isoloft/pipeline/slice_fields.h"
+
+namespace isoloft::detail {
+
+/// Per pixel of `box`: +1 inside, -1 outside, 0 within `unknown_within`
+/// (Chebyshev, px) of a contour pixel, and 0 for an inside pixel on the box's
+/// ring; all -1 for an empty slice.
+Grid2<std::int8_t> known_sides(const PackedMasks& m, const PixelBox& box, int unknown_within);
+
+/// 1 where a pixel within r (Chebyshev) of the pixel is 1.
+Grid2u8 dilate_square(const Grid2u8& g, int r);
+
+/// The bands of an object's slices, computed a window at a time from the
+/// packed masks (which must still be there when prepare() covers them).
+class FieldBand {
+ public:
+  struct Setup {
+    int unknown_within = 0;  ///< px: see known_sides()
+    std::size_t reach = 0;   ///< the spline's tangent reach (interp/z_stream.h)
+    int filter_reach = 0;    ///< px: the filter's stencil radius (0 = no filter)
+    bool trend_caps = false;  ///< the caps read the second (and second to last) slice too
+  };
+  FieldBand(const std::vector<PackedMasks>& masks, const PixelBox& box, const Setup& setup);
+
+  /// Makes band() answer for slices [k0, k1): the crossings of the knot
+  /// intervals their splines read, up to k1 + reach, computed (in parallel),
+  /// those below k0 - reach dropped. Calls in increasing order.
+  void prepare(std::size_t k0, std::size_t k1);
+  /// Slice k's band; nullopt: the whole field (a full slice). Thread-safe
+  /// after prepare() for k.
+  [[nodiscard]] std::optional<SliceBand> band(std::size_t k) const;
+
+ private:
+  const std::vector<PackedMasks>& masks_;
+  PixelBox box_;
+  Setup setup_;
+  std::vector<char> full_;
+  // Per knot interval j (knots j, j + 1; knot 0 the cap below): 1 where its
+  // sides are unknown or differ. Intervals [first_, first_ + size).
+  std::deque<Grid2u8> crossing_;
+  std::size_t first_ = 0;
+};
+
+/// The band's setup for an object, or nullopt where a band could change the
+/// mesh or is not derived: a method without curves, a slice path whose sign
+/// is not the masks' (the MPU fit), a z scheme other than columns, mc.iso not
+/// 0, a spline that can leave its knots' side (Catmull-Rom, natural), an
+/// empty slice with no non-empty neighbour (it takes the lowest value of
+/// every field) or empty slices with cap_extent > 1 (their side is then not
+/// known).
+std::optional<FieldBand::Setup> field_band_setup(const ReconstructParams& params, InputKind kind,
+                                                 const std::vector<PackedMasks>& masks);
+
+}  // namespace isoloft::detail

@@ -1,0 +1,269 @@
+// Fields computed only where they reach the mesh (pipeline/field_band.h):
+// the extension stopped at its required pixels and the filter run on its
+// needed pixels give those pixels the whole run's values bit for bit, the
+// known sides match a brute-force scan, and reconstruct() gives the mesh of
+// whole fields bit for bit on traced masks and drawn polygons whose contours
+// move far between slices, with empty slices, polygons cut by the image edge,
+// for each spline that keeps its knots' side; no band where it could change
+// the mesh.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "isoloft/field/filter.h"
+#include "isoloft/field/marching.h"
+#include "isoloft/field/narrow_band.h"
+#include "isoloft/pipeline.h"
+#include "isoloft/pipeline/field_band.h"
+#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/synth.h"
+
+using namespace isoloft;
+
+namespace {
+
+std::string px(std::size_t i, int w) {
+  return "pixel (" + std::to_string(i % std::size_t(w)) + ", " + std::to_string(i / std::size_t(w)) + ")";
+}
+
+// Two circles' union as samples of a signed distance-like f, and a mask of
+// pixels near the first circle only (a band that stops before the far side).
+struct TwoCircles {
+  static constexpr int n = 96;
+  Grid2f f = Grid2f(n, n);
+  Grid2u8 near = Grid2u8(n, n, 0);
+  TwoCircles() {
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const double a = 14.0 - std::hypot(x - 30.0, y - 40.0), b = 9.0 - std::hypot(x - 70.0, y - 60.0);
+        f(x, y) = float(std::max(a, b));
+        near(x, y) = std::abs(a) < 20.0;
+      }
+  }
+};
+
+TEST(FieldBand, ExtensionStoppedAtRequiredPixelsKeepsTheirValues) {
+  const TwoCircles c;
+  const NarrowBandResult nb = narrow_band_distance(c.f, {});
+  for (const ExtendMethod m : {ExtendMethod::MarchingCorrectness, ExtendMethod::FastMarching}) {
+    ExtendParams p;
+    p.method = m;
+    const Grid2f whole = extend_distance(nb, p);
+    const Grid2f part = extend_distance(nb, p, &c.near);
+    long differ = 0;
+    for (std::size_t i = 0; i < whole.size(); ++i) {
+      if (c.near.data[i]) EXPECT_EQ(part.data[i], whole.data[i]) << to_string(m) << " " << px(i, whole.width);
+      EXPECT_EQ(part.data[i] > 0, whole.data[i] > 0) << to_string(m) << " sign at " << px(i, whole.width);
+      differ += part.data[i] != whole.data[i];
+    }
+    EXPECT_GT(differ, 0) << to_string(m) << ": the march did not stop early";
+  }
+}
+
+TEST(FieldBand, FilterOnNeededPixelsKeepsTheirValues) {
+  const TwoCircles c;
+  const Grid2f d = extend_distance(narrow_band_distance(c.f, {}));
+  const FilterParams p;
+  const Grid2f whole = distance_filter(d, p);
+  const Grid2f part = distance_filter(d, p, &c.near);
+  for (std::size_t i = 0; i < whole.size(); ++i)
+    EXPECT_EQ(part.data[i], c.near.data[i] ? whole.data[i] : d.data[i]) << px(i, whole.width);
+}
+
+TEST(FieldBand, DilateSquareMatchesABruteForceScan) {
+  Grid2u8 g(23, 17, 0);
+  for (const auto [x, y] : {std::pair{0, 0}, {11, 8}, {22, 3}, {5, 16}}) g(x, y) = 1;
+  for (const int r : {0, 1, 3, 30}) {
+    const Grid2u8 got = detail::dilate_square(g, r);
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        bool want = false;
+        for (int yy = std::max(0, y - r); yy <= std::min(g.height - 1, y + r); ++yy)
+          for (int xx = std::max(0, x - r); xx <= std::min(g.width - 1, x + r); ++xx) want = want || g(xx, yy);
+        ASSERT_EQ(bool(got(x, y)), want) << "r " << r << " pixel (" << x << ", " << y << ")";
+      }
+  }
+}
+
+TEST(FieldBand, KnownSidesMatchABruteForceScan) {
+  SynthParams sp;
+  sp.size = 64;
+  sp.kind = InputKind::Masks;
+  const SliceStack st = synthesize(*make_default_shape("sphere", 64), sp).stack;
+  const ReconstructParams p;
+  // A box cutting through the sphere (centre 31.5): its ring holds inside pixels.
+  const PixelBox box{5, 3, 30, 58};
+  constexpr int u = 2;
+  for (std::size_t k = 0; k < st.slices.size(); k += 3) {
+    const detail::SliceMasks m = detail::slice_masks(st, st.slices[k], p, 0);
+    const Grid2<std::int8_t> got = detail::known_sides(detail::pack_masks(m), box, u);
+    for (int y = box.y0; y < box.y1; ++y)
+      for (int x = box.x0; x < box.x1; ++x) {
+        bool near = false;
+        for (int yy = std::max(0, y - u); yy <= std::min(st.height - 1, y + u) && !near; ++yy)
+          for (int xx = std::max(0, x - u); xx <= std::min(st.width - 1, x + u) && !near; ++xx) near = m.contour(xx, yy);
+        const bool ring = x == box.x0 || y == box.y0 || x + 1 == box.x1 || y + 1 == box.y1;
+        const int want = m.empty ? -1 : near ? 0 : m.inside(x, y) ? (ring ? 0 : 1) : -1;
+        ASSERT_EQ(int(got(x - box.x0, y - box.y0)), want) << "slice " << k << " pixel (" << x << ", " << y << ")";
+      }
+  }
+}
+
+// Slices of a shape cut `dz` apart, size x size, as `kind`; the slices in
+// `emptied` made empty.
+SliceStack cut(const char* shape, int size, double dz, InputKind kind, std::vector<std::size_t> emptied = {}) {
+  SynthParams sp;
+  sp.size = size;
+  sp.z_spacing = dz;
+  sp.kind = kind;
+  SliceStack st = synthesize(*make_default_shape(shape, size), sp).stack;
+  for (const std::size_t k : emptied) {
+    std::fill(st.slices[k].image.data.begin(), st.slices[k].image.data.end(), 0u);
+    st.slices[k].polygons.clear();
+  }
+  return st;
+}
+
+// Polygon slices moved `dx` px in x, past the image's left edge: the crop
+// box's ring then holds inside pixels that are no contour pixel (the edges
+// beyond the image are not rasterised), where the mesher's outside pad meets
+// the field.
+SliceStack moved_past_the_edge(SliceStack st, double dx) {
+  for (Slice& s : st.slices)
+    for (auto& poly : s.polygons)
+      for (auto& q : poly.points) q.x() += dx;
+  return st;
+}
+
+// A square prism drawn as polygons, `n` slices `dz` apart, half-size `half`
+// px in a size x size image: its end slices' interiors lie far from every
+// contour, where only the caps' trend reads the second and second to last
+// slice.
+SliceStack prism(int size, double half, int n, double dz) {
+  SliceStack st;
+  st.width = st.height = size;
+  st.kind = InputKind::Polylines;
+  const double c = (size - 1) / 2.0;
+  for (int k = 0; k < n; ++k) {
+    Slice s;
+    s.z = k * dz;
+    s.source = "prism slice " + std::to_string(k);
+    s.polygons.push_back({{{c - half, c - half}, {c + half, c - half}, {c + half, c + half}, {c - half, c + half}}});
+    st.slices.push_back(std::move(s));
+  }
+  return st;
+}
+
+// The object's packed masks and crop box, as reconstruct() makes them.
+struct Packed {
+  std::vector<detail::PackedMasks> masks;
+  PixelBox box;
+};
+Packed packed(const SliceStack& st, const ReconstructParams& p) {
+  Packed out;
+  std::vector<PixelBox> bounds;
+  for (const Slice& s : st.slices) {
+    const detail::SliceMasks m = detail::slice_masks(st, s, p, 0);
+    bounds.push_back(detail::mask_bounds(m));
+    out.masks.push_back(detail::pack_masks(m));
+  }
+  out.box = detail::object_box(bounds, st.width, st.height, p.crop_margin);
+  return out;
+}
+
+// The share of the non-full slices' pixels the band leaves out (else the mesh
+// comparison below tells nothing); -1 if the run gets no band.
+double band_left_out(const SliceStack& st, const ReconstructParams& p) {
+  const Packed pk = packed(st, p);
+  const auto setup = detail::field_band_setup(p, st.kind, pk.masks);
+  if (!setup) return -1;
+  detail::FieldBand band(pk.masks, pk.box, *setup);
+  band.prepare(0, pk.masks.size());
+  double out = 0, all = 0;
+  for (std::size_t k = 0; k < pk.masks.size(); ++k)
+    if (const auto b = band.band(k)) {
+      out += double(std::count(b->required.data.begin(), b->required.data.end(), 0));
+      all += double(b->required.size());
+    }
+  return all > 0 ? out / all : 0;
+}
+
+TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
+  struct Case {
+    std::string name;
+    SliceStack stack;
+    SplineKind spline;
+  };
+  const ObliqueCase tube = oblique_kit_case("tube80_r3_s8");
+  const std::vector<Case> cases{
+      {"two blobs, traced masks", cut("two-blobs", 80, 10.0, InputKind::Masks), SplineKind::ExtremumPreserving},
+      {"branching cylinders, traced masks, monotone", cut("branching-cylinders", 72, 9.0, InputKind::Masks),
+       SplineKind::Monotone},
+      {"branching cylinders, traced masks, linear", cut("branching-cylinders", 72, 9.0, InputKind::Masks),
+       SplineKind::Linear},
+      {"sphere, drawn polygons past the image edge", moved_past_the_edge(cut("sphere", 64, 4.0, InputKind::Polylines), -20),
+       SplineKind::ExtremumPreserving},
+      {"sphere, drawn polygons, an empty slice and an empty pair",
+       cut("sphere", 96, 3.0, InputKind::Polylines, {6, 12, 13}), SplineKind::ExtremumPreserving},
+      {"tilted torus, drawn polygons", cut("tilted-torus", 72, 8.0, InputKind::Polylines), SplineKind::ExtremumPreserving},
+      {"square prism, drawn polygons, linear (the caps' trend)", prism(96, 30.5, 6, 5.0), SplineKind::Linear},
+      {"oblique tube (80 deg), drawn polygons", synthesize(tube, InputKind::Polylines).stack, SplineKind::ExtremumPreserving},
+  };
+  for (const Case& c : cases) {
+    ReconstructParams p;
+    p.interp.spline = c.spline;
+    const double left_out = band_left_out(c.stack, p);
+    ASSERT_GT(left_out, 0) << c.name << ": no band, or one that leaves no pixel out";
+    ReconstructOptions whole;
+    whole.whole_fields = true;
+    const ReconstructResult want = reconstruct(c.stack, p, whole);
+    const ReconstructResult got = reconstruct(c.stack, p);
+    ASSERT_EQ(want.objects.size(), 1u) << c.name;
+    ASSERT_EQ(got.objects.size(), 1u) << c.name;
+    ASSERT_FALSE(want.objects[0].mesh.triangles.empty()) << c.name;
+    EXPECT_EQ(got.objects[0].mesh.vertices, want.objects[0].mesh.vertices) << c.name;
+    EXPECT_EQ(got.objects[0].mesh.triangles, want.objects[0].mesh.triangles) << c.name;
+  }
+}
+
+TEST(FieldBand, NoBandWhereItCouldChangeTheMesh) {
+  const SliceStack st = cut("sphere", 48, 4.0, InputKind::Polylines);
+  const std::vector<detail::PackedMasks> masks = packed(st, ReconstructParams{}).masks;
+  ASSERT_TRUE(detail::field_band_setup(ReconstructParams{}, st.kind, masks)) << "the default run has a band";
+  const auto no_band = [&](const ReconstructParams& p, const std::vector<detail::PackedMasks>& m, const std::string& why) {
+    EXPECT_FALSE(detail::field_band_setup(p, st.kind, m)) << why;
+  };
+  for (const SplineKind k : {SplineKind::CatmullRom, SplineKind::Natural}) {
+    ReconstructParams p;
+    p.interp.spline = k;
+    no_band(p, masks, "spline " + to_string(k) + " can leave its knots' side");
+  }
+  no_band(method_defaults(Method::Levin), masks, "levin");
+  no_band(method_defaults(Method::Marker2006), masks, "marker2006: the MPU fit's sign is not the masks'");
+  ReconstructParams fit;
+  fit.polyline_boundary = PolylineBoundary::Fit;
+  no_band(fit, masks, "polygons fitted");
+  ReconstructParams iso;
+  iso.mc.iso = 0.5f;
+  no_band(iso, masks, "mc.iso != 0");
+  ReconstructParams track;
+  track.z_scheme = "track";
+  no_band(track, masks, "z scheme track");
+  std::vector<detail::PackedMasks> isolated = masks;
+  isolated[3].empty = isolated[4].empty = isolated[5].empty = true;
+  isolated[3].inside.clear(), isolated[4].inside.clear(), isolated[5].inside.clear();
+  no_band(ReconstructParams{}, isolated, "an empty slice without a non-empty neighbour");
+  std::vector<detail::PackedMasks> one_gap = masks;
+  one_gap[4].empty = true;
+  one_gap[4].inside.clear();
+  ASSERT_TRUE(detail::field_band_setup(ReconstructParams{}, st.kind, one_gap)) << "one empty slice between two";
+  ReconstructParams far_cap;
+  far_cap.interp.cap_extent = 1.5;
+  no_band(far_cap, one_gap, "an empty slice with cap_extent > 1");
+}
+
+}  // namespace
