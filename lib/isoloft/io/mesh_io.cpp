@@ -1,6 +1,8 @@
 #include "isoloft/io/mesh_io.h"
 
 #include <Eigen/Dense>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -106,15 +108,22 @@ std::uint8_t color_component(double v, bool unit_range) {
 
 TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame, bool ras) {
   TriMesh out;
-  out.vertices.reserve(m.vertices.size());
-  for (const Vec3f& v : m.vertices) {
-    Vec3d p = frame.to_patient(v.cast<double>());
-    if (ras) p.x() = -p.x(), p.y() = -p.y();
-    out.vertices.push_back(p.cast<float>());
-  }
-  out.triangles = m.triangles;
-  if (frame.axes.determinant() < 0)
-    for (auto& t : out.triangles) std::swap(t[1], t[2]);
+  out.vertices.resize(m.vertices.size());
+  out.triangles.resize(m.triangles.size());
+  const bool flip = frame.axes.determinant() < 0;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.vertices.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      Vec3d p = frame.to_patient(m.vertices[i].cast<double>());
+      if (ras) p.x() = -p.x(), p.y() = -p.y();
+      out.vertices[i] = p.cast<float>();
+    }
+  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.triangles.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      out.triangles[i] = m.triangles[i];
+      if (flip) std::swap(out.triangles[i][1], out.triangles[i][2]);
+    }
+  });
   return out;
 }
 
@@ -199,28 +208,40 @@ TriMesh read_mesh(const std::string& path, std::vector<Rgb>* vertex_colors) {
   return format->read(path, detail::read_file_bytes(path), vertex_colors);
 }
 
-TriMesh merge_meshes(const std::vector<TriMesh>& parts, const std::vector<Rgb>& part_colors,
+TriMesh merge_meshes(const std::vector<const TriMesh*>& parts, const std::vector<Rgb>& part_colors,
                      std::vector<Rgb>* vertex_colors) {
   if (!part_colors.empty() && part_colors.size() != parts.size())
     throw ParamError("merge_meshes: " + std::to_string(part_colors.size()) + " colours for " +
                      std::to_string(parts.size()) + " meshes");
+  // Each part's first vertex and triangle in the result; the parts copied side by side.
+  std::vector<std::size_t> v0(parts.size() + 1, 0), t0(parts.size() + 1, 0);
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    v0[i + 1] = v0[i] + parts[i]->vertices.size(), t0[i + 1] = t0[i] + parts[i]->triangles.size();
   TriMesh out;
-  std::size_t nv = 0, nt = 0;
-  for (const auto& p : parts) nv += p.vertices.size(), nt += p.triangles.size();
-  out.vertices.reserve(nv);
-  out.triangles.reserve(nt);
-  if (vertex_colors) {
-    vertex_colors->clear();
-    if (!part_colors.empty()) vertex_colors->reserve(nv);
-  }
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    const auto offset = std::int32_t(out.vertices.size());
-    out.vertices.insert(out.vertices.end(), parts[i].vertices.begin(), parts[i].vertices.end());
-    for (const auto& t : parts[i].triangles) out.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-    if (vertex_colors && !part_colors.empty())
-      vertex_colors->insert(vertex_colors->end(), parts[i].vertices.size(), part_colors[i]);
-  }
+  out.vertices.resize(v0.back());
+  out.triangles.resize(t0.back());
+  const bool colour = vertex_colors && !part_colors.empty();
+  if (vertex_colors) vertex_colors->assign(colour ? v0.back() : 0, Rgb{});
+  tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t i) {
+    const TriMesh& p = *parts[i];
+    const auto offset = std::int32_t(v0[i]);
+    std::copy(p.vertices.begin(), p.vertices.end(), out.vertices.begin() + std::ptrdiff_t(v0[i]));
+    if (colour) std::fill_n(vertex_colors->begin() + std::ptrdiff_t(v0[i]), p.vertices.size(), part_colors[i]);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, p.triangles.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t t = r.begin(); t < r.end(); ++t) {
+        const auto& a = p.triangles[t];
+        out.triangles[t0[i] + t] = {a[0] + offset, a[1] + offset, a[2] + offset};
+      }
+    });
+  });
   return out;
+}
+
+TriMesh merge_meshes(const std::vector<TriMesh>& parts, const std::vector<Rgb>& part_colors,
+                     std::vector<Rgb>* vertex_colors) {
+  std::vector<const TriMesh*> pointers;
+  for (const TriMesh& p : parts) pointers.push_back(&p);
+  return merge_meshes(pointers, part_colors, vertex_colors);
 }
 
 }  // namespace isoloft

@@ -73,5 +73,8 @@ TriMesh read_mesh(const std::string& path, std::vector<Rgb>* vertex_colors = nul
 /// \throw ParamError if part_colors is non-empty and != parts in size.
 TriMesh merge_meshes(const std::vector<TriMesh>& parts, const std::vector<Rgb>& part_colors = {},
                      std::vector<Rgb>* vertex_colors = nullptr);
+/// The same for parts held elsewhere (no copy of them), copied side by side.
+TriMesh merge_meshes(const std::vector<const TriMesh*>& parts, const std::vector<Rgb>& part_colors = {},
+                     std::vector<Rgb>* vertex_colors = nullptr);
 
 }  // namespace isoloft

@@ -88,11 +88,11 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
   };
   auto write_combined = [&] {
     if (!several) return;
-    std::vector<TriMesh> parts;
+    std::vector<const TriMesh*> parts;
     std::vector<Rgb> colours;
     std::vector<std::uint32_t> triangle_labels;
     for (const auto& o : r.objects) {
-      parts.push_back(o.mesh), colours.push_back(o.colour);
+      parts.push_back(&o.mesh), colours.push_back(o.colour);
       triangle_labels.insert(triangle_labels.end(), o.mesh.triangles.size(), object_cell_label(o));
     }
     std::vector<Rgb> vertex_colours;
