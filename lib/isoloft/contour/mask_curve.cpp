@@ -66,8 +66,9 @@ Grid2u8 thin_side(const Grid2u8& m, double width) {
   // distance_to_mask_edge_signed gives it), is >= width / 2: when no pixel of
   // the other side lies at a squared distance below s_min.
   const double half = 0.5 * width;
+  constexpr int kPastReach = (kThinWindowReach + 1) * (kThinWindowReach + 1);  // any width: the loop ends
   int s_min = 1;
-  while (double(float(std::sqrt(double(s_min)) - 0.5)) < half) ++s_min;
+  while (s_min <= kPastReach && double(float(std::sqrt(double(s_min)) - 0.5)) < half) ++s_min;
   const int r = int(std::ceil(std::sqrt(double(s_min))));
   if (r > kThinWindowReach) return thin_side_edt(m, width);
   const int w = m.width, h = m.height;

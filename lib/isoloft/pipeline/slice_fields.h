@@ -87,10 +87,6 @@ PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, 
 /// polylines) or to the mask's edge (masks, labels).
 Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
 
-}  // namespace isoloft::detail
-
-namespace isoloft::detail {
-
 /// Where one slice's field must be exact (pipeline/field_band.h): `needed`
 /// (the values the splines and Marching Cubes read), `required` (needed grown
 /// by the filter's reach: where the extension must have finished).
