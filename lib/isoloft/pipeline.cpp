@@ -2,6 +2,7 @@
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <atomic>
@@ -346,6 +347,16 @@ class SliceFields {
         method_(method_spec(run.params.method.name())) {
     if (band) band_.emplace(masks, obj.box, *band);
   }
+  ~SliceFields() {  // a batch still computing (the caller stopped early, or threw) is cancelled and waited for
+    if (!ahead_) return;
+    group_.cancel();
+    try {
+      group_.wait();
+    } catch (...) {
+    }
+  }
+  SliceFields(const SliceFields&) = delete;
+  SliceFields& operator=(const SliceFields&) = delete;
 
   // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
   // fit statistics and stage fields are recorded as it is handed out.
@@ -401,19 +412,36 @@ class SliceFields {
     return c;
   }
 
-  void compute(std::size_t k0) {
-    const auto t0 = Clock::now();
+  // Starts the batch of slices from k0 as a task of the run's arena: it
+  // computes while the caller meshes the batch before it.
+  void start(std::size_t k0) {
     const std::size_t k1 = std::min(run_.slices(), k0 + window_);
-    ready_.resize(k1 - k0);
+    ahead_.emplace(k0);
+    batch_.resize(k1 - k0);
     count_.add(long(k1 - k0));  // in flight, then held until the knot feed drops them
-    if (band_) band_->prepare(k0, k1);
-    const char* stage = method_.fits_curves ? "mpu+distance" : "distance";
-    for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { ready_[k - k0] = one(k); });
+    group_.run([this, k0, k1] {
+      const auto t0 = Clock::now();
+      if (band_) band_->prepare(k0, k1);
+      const char* stage = method_.fits_curves ? "mpu+distance" : "distance";
+      for_slices(run_, k0, k1, stage, done_, [&](std::size_t k) { batch_[k - k0] = one(k); });
+      batch_wall_ = seconds_since(t0);
+    });
+  }
+
+  // The batch from k0 (computed ahead, or now), and the next one started.
+  void compute(std::size_t k0) {
+    if (ahead_ && *ahead_ != k0) throw Error("SliceFields::compute: batch out of order");
+    if (!ahead_) start(k0);
+    ahead_.reset();
+    group_.wait();  // rethrows the batch's first failing slice
+    ready_ = std::move(batch_);
+    batch_.clear();
     for (const Computed& c : ready_) {
       const SliceField& f = c.slice;
       cpu_contour_ += c.t_contour, cpu_mpu_ += f.t_mpu, cpu_dist_ += f.t_dist, cpu_filter_ += f.t_filter;
     }
-    wall_ += seconds_since(t0);
+    wall_ += batch_wall_;
+    if (const std::size_t k1 = k0 + ready_.size(); k1 < run_.slices()) start(k1);
   }
 
   const Run& run_;
@@ -424,6 +452,13 @@ class SliceFields {
   const MethodSpec& method_;
   std::optional<detail::FieldBand> band_;
   std::deque<Computed> ready_;
+  std::deque<Computed> batch_;        // the batch computing in group_, from slice *ahead_
+  std::optional<std::size_t> ahead_;
+  // Isolated: started in one task and waited for in another (the mesher's
+  // plane ahead), its cancellation is this object's own (the destructor).
+  tbb::task_group_context context_{tbb::task_group_context::isolated};
+  tbb::task_group group_{context_};
+  double batch_wall_ = 0;
   std::size_t next_ = 0;
   std::atomic<long> done_{0};
   std::vector<std::size_t> fallbacks_;
@@ -638,7 +673,7 @@ WorkEstimate estimate_work(const Run& run, const std::vector<detail::PackedMasks
   const double pixels = double(obj.box.width()) * double(obj.box.height());
   e.plane_bytes = double(obj.box.width() + 2) * double(obj.box.height() + 2) * sizeof(float);
   const std::optional<std::size_t> knots = z_scheme_spec(p.z_scheme).resident_knots(p);
-  const double window = double(detail::slice_window()) + (knots ? double(*knots) : double(n)) + 2;
+  const double window = double(detail::slices_in_flight()) + (knots ? double(*knots) : double(n)) + 2;
   e.field_bytes = std::min(double(n + 2), window) * pixels * sizeof(float) * kFieldCopies;
   if (run.stack.kind == InputKind::Polylines && fits_curves(p.method) && p.polyline_raster_width > 0) {
     const double k = double(p.polyline_raster_width) / run.stack.width;

@@ -8,8 +8,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -238,6 +242,114 @@ TEST(Volume, SlicingFindsTheSparseAxisAndChecksTheGrid) {
   EXPECT_THROW(volume_stack(one, {}, "one"), InputError);
 }
 
+// The samples of `v` as a file stores them: type T, either byte order.
+template <class T>
+std::vector<unsigned char> stored_as(const Volume& v, bool big_endian) {
+  std::vector<unsigned char> out(v.data.size() * sizeof(T));
+  const bool swap = big_endian != (std::endian::native == std::endian::big);
+  for (std::size_t i = 0; i < v.data.size(); ++i) {
+    const T x = T(v.data[i]);
+    unsigned char* b = out.data() + i * sizeof(T);
+    std::memcpy(b, &x, sizeof(T));
+    if (swap) std::reverse(b, b + sizeof(T));
+  }
+  return out;
+}
+
+// Two slicings of one volume agree: axis, indices, slices and warnings, or the same error.
+void expect_same_slicing(const std::function<VolumeStack()>& a, const std::function<VolumeStack()>& b,
+                         const std::string& what) {
+  std::string error_a, error_b;
+  VolumeStack sa, sb;
+  try { sa = a(); } catch (const InputError& e) { error_a = e.what(); }
+  try { sb = b(); } catch (const InputError& e) { error_b = e.what(); }
+  ASSERT_EQ(error_a, error_b) << what;
+  if (!error_a.empty()) return;
+  ASSERT_EQ(sa.axis, sb.axis) << what;
+  ASSERT_EQ(sa.annotated, sb.annotated) << what;
+  ASSERT_EQ(sa.warnings, sb.warnings) << what;
+  ASSERT_EQ(sa.stack.kind, sb.stack.kind) << what;
+  ASSERT_EQ(sa.stack.slices.size(), sb.stack.slices.size()) << what;
+  for (std::size_t s = 0; s < sa.stack.slices.size(); ++s) {
+    ASSERT_EQ(sa.stack.slices[s].z, sb.stack.slices[s].z) << what << ", slice " << s;
+    ASSERT_EQ(sa.stack.slices[s].source, sb.stack.slices[s].source) << what << ", slice " << s;
+    ASSERT_EQ(sa.stack.slices[s].image.data, sb.stack.slices[s].image.data) << what << ", slice " << s;
+  }
+}
+
+// Twins: slicing the file's samples as stored (8- and 16-bit integers, either
+// byte order) equals slicing the decoded floats, on random sparse volumes
+// drawn along each axis, with stray voxels, a label drawn across the sliced
+// axis, negative values (signed types: the same error), both input kinds.
+TEST(Volume, SlicingTheStoredSamplesEqualsSlicingTheFloats) {
+  std::mt19937 rng(24);
+  for (int trial = 0; trial < 24; ++trial) {
+    const int drawn = trial % 3, every = 2 + trial % 3;
+    Volume v;
+    v.nx = 13 + trial % 4, v.ny = 11, v.nz = 12;
+    v.integer = true;
+    v.data.assign(std::size_t(v.nx) * v.ny * v.nz, 0.0f);
+    std::uniform_int_distribution<int> label(0, 4);
+    for (int k = 0; k < v.nz; ++k)
+      for (int j = 0; j < v.ny; ++j)
+        for (int i = 0; i < v.nx; ++i) {
+          const int t = drawn == 0 ? i : drawn == 1 ? j : k;
+          if (t % every == 1 && i > 1 && j > 1 && k > 1 && i < v.nx - 2 && j < v.ny - 2 && k < v.nz - 2)
+            v.data[v.index(i, j, k)] = float(label(rng) < 3 ? 1 + (i + j + k) / 9 : 0);
+        }
+    if (trial % 4 == 1) v.data[v.index(5, 5, 6)] = 9;  // a stray voxel off the drawn slices
+    if (trial % 4 == 2)                                 // label 6 drawn across: a line per slice
+      for (int t = 2; t < 9; ++t) v.data[v.index(t, 3, t)] = 6;
+    if (trial % 6 == 3) v.data[v.index(4, 4, 4)] = -2;  // not a label (the signed types only)
+    const std::string what = "trial " + std::to_string(trial);
+    for (const InputKind kind : {InputKind::Labels, InputKind::Masks})
+      for (const bool big : {false, true}) {
+        const VolumeSlicing slicing{-1, kind};
+        auto twin = [&](detail::ScalarType type, std::vector<unsigned char> bytes, const char* name) {
+          Volume geometry = v;
+          geometry.data.clear();
+          const VolumeSamples samples{bytes.data(), type, big};
+          Volume decoded = v;
+          detail::decode_volume(bytes.data(), type, big, decoded, "v");
+          expect_same_slicing([&] { return volume_stack(decoded, slicing, "v"); },
+                              [&] { return volume_stack(geometry, samples, slicing, "v"); },
+                              what + ", " + name + (big ? " big-endian" : "") + (kind == InputKind::Masks ? ", masks" : ""));
+        };
+        if (trial % 6 != 3) {
+          twin(detail::ScalarType::U8, stored_as<std::uint8_t>(v, big), "u8");
+          twin(detail::ScalarType::U16, stored_as<std::uint16_t>(v, big), "u16");
+        }
+        twin(detail::ScalarType::I8, stored_as<std::int8_t>(v, big), "i8");
+        twin(detail::ScalarType::I16, stored_as<std::int16_t>(v, big), "i16");
+      }
+  }
+  const Volume v = labels_volume(20, 20, 8, 2);
+  const std::vector<unsigned char> f = stored_as<float>(v, false);
+  EXPECT_THROW(volume_stack(v, VolumeSamples{f.data(), detail::ScalarType::F32, false}, {}, "v"), ParamError);
+}
+
+// The label map from a volume held as geometry alone (sliced as stored)
+// equals the one from its floats.
+TEST(Volume, LabelmapNeedsOnlyTheGeometryAndTheAnnotatedSlices) {
+  const Volume v = labels_volume(40, 30, 9, 2);
+  const VolumeStack vs = volume_stack(v, {}, "v");
+  Volume geometry = v;
+  geometry.data.clear();
+  LabelmapBuilder a(v, vs, vs.stack), b(geometry, vs, vs.stack);
+  Grid2f field(10, 8, 1.0f);
+  field(3, 3) = -1.0f;
+  for (const double z : a.sample_z()) a.add(3, field, PixelBox{4, 5, 14, 13}, z), b.add(3, field, PixelBox{4, 5, 14, 13}, z);
+  const Volume la = a.finish(), lb = b.finish();
+  ASSERT_EQ(la.data.size(), v.data.size());
+  for (std::size_t i = 0; i < la.data.size(); ++i) {
+    ASSERT_EQ(la.data[i], lb.data[i]) << "voxel " << i;
+    const int k = int(i / (std::size_t(v.nx) * std::size_t(v.ny)));
+    if (std::count(vs.annotated.begin(), vs.annotated.end(), k))  // the annotated slices as they were
+      ASSERT_EQ(la.data[i], v.data[i]) << "annotated voxel " << i;
+  }
+  EXPECT_GT(std::count(la.data.begin(), la.data.end(), 3.0f), std::count(v.data.begin(), v.data.end(), 3.0f));
+}
+
 TEST(Volume, BadNiftiFilesAreClearErrors) {
   TempDir dir;
   auto write_nim = [&](const std::string& name, int ndim, int nt, int dt, auto&& tweak) {
@@ -315,7 +427,7 @@ TEST(Volume, LabelmapOfASparseAalMatchesTheLeftOutSlices) {
       }
   const VolumeStack vs = volume_stack(sparse, {}, "aal");
   ASSERT_EQ(vs.axis, 2);
-  LabelmapBuilder lm(sparse, vs);
+  LabelmapBuilder lm(sparse, vs, vs.stack);
   ReconstructOptions o;
   o.sample_z = lm.sample_z();
   o.on_sample = [&](std::uint32_t label, const Grid2f& f, const PixelBox& box, double z) { lm.add(label, f, box, z); };

@@ -7,6 +7,7 @@
 
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -134,14 +135,14 @@ TEST(Streaming, EqualsHoldingEverySliceWithEmptySlicesAnywhere) {
 }
 
 // Slice fields held at once with the monotone spline: the slices in flight
-// (slice_window()), the knot feed's (slices k - 1 .. k + 1 around an empty
+// (slices_in_flight(): the batch handed out and the next), the knot feed's (slices k - 1 .. k + 1 around an empty
 // slice, and the end cap or slice 0 held for the next knot), and ZStream's
 // window (2 (block + 1 + 2 reach) knots and tangents, 2 reach + 1 shared).
 constexpr long kFeedFields = 3 + 1;
 constexpr long kStreamFields = long(2 * (kZStreamBlock + 1 + 2 * 2) + 2 * 2 + 1);
 
 TEST(Streaming, SliceFieldsHeldAtOnceDoNotGrowWithTheSlices) {
-  const long bound = long(detail::slice_window()) + kFeedFields + kStreamFields;
+  const long bound = long(detail::slices_in_flight()) + kFeedFields + kStreamFields;
   long peak_at_fewer = 0;
   for (const double dz : {0.2, 0.1}) {
     const SliceStack st = sphere_stack(32, dz);
@@ -159,4 +160,38 @@ TEST(Streaming, SliceFieldsHeldAtOnceDoNotGrowWithTheSlices) {
     natural.interp.spline = SplineKind::Natural;
     EXPECT_GT(streamed(lazy(st), natural, {}).object.peak_resident_fields, n) << n << " slices";
   }
+}
+
+// The next batch of slices computes while the last is meshed: an error in it
+// (here from its progress report, on a worker thread) comes out of
+// reconstruct(); an error while meshing (on_plane) with a batch computing
+// leaves none running; and a run after either gives the same mesh.
+TEST(Streaming, ErrorsWithABatchInFlightComeOutAndLeaveNothingRunning) {
+  const SliceStack st = sphere_stack(40, 0.5);
+  const long window = long(detail::slice_window());
+  ASSERT_GT(long(st.slices.size()), 3 * window) << "too few slices for a batch ahead";
+  const ReconstructParams p = undecimated();
+  const ReconstructResult clean = reconstruct(st, p);
+  ASSERT_EQ(clean.objects.size(), 1u);
+  struct Stop : std::runtime_error {
+    using std::runtime_error::runtime_error;
+  };
+  for (const long at : {window + 1, 2 * window + 2}) {  // in the second and third batch
+    ReconstructOptions o;
+    o.progress = [at](std::uint32_t, const std::string& stage, long done, long) {
+      if (stage.find("distance") != std::string::npos && done == at) throw Stop("slice field " + std::to_string(at));
+    };
+    EXPECT_THROW(reconstruct(st, p, o), Stop) << "at slice field " << at;
+  }
+  for (const int at : {1, 3, 20}) {  // the first planes, and one mid-stack
+    ReconstructOptions o;
+    o.on_plane = [at](std::uint32_t, const Grid2f&, double, double, double, int plane, int) {
+      if (plane == at) throw Stop("plane " + std::to_string(at));
+    };
+    EXPECT_THROW(reconstruct(st, p, o), Stop) << "at plane " << at;
+  }
+  const ReconstructResult again = reconstruct(st, p);
+  ASSERT_EQ(again.objects.size(), 1u);
+  EXPECT_EQ(again.objects.front().mesh.vertices, clean.objects.front().mesh.vertices);
+  EXPECT_EQ(again.objects.front().mesh.triangles, clean.objects.front().mesh.triangles);
 }

@@ -247,8 +247,7 @@ Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) 
   std::vector<unsigned char> decoded;
   if (!binary) {
     decoded = ascii_samples(data_name, bytes, size, count, type);
-    detail::resize_large(v.data, count);
-    detail::decode_volume(decoded.data(), type, std::endian::native == std::endian::big, v, mhd);
+    detail::take_or_decode(decoded.data(), type, std::endian::native == std::endian::big, v, mhd, options);
     return v;
   }
   if (compressed) {
@@ -274,8 +273,7 @@ Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) 
                                       " (a wrong DimSize or ElementType? HeaderSize skips a leading header)");
     data = bytes + skip;
   }
-  detail::resize_large(v.data, count);
-  detail::decode_volume(data, type, big, v, mhd);
+  detail::take_or_decode(data, type, big, v, mhd, options);
   return v;
 }
 

@@ -230,24 +230,27 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
   const bool scaled = nim->scl_slope != 0 && std::isfinite(nim->scl_slope) && std::isfinite(nim->scl_inter) &&
                       (nim->scl_slope != 1 || nim->scl_inter != 0);
   const double slope = scaled ? nim->scl_slope : 1.0, inter = scaled ? nim->scl_inter : 0.0;
+  v.integer = integer && (!scaled || (slope == std::floor(slope) && inter == std::floor(inter)));
+  if (!scaled) {
+    using detail::ScalarType;
+    const ScalarType type = dt == DT_UINT8 ? ScalarType::U8 : dt == DT_INT8 ? ScalarType::I8 : dt == DT_UINT16 ? ScalarType::U16
+                            : dt == DT_INT16 ? ScalarType::I16 : dt == DT_UINT32 ? ScalarType::U32 : dt == DT_INT32 ? ScalarType::I32
+                            : dt == DT_FLOAT32 ? ScalarType::F32 : ScalarType::F64;
+    detail::take_or_decode(bytes.data(), type, std::endian::native == std::endian::big, v, path, options);
+    return v;
+  }
   detail::resize_large(v.data, count);
   float* out = v.data.data();
-  if (!scaled && (dt == DT_INT32 || dt == DT_UINT32)) {
-    detail::decode_volume(bytes.data(), dt == DT_INT32 ? detail::ScalarType::I32 : detail::ScalarType::U32,
-                          std::endian::native == std::endian::big, v, path);
-  } else {
-    switch (dt) {
-      case DT_UINT8: decode<std::uint8_t>(bytes.data(), count, slope, inter, out); break;
-      case DT_INT8: decode<std::int8_t>(bytes.data(), count, slope, inter, out); break;
-      case DT_UINT16: decode<std::uint16_t>(bytes.data(), count, slope, inter, out); break;
-      case DT_INT16: decode<std::int16_t>(bytes.data(), count, slope, inter, out); break;
-      case DT_UINT32: decode<std::uint32_t>(bytes.data(), count, slope, inter, out); break;
-      case DT_INT32: decode<std::int32_t>(bytes.data(), count, slope, inter, out); break;
-      case DT_FLOAT32: decode<float>(bytes.data(), count, slope, inter, out); break;
-      default: decode<double>(bytes.data(), count, slope, inter, out); break;
-    }
+  switch (dt) {
+    case DT_UINT8: decode<std::uint8_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_INT8: decode<std::int8_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_UINT16: decode<std::uint16_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_INT16: decode<std::int16_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_UINT32: decode<std::uint32_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_INT32: decode<std::int32_t>(bytes.data(), count, slope, inter, out); break;
+    case DT_FLOAT32: decode<float>(bytes.data(), count, slope, inter, out); break;
+    default: decode<double>(bytes.data(), count, slope, inter, out); break;
   }
-  v.integer = integer && (!scaled || (slope == std::floor(slope) && inter == std::floor(inter)));
   return v;
 }
 

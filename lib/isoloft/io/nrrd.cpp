@@ -474,7 +474,6 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
                                     " samples)");
   if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample});  // the budget: for data that can exist
 
-  detail::resize_large(v.data, count);
   if (nio->encoding == nrrdEncodingZRL) {
     if (layout.files.size() > 1) throw InputError(path, "ZRL data in several data files is not supported");
     const unsigned char* begin = layout.files.empty() ? file.data() + layout.attached_at : data_files[0]->data();
@@ -482,7 +481,7 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
     if (nio->byteSkip < 0) throw InputError(path, "byte skip -1 with ZRL data is not supported");
     begin = skip_to_data(begin, end, nio->lineSkip, nio->byteSkip);
     const std::vector<unsigned char> bytes = decode_zrl(data_name, begin, end, need);
-    detail::decode_volume(bytes.data(), type, nio->endian == airEndianBig, v, path);
+    detail::take_or_decode(bytes.data(), type, nio->endian == airEndianBig, v, path, options);
     return v;
   }
   if (nio->encoding == nrrdEncodingGzip && nio->lineSkip == 0) {
@@ -495,8 +494,8 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
   if (nrrdLoad(full.get(), path.c_str(), nullptr)) throw InputError(path, "not a readable NRRD: " + teem_error());
   if (nrrdElementNumber(full.get()) != count || full->type != n->type)
     throw InputError(path, "the file changed while it was being read");
-  detail::decode_volume(static_cast<const unsigned char*>(full->data), type, std::endian::native == std::endian::big, v,
-                        path);
+  detail::take_or_decode(static_cast<const unsigned char*>(full->data), type, std::endian::native == std::endian::big, v,
+                         path, options);
   return v;
 }
 

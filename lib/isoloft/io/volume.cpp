@@ -11,6 +11,7 @@
 #include <filesystem>
 
 #include "isoloft/core/error.h"
+#include "isoloft/io/file_util.h"
 #include "isoloft/io/metaimage.h"
 #include "isoloft/io/nifti.h"
 #include "isoloft/io/nrrd.h"
@@ -182,6 +183,7 @@ void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, b
   const bool swap = big_endian != (std::endian::native == std::endian::big);
   const std::size_t size = scalar_size(t);
   constexpr std::size_t kBlock = std::size_t(1) << 20;  // samples per task
+  if (count <= kBlock) return decode_serial(src, count, t, swap, dst);  // a row: no task's overhead
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
     decode_serial(src + r.begin() * size, r.size(), t, swap, dst + r.begin());
   });
@@ -238,6 +240,14 @@ void decode_volume(const unsigned char* src, ScalarType t, bool big_endian, Volu
                                 : float(std::lower_bound(table.begin() + 1, table.end(), exact[i]) - table.begin());
   });
   v.value_table = std::move(table);
+}
+
+void take_or_decode(const unsigned char* src, ScalarType t, bool big_endian, Volume& v, const std::string& file,
+                    const VolumeReadOptions& options) {
+  v.data.clear();
+  if (options.take_samples && options.take_samples(v, VolumeSamples{src, t, big_endian})) return;
+  resize_large(v.data, std::size_t(v.nx) * std::size_t(v.ny) * std::size_t(v.nz));
+  decode_volume(src, t, big_endian, v, file);
 }
 
 }  // namespace detail

@@ -53,6 +53,19 @@ struct Volume {
   [[nodiscard]] Grid2f plane(int z) const;
 };
 
+namespace detail {
+/// Element types of the files.
+enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
+}  // namespace detail
+
+/// A volume's samples as its file stores them (the reader's buffer: valid
+/// during the call that is given them), x fastest, then y, then z.
+struct VolumeSamples {
+  const unsigned char* bytes = nullptr;
+  detail::ScalarType type = detail::ScalarType::U8;
+  bool big_endian = false;
+};
+
 /// What a volume file holds, from its header alone.
 struct VolumeHeader {
   int nx = 0, ny = 0, nz = 0;
@@ -67,6 +80,12 @@ struct VolumeReadOptions {
   /// Called once the header is read and checked, before any voxel is
   /// allocated or decoded (a budget check throws from here).
   std::function<void(const VolumeHeader&)> on_header;
+  /// Offered the samples as stored once they are read and checked, with the
+  /// volume's geometry (`data` empty): returning true takes them, and
+  /// read_volume decodes nothing and returns the geometry alone (for a reader
+  /// that needs a few planes of a large volume). Not offered samples that a
+  /// NIfTI scaling (scl_slope, scl_inter) maps to other values.
+  std::function<bool(const Volume& geometry, const VolumeSamples& samples)> take_samples;
 };
 
 /// The extension names a volume format this library reads.
@@ -91,9 +110,6 @@ inline constexpr double kOrthogonalityTolerance = 1e-4;
 /// \throw InputError naming `file` and the first voxel that is NaN or infinite.
 void check_finite_voxels(const Volume& v, const std::string& file);
 
-/// Element types of the files.
-enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
-
 /// How a volume's samples are written: uint8, uint16, int32 or uint32 for an
 /// integer volume (the smallest that holds its range), else float32.
 ScalarType storage_type(const Volume& v);
@@ -103,13 +119,19 @@ std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t);
 
 std::size_t scalar_size(ScalarType t);
 
-/// count elements of type t (either byte order) to floats. \pre src, dst hold them.
+/// count elements of type t (either byte order) to floats, in parallel when
+/// they are many. \pre src, dst hold them.
 void decode_scalars(const unsigned char* src, std::size_t count, ScalarType t, bool big_endian, float* dst);
 
 /// v.data (sized to v's voxel count) from elements of type t, with
 /// v.value_table when 32-bit integers exceed a float's exact range.
 /// \throw InputError naming `file` if more than 2^24 distinct values need the table.
 void decode_volume(const unsigned char* src, ScalarType t, bool big_endian, Volume& v, const std::string& file);
+
+/// The readers' last step: offers the samples to options.take_samples, and
+/// unless taken sizes v.data and decodes them into it (decode_volume).
+void take_or_decode(const unsigned char* src, ScalarType t, bool big_endian, Volume& v, const std::string& file,
+                    const VolumeReadOptions& options);
 
 }  // namespace detail
 }  // namespace isoloft

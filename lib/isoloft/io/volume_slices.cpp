@@ -12,6 +12,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/io/file_util.h"
 
 namespace isoloft {
 
@@ -28,6 +29,46 @@ std::array<int, 2> in_plane(int a) {
 
 std::array<int, 3> sizes(const Volume& v) { return {v.nx, v.ny, v.nz}; }
 
+// A volume's voxels row by row (x runs): its floats, or the file's samples as
+// stored, decoded a row at a time (no float copy of the whole volume).
+class VoxelRows {
+ public:
+  explicit VoxelRows(const Volume& v) : v_(v) {}
+  VoxelRows(const Volume& geometry, const VolumeSamples& samples)
+      : v_(geometry), samples_(&samples), size_(detail::scalar_size(samples.type)) {}
+
+  [[nodiscard]] const Volume& volume() const { return v_; }
+  [[nodiscard]] std::size_t count() const { return std::size_t(v_.nx) * std::size_t(v_.ny) * std::size_t(v_.nz); }
+  /// Row (j, k) as floats; `buffer` (nx floats) holds it when it is decoded.
+  const float* row(int j, int k, float* buffer) const {
+    if (!samples_) return v_.data.data() + v_.index(0, j, k);
+    detail::decode_scalars(samples_->bytes + v_.index(0, j, k) * size_, std::size_t(v_.nx), samples_->type,
+                           samples_->big_endian, buffer);
+    return buffer;
+  }
+  /// Row (j, k) is all 0, seen without decoding it (integer samples whose
+  /// bytes are all 0); false says nothing (the floats are read as they are).
+  [[nodiscard]] bool known_zero(int j, int k) const {
+    if (!samples_) return false;
+    const unsigned char* b = samples_->bytes + v_.index(0, j, k) * size_;
+    unsigned char any = 0;
+    for (std::size_t i = 0, n = std::size_t(v_.nx) * size_; i < n; ++i) any |= b[i];  // branch-free: vectorises
+    return any == 0;
+  }
+  /// Voxel i's value.
+  [[nodiscard]] float at(std::size_t i) const {
+    if (!samples_) return v_.data[i];
+    float x;
+    detail::decode_scalars(samples_->bytes + i * size_, 1, samples_->type, samples_->big_endian, &x);
+    return x;
+  }
+
+ private:
+  const Volume& v_;
+  const VolumeSamples* samples_ = nullptr;
+  std::size_t size_ = 4;
+};
+
 using Occupancy = std::array<std::vector<std::uint8_t>, 3>;
 constexpr std::size_t kNoRow = std::numeric_limits<std::size_t>::max();
 
@@ -40,7 +81,8 @@ struct VoxelScan {
   std::size_t first_nonlabel_row = kNoRow;
 };
 
-VoxelScan scan_voxels(const Volume& v, bool labels) {
+VoxelScan scan_voxels(const VoxelRows& rows, bool labels) {
+  const Volume& v = rows.volume();
   constexpr float kMaxFinite = std::numeric_limits<float>::max(), kMaxLabel = float(1 << 24), kExact = float(1 << 23);
   struct Plane {
     std::vector<std::uint8_t> occ_i, occ_j;
@@ -52,8 +94,10 @@ VoxelScan scan_voxels(const Volume& v, bool labels) {
     Plane& p = planes[std::size_t(k)];
     p.occ_i.assign(std::size_t(v.nx), 0);
     p.occ_j.assign(std::size_t(v.ny), 0);
+    std::vector<float> buffer(std::size_t(v.nx));
     for (int j = 0; j < v.ny; ++j) {
-      const float* row = v.data.data() + v.index(0, j, k);
+      if (rows.known_zero(j, k)) continue;  // nothing to mark or refuse
+      const float* row = rows.row(j, k, buffer.data());
       int any = 0, bad_finite = 0, bad_label = 0;
       for (int i = 0; i < v.nx; ++i) {  // branch-free, so it vectorises
         const float x = row[i];
@@ -181,7 +225,8 @@ struct LabelOccupancy {
   }
 };
 
-LabelOccupancy label_occupancy(const Volume& v, bool binary) {
+LabelOccupancy label_occupancy(const VoxelRows& rows, bool binary) {
+  const Volume& v = rows.volume();
   LabelOccupancy out;
   std::unordered_map<float, std::size_t> id;
   out.words = {(std::size_t(v.nx) + 63) / 64, (std::size_t(v.ny) + 63) / 64, (std::size_t(v.nz) + 63) / 64};
@@ -192,11 +237,13 @@ LabelOccupancy label_occupancy(const Volume& v, bool binary) {
   std::size_t last = 0;
   bool have_last = false;
   float last_key = 0;
+  std::vector<float> here(std::size_t(v.nx)), below_row(here.size()), behind_row(here.size());
   for (int k = 0; k < v.nz; ++k)
     for (int j = 0; j < v.ny; ++j) {
-      const float* row = v.data.data() + v.index(0, j, k);
-      const float* below = j > 0 ? row - v.nx : nullptr;                               // (i, j - 1, k)
-      const float* behind = k > 0 ? row - std::size_t(v.nx) * std::size_t(v.ny) : nullptr;  // (i, j, k - 1)
+      if (rows.known_zero(j, k)) continue;  // no run of a label
+      const float* row = rows.row(j, k, here.data());
+      const float* below = j > 0 ? rows.row(j - 1, k, below_row.data()) : nullptr;   // (i, j - 1, k)
+      const float* behind = k > 0 ? rows.row(j, k - 1, behind_row.data()) : nullptr;  // (i, j, k - 1)
       for (int i = 0; i < v.nx;) {
         const float x = row[i];
         int e = i + 1;
@@ -251,9 +298,10 @@ int other_drawn_axis(const LabelOccupancy& occ, std::size_t l, int sliced, const
 
 // Labels: (1) a label drawn along another axis than the one sliced; (2) a
 // stray slice, with the labels it cuts.
-void label_warnings(const Volume& v, VolumeStack& vs, const std::string& path) {
+void label_warnings(const VoxelRows& rows, VolumeStack& vs, const std::string& path) {
   constexpr std::size_t kNamed = 5;  // labels named per warning; the rest counted
-  const LabelOccupancy occ = label_occupancy(v, false);
+  const Volume& v = rows.volume();
+  const LabelOccupancy occ = label_occupancy(rows, false);
   const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
   const int a = vs.axis;
   auto label_of = [&](float key) {
@@ -302,16 +350,19 @@ void label_warnings(const Volume& v, VolumeStack& vs, const std::string& path) {
 
 namespace detail {
 
-int sparse_axis(const Volume& v) { return sparse_axis_of(scan_voxels(v, false).occupied); }
+int sparse_axis(const Volume& v) { return sparse_axis_of(scan_voxels(VoxelRows(v), false).occupied); }
 
 }  // namespace detail
 
-VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path) {
+namespace {
+
+VolumeStack slice_rows(const VoxelRows& rows, const VolumeSlicing& slicing, const std::string& path) {
+  const Volume& v = rows.volume();
   if (slicing.kind != InputKind::Labels && slicing.kind != InputKind::Masks)
     throw ParamError("a volume holds labels or masks");
   if (slicing.axis < -1 || slicing.axis > 2) throw ParamError(option_name("--axis") + ": must be i, j or k");
   VolumeStack out;
-  const VoxelScan scan = scan_voxels(v, slicing.kind == InputKind::Labels);
+  const VoxelScan scan = scan_voxels(rows, slicing.kind == InputKind::Labels);
   out.axis = slicing.axis >= 0 ? slicing.axis : sparse_axis_of(scan.occupied);
   const int a = out.axis;
   const auto [u, w] = in_plane(a);
@@ -323,9 +374,9 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
                                " x " + std::to_string(sw) + " mm): resample the volume, or give another " + option_name("--axis"));
   const bool labels = slicing.kind == InputKind::Labels;
   if (labels && scan.first_nonlabel_row != kNoRow)
-    for (std::size_t i = scan.first_nonlabel_row * std::size_t(v.nx); i < v.data.size(); ++i)
-      if (v.data[i] < 0 || v.data[i] != std::floor(v.data[i]) || v.data[i] > float(1 << 24))
-        throw InputError(path, "not a label map: value " + std::to_string(v.data[i]) + " at voxel " + std::to_string(i) +
+    for (std::size_t i = scan.first_nonlabel_row * std::size_t(v.nx); i < rows.count(); ++i)
+      if (const float x = rows.at(i); x < 0 || x != std::floor(x) || x > float(1 << 24))
+        throw InputError(path, "not a label map: value " + std::to_string(x) + " at voxel " + std::to_string(i) +
                                    " is not a non-negative integer (use " + option_given("--input", "masks") +
                                    " for any non-zero voxel as inside)");
   if (labels)  // exact values beyond 2^24 (the voxels hold indices into the table)
@@ -352,30 +403,32 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
   frame.axes.col(2) = v.direction.col(a) * su;
   frame.origin = Vec3d(v.origin[0], v.origin[1], v.origin[2]);
   st.patient = frame;
+  std::vector<float> buffer(std::size_t(v.nx));
   for (int t : out.annotated) {
     Slice s;
     s.z = double(t) * sa / su;
     s.source = path + " slice " + std::string(1, kAxis[a]) + " = " + std::to_string(t);
     s.image = Grid2u32(st.width, st.height, 0);
-    const std::array<std::size_t, 3> stride{1, std::size_t(v.nx), std::size_t(v.nx) * std::size_t(v.ny)};
-    const std::size_t step_x = stride[std::size_t(u)], step_y = stride[std::size_t(w)];
-    const float* plane = v.data.data() + std::size_t(t) * stride[std::size_t(a)];
     const bool masks = slicing.kind == InputKind::Masks;
     const std::int64_t* table = v.value_table.empty() ? nullptr : v.value_table.data();
+    auto pixel = [&](float val) {
+      return masks ? (val != 0 ? 255u : 0u) : std::uint32_t(table ? table[std::size_t(val)] : std::int64_t(val));
+    };
     for (int y = 0; y < st.height; ++y) {
-      const float* src = plane + std::size_t(y) * step_y;
       std::uint32_t* dst = &s.image(0, y);
-      for (int x = 0; x < st.width; ++x) {
-        const float val = src[std::size_t(x) * step_x];
-        dst[x] = masks ? (val != 0 ? 255u : 0u) : std::uint32_t(table ? table[std::size_t(val)] : std::int64_t(val));
+      if (a == 0) {  // pixel (x, y) is voxel (t, x, y)
+        for (int x = 0; x < st.width; ++x) dst[x] = pixel(rows.at(v.index(t, x, y)));
+      } else {  // a row of the slice is an x run: row (y, t) along k, (t, y) along j
+        const float* src = a == 2 ? rows.row(y, t, buffer.data()) : rows.row(t, y, buffer.data());
+        for (int x = 0; x < st.width; ++x) dst[x] = pixel(src[x]);
       }
     }
     st.slices.push_back(std::move(s));
   }
   if (labels) {
-    label_warnings(v, out, path);
+    label_warnings(rows, out, path);
   } else {
-    const LabelOccupancy occ = label_occupancy(v, true);
+    const LabelOccupancy occ = label_occupancy(rows, true);
     const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
     if (const int drawn = occ.keys.empty() ? -1 : other_drawn_axis(occ, 0, a, n); drawn >= 0)
       out.warnings.push_back(off_axis_warning(path, "the mask", drawn, a, scan.occupied[std::size_t(drawn)]));
@@ -386,23 +439,61 @@ VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const st
   return out;
 }
 
-LabelmapBuilder::LabelmapBuilder(const Volume& input, const VolumeStack& vs)
+}  // namespace
+
+bool slices_samples(detail::ScalarType t) {
+  using detail::ScalarType;
+  return t == ScalarType::U8 || t == ScalarType::I8 || t == ScalarType::U16 || t == ScalarType::I16;
+}
+
+VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path) {
+  return slice_rows(VoxelRows(v), slicing, path);
+}
+
+VolumeStack volume_stack(const Volume& geometry, const VolumeSamples& samples, const VolumeSlicing& slicing,
+                         const std::string& path) {
+  if (!slices_samples(samples.type)) throw ParamError("volume_stack: samples of a type it does not read as stored");
+  return slice_rows(VoxelRows(geometry, samples), slicing, path);
+}
+
+LabelmapBuilder::LabelmapBuilder(const Volume& input, const VolumeStack& vs, const SliceStack& annotated)
     : axis_(vs.axis), u_(in_plane(vs.axis)[0]), v_(in_plane(vs.axis)[1]),
       z_per_index_(input.spacing[std::size_t(vs.axis)] / input.spacing[std::size_t(in_plane(vs.axis)[0])]) {
-  out_ = input;
+  if (annotated.slices.size() != vs.annotated.size())
+    throw ParamError("LabelmapBuilder: " + std::to_string(annotated.slices.size()) + " slices for " +
+                     std::to_string(vs.annotated.size()) + " annotated indices");
+  out_.nx = input.nx, out_.ny = input.ny, out_.nz = input.nz;  // the geometry; `input` may hold no voxels
+  out_.spacing = input.spacing, out_.origin = input.origin, out_.direction = input.direction;
   out_.integer = true;
-  out_.warnings.clear();
+  const bool masks = annotated.kind == InputKind::Masks;
+  if (!masks) out_.value_table = input.value_table;  // masks: labels 0 and 1
   const auto n = sizes(input);
   annotated_.assign(std::size_t(n[std::size_t(axis_)]), 0);
   for (int t : vs.annotated) annotated_[std::size_t(t)] = 1;
-  const bool masks = vs.stack.kind == InputKind::Masks;
-  if (masks) out_.value_table.clear();  // labels 0 and 1
+  detail::resize_large(out_.data, std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]));
   best_.assign(out_.data.size(), 0.0f);
-  for (std::size_t i = 0; i < out_.data.size(); ++i) {
-    const std::size_t t = axis_ == 0 ? i % std::size_t(n[0]) : axis_ == 1 ? i / std::size_t(n[0]) % std::size_t(n[1])
-                                                                       : i / (std::size_t(n[0]) * std::size_t(n[1]));
-    out_.data[i] = annotated_[t] ? (masks ? float(input.data[i] != 0) : input.data[i]) : 0.0f;
+  // The annotated slices as they were: masks 1 where non-zero, labels their value (or table index).
+  for (std::size_t s = 0; s < vs.annotated.size(); ++s) {
+    const Grid2u32& image = annotated.slices[s].image;
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x) {
+        const std::uint32_t l = image(x, y);
+        if (l == 0) continue;
+        out_.data[voxel(x, y, vs.annotated[s])] = masks ? 1.0f : stored_value(l);
+      }
   }
+}
+
+float LabelmapBuilder::stored_value(std::uint32_t label) const {
+  const auto& table = out_.value_table;
+  return table.empty() ? float(label)
+                       : float(std::lower_bound(table.begin() + 1, table.end(), std::int64_t(label)) - table.begin());
+}
+
+std::size_t LabelmapBuilder::voxel(int x, int y, int t) const {
+  std::array<int, 3> idx{};
+  idx[std::size_t(u_)] = x, idx[std::size_t(v_)] = y, idx[std::size_t(axis_)] = t;
+  return out_.index(idx[0], idx[1], idx[2]);
 }
 
 std::vector<double> LabelmapBuilder::sample_z() const {
@@ -415,18 +506,12 @@ std::vector<double> LabelmapBuilder::sample_z() const {
 void LabelmapBuilder::add(std::uint32_t label, const Grid2f& field, const PixelBox& box, double z) {
   const long t = std::lround(z / z_per_index_);
   if (t < 0 || t >= long(annotated_.size()) || annotated_[std::size_t(t)]) return;
-  // Masks: one object, label 1; exact labels beyond 2^24 by their table index.
-  const auto& table = out_.value_table;
-  const float value = label == 0 ? 1.0f
-                      : table.empty() ? float(label)
-                                      : float(std::lower_bound(table.begin() + 1, table.end(), std::int64_t(label)) - table.begin());
+  const float value = label == 0 ? 1.0f : stored_value(label);  // masks: one object, label 1
   for (int y = 0; y < field.height; ++y)
     for (int x = 0; x < field.width; ++x) {
       const float f = field(x, y);
       if (!(f > 0)) continue;
-      std::array<int, 3> idx{};
-      idx[std::size_t(u_)] = box.x0 + x, idx[std::size_t(v_)] = box.y0 + y, idx[std::size_t(axis_)] = int(t);
-      const std::size_t i = out_.index(idx[0], idx[1], idx[2]);
+      const std::size_t i = voxel(box.x0 + x, box.y0 + y, int(t));
       if (f > best_[i]) best_[i] = f, out_.data[i] = value;
     }
 }

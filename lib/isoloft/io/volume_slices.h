@@ -50,12 +50,25 @@ struct VolumeStack {
 ///          slices is data throughout, its gaps real.
 VolumeStack volume_stack(const Volume& v, const VolumeSlicing& slicing, const std::string& path);
 
+/// The same, read from a file's samples as stored (VolumeReadOptions::take_samples)
+/// a row at a time: no float copy of the volume, and the planes that are all
+/// 0 seen on their bytes. `geometry` is the volume without its voxels.
+/// \throw ParamError unless slices_samples(samples.type); else as above.
+VolumeStack volume_stack(const Volume& geometry, const VolumeSamples& samples, const VolumeSlicing& slicing,
+                         const std::string& path);
+
+/// Element types volume_stack reads as stored: the 8- and 16-bit integers
+/// (finite, exact as floats, and 0 exactly when their bytes are).
+[[nodiscard]] bool slices_samples(detail::ScalarType t);
+
 /// The dense label map on the volume's grid: the annotated slices as they
 /// were (Masks: 1 where non-zero), every other voxel the label whose
 /// interpolated field is largest there and positive, else 0.
 class LabelmapBuilder {
  public:
-  LabelmapBuilder(const Volume& input, const VolumeStack& vs);
+  /// `input` gives the geometry (its voxels are not read), `annotated` the
+  /// annotated slices (VolumeStack::stack, or the job made of it).
+  LabelmapBuilder(const Volume& input, const VolumeStack& vs, const SliceStack& annotated);
   /// The working z (pixels) of every voxel slice that is not annotated: the
   /// planes at which to sample the fields (ReconstructOptions::sample_z).
   [[nodiscard]] std::vector<double> sample_z() const;
@@ -70,6 +83,9 @@ class LabelmapBuilder {
   int axis_, u_, v_;
   double z_per_index_;
   std::vector<std::uint8_t> annotated_;  // per index along the axis
+
+  [[nodiscard]] float stored_value(std::uint32_t label) const;  // the label, or its value_table index
+  [[nodiscard]] std::size_t voxel(int x, int y, int t) const;   // of slice pixel (x, y) at index t
 };
 
 namespace detail {

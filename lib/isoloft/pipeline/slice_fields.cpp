@@ -49,6 +49,8 @@ Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {
 
 std::size_t slice_window() { return kSlicesPerThread * std::size_t(std::max(1, tbb::this_task_arena::max_concurrency())); }
 
+std::size_t slices_in_flight() { return 2 * slice_window(); }
+
 SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& p, std::uint32_t label) {
   SliceMasks m;
   if (stack.has_polygons()) {

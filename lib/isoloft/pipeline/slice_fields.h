@@ -32,6 +32,10 @@ inline constexpr std::size_t kSlicesPerThread = 4;
 /// reconstruct() as slice fields before the spline's knots.
 std::size_t slice_window();
 
+/// Slice fields held at most before the spline's knots: the batch handed
+/// out, and the next computing while it is meshed (2 x slice_window()).
+std::size_t slices_in_flight();
+
 /// One slice of one object: its contour and inside pixels.
 struct SliceMasks {
   Grid2u8 contour;  ///< contour pixels (1)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -67,14 +68,10 @@ Inputs read_polyline_file(const InputRequest& r) {
   return in;
 }
 
-// A volume read or given, sliced along its annotated axis; `path` names it in messages.
-Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& r) {
-  Inputs in;
+// The slicing a volume request asks for (--axis, --input), checked before any voxel is read.
+VolumeSlicing volume_slicing(const InputRequest& r) {
   reject(r.z_spacing || r.slice_z, "--z-spacing/--slice-z", "a volume carries its own voxel spacing");
   reject(bool(r.pixel_size), "--pixel-size", "a volume carries its own voxel size");
-  in.volume = std::make_unique<Volume>(std::move(volume));
-  for (auto& w : in.volume->warnings) in.warnings.push_back(w);
-  detail::check_finite_voxels(*in.volume, path);
   VolumeSlicing slicing;
   if (!r.axis.empty()) {
     if (r.axis != "i" && r.axis != "j" && r.axis != "k")
@@ -86,32 +83,55 @@ Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& 
     if (slicing.kind == InputKind::Contours)
       throw ParamError(option_name("--input") + " contours: a volume holds labels or masks (" + option_name("--input") +
                        " labels|masks)");
-  } else {
-    slicing.kind = InputKind::Labels;
-    if (!in.volume->integer) {
-      const bool whole = std::all_of(in.volume->data.begin(), in.volume->data.end(), [](float v) { return v == std::floor(v); });
-      if (!whole)
-        throw InputError(path, "a float volume with non-integer values is not a label map: give " +
-                                   option_given("--input", "masks") + " to take every non-zero voxel as inside");
-    }
   }
-  in.slicing = std::make_unique<VolumeStack>(volume_stack(*in.volume, slicing, path));
+  return slicing;
+}
+
+// A volume read or given, sliced along its annotated axis; `path` names it in
+// messages. `sliced`: the stack already read from the file's samples (then
+// `volume` holds the geometry alone).
+Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& r,
+                    std::optional<VolumeStack> sliced = std::nullopt) {
+  Inputs in;
+  const VolumeSlicing slicing = volume_slicing(r);
+  in.volume = std::make_unique<Volume>(std::move(volume));
+  for (auto& w : in.volume->warnings) in.warnings.push_back(w);
+  detail::check_finite_voxels(*in.volume, path);
+  if (r.kind.empty() && !in.volume->integer) {
+    const bool whole = std::all_of(in.volume->data.begin(), in.volume->data.end(), [](float v) { return v == std::floor(v); });
+    if (!whole)
+      throw InputError(path, "a float volume with non-integer values is not a label map: give " +
+                                 option_given("--input", "masks") + " to take every non-zero voxel as inside");
+  }
+  in.slicing = std::make_unique<VolumeStack>(sliced ? std::move(*sliced) : volume_stack(*in.volume, slicing, path));
   for (auto& w : in.slicing->warnings) in.warnings.push_back(w);
   in.jobs.push_back({std::move(in.slicing->stack), "", std::nullopt});  // the slicing keeps its kind, axis and indices
   return in;
 }
 
 Inputs read_volume_input(const InputRequest& r) {
+  const std::string& path = r.paths[0];
+  const VolumeSlicing slicing = volume_slicing(r);
   VolumeReadOptions ro;
   ro.allow_external_data = r.allow_external_data;
-  ro.on_header = [&](const VolumeHeader& h) {  // before any voxel is read: the file's samples and our floats
-    const double voxels = double(h.nx) * double(h.ny) * double(h.nz);
+  ro.on_header = [&](const VolumeHeader& h) {  // before any voxel is read: the file's samples, and our floats
+    const double voxels = double(h.nx) * double(h.ny) * double(h.nz);   // unless they are sliced as stored (below)
+    const bool as_stored = h.sample_bytes <= 2;                         // the 8- and 16-bit types: slices_samples
     check_budget(option_name("--max-memory"),
                  "reading the " + std::to_string(h.nx) + "x" + std::to_string(h.ny) + "x" + std::to_string(h.nz) +
                      " volume",
-                 voxels * double(h.sample_bytes + sizeof(float)), r.max_memory);
+                 voxels * double(h.sample_bytes + (as_stored ? 0 : sizeof(float))), r.max_memory);
   };
-  return slice_volume(read_volume(r.paths[0], ro), r.paths[0], r);
+  // Label maps of 8- and 16-bit integers are sliced from the samples as stored:
+  // the planes between the annotated ones are never decoded (docs/decisions.md).
+  std::optional<VolumeStack> sliced;
+  ro.take_samples = [&](const Volume& geometry, const VolumeSamples& samples) {
+    if (!slices_samples(samples.type)) return false;
+    sliced = volume_stack(geometry, samples, slicing, path);
+    return true;
+  };
+  Volume v = read_volume(path, ro);
+  return slice_volume(std::move(v), path, r, std::move(sliced));
 }
 
 // RT working grid (docs/decisions.md: RT grid): a ROI's largest loop spans at

@@ -226,14 +226,15 @@ void LabelmapOutput::check_format(InputFormat format) const {
 }
 
 void LabelmapOutput::start_job(const RunContext& ctx, std::size_t, JobHooks& hooks) {
-  if (!builder_) builder_ = std::make_unique<LabelmapBuilder>(*ctx.in.volume, *ctx.in.slicing);
+  if (!builder_) builder_ = std::make_unique<LabelmapBuilder>(*ctx.in.volume, *ctx.in.slicing, ctx.in.first());
   hooks.on_sample(builder_->sample_z(), [this](std::uint32_t label, const Grid2f& field, const PixelBox& box, double z) {
     builder_->add(label, field, box, z);
   });
 }
 
 double LabelmapOutput::file_bytes(const Inputs& in, const WorkEstimate&) const {
-  return double(in.volume->data.size()) * 4;
+  const Volume& v = *in.volume;  // its voxels may not be held (read as stored)
+  return double(v.nx) * double(v.ny) * double(v.nz) * 4;
 }
 
 void LabelmapOutput::finish(const RunContext& ctx, RunResult&) {
