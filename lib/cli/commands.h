@@ -81,6 +81,8 @@ class Commands {
   /// What the command is doing ("reading X", "reconstructing Y", "writing Z"),
   /// for an error that has no context of its own (e.g. out of memory).
   [[nodiscard]] const std::string& activity() const { return activity_; }
+  /// How main() set up the heap, for the report.
+  void set_heap(std::string heap) { heap_ = std::move(heap); }
 
  private:
   int reconstruct();
@@ -94,6 +96,7 @@ class Commands {
   EvalOptions e_;
   std::string command_line_;
   std::string activity_;
+  std::string heap_;
 };
 
 }  // namespace isoloft::cli

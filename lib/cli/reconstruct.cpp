@@ -210,6 +210,7 @@ int Commands::reconstruct() {
   run.activity = [&](const std::string& what) { activity_ = what; };
   run.git = ISOLOFT_GIT;
   run.command = command_line_;
+  run.heap = heap_;
   run.seconds_before = seconds_since(t_start);
   const RunResult result = isoloft::run(in, params, run);
   progress.finish();

@@ -358,6 +358,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   const double write_seconds = seconds_since(t0);
   r.report = run_report(o.git, o.command, in, params, r,
                         {o.read_seconds, write_seconds, o.seconds_before + seconds_since(t_start)});
+  if (!o.heap.empty()) r.report["heap"] = o.heap;
   for (const auto& out : o.outputs) out->report(r.report);
   if (!o.report_path.empty()) write_text_atomic(files.stage(o.report_path), r.report.dump(2) + "\n");
   files.commit();

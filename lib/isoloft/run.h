@@ -79,6 +79,7 @@ struct RunOptions {
   /// for an error that has no context of its own (out of memory).
   std::function<void(const std::string&)> activity;
   std::string git, command;  ///< for the report
+  std::string heap;          ///< how the process's heap was set up (report "heap"; "" = not reported)
   double read_seconds = 0;   ///< reading the input (report)
   double seconds_before = 0; ///< spent before run() (reading included), added to the report's total
 };

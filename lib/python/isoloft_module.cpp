@@ -456,6 +456,7 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
   o.threads = threads.value_or(0);
   o.git = ISOLOFT_GIT;
   o.command = "isoloft.reconstruct (Python)";
+  o.heap = "the interpreter's, as started";  // the CLI's own setting is the CLI's (lib/cli/main.cpp)
   o.read_seconds = o.seconds_before = input.read_seconds;
 
   auto data = std::make_shared<ResultData>();

@@ -41,6 +41,32 @@ TEST_F(Cli, ReconstructsASynthesizedSphereWithAReport) {
   EXPECT_LT(ev["mesh_to_truth"]["in_range"]["mean_distance_px"].get<double>(), 1.0);
 }
 
+// The CLI runs itself once more on a heap of transparent huge pages with
+// one arena (lib/cli/main.cpp; docs/decisions.md: the CLI's heap) and says
+// so in the report; ISOLOFT_HUGE_PAGES=0 or the caller's own glibc tunables
+// keep the process as called. Every setting gives the same mesh.
+TEST_F(Cli, TheReportSaysHowTheHeapWasSetUp) {
+  ASSERT_EQ(run("synth sphere --size 48 --z-spacing 6 --out " + p("sphere")).code, 0);
+  auto heap_of = [&](const std::string& name) {
+    const CliRun r = run("reconstruct " + p("sphere") + " --z-spacing 6 -o " + p(name + ".ply") + " --report " + p(name + ".json"));
+    EXPECT_EQ(r.code, 0) << name << ": " << r.err;
+    std::ifstream in(p(name + ".json"));
+    return nlohmann::json::parse(in).value("heap", std::string("(none)"));
+  };
+  EXPECT_EQ(heap_of("default"), "huge pages, one arena (GLIBC_TUNABLES glibc.malloc.hugetlb=1:glibc.malloc.arena_max=1)");
+  ::setenv("ISOLOFT_HUGE_PAGES", "0", 1);
+  EXPECT_EQ(heap_of("off"), "as called (ISOLOFT_HUGE_PAGES=0)");
+  ::unsetenv("ISOLOFT_HUGE_PAGES");
+  ::setenv("GLIBC_TUNABLES", "glibc.malloc.arena_max=4", 1);
+  EXPECT_EQ(heap_of("callers"), "as called (GLIBC_TUNABLES glibc.malloc.arena_max=4)");
+  ::unsetenv("GLIBC_TUNABLES");
+  const TriMesh a = read_mesh(p("default.ply")), b = read_mesh(p("off.ply")), c = read_mesh(p("callers.ply"));
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.vertices, c.vertices);
+  EXPECT_EQ(a.triangles, c.triangles);
+}
+
 // The oblique kit from the command line, reconstructed by the track z scheme
 // (one piece, where the default spline gives one per slice); its flags are
 // errors with another scheme, and the shape flags with another shape.

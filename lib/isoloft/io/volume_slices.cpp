@@ -77,6 +77,7 @@ constexpr std::size_t kNoRow = std::numeric_limits<std::size_t>::max();
 // `labels`, a value that is not a non-negative integer up to 2^24.
 struct VoxelScan {
   Occupancy occupied;
+  std::vector<std::uint8_t> row_any;  // per row (j, k), k-major: it holds a non-zero voxel
   std::size_t first_nonfinite_row = kNoRow;
   std::size_t first_nonlabel_row = kNoRow;
 };
@@ -90,6 +91,8 @@ VoxelScan scan_voxels(const VoxelRows& rows, bool labels) {
     std::size_t nonfinite = kNoRow, nonlabel = kNoRow;
   };
   std::vector<Plane> planes(std::size_t(v.nz));
+  VoxelScan out;
+  out.row_any.assign(std::size_t(v.ny) * std::size_t(v.nz), 0);
   tbb::parallel_for(0, v.nz, [&](int k) {
     Plane& p = planes[std::size_t(k)];
     p.occ_i.assign(std::size_t(v.nx), 0);
@@ -111,12 +114,11 @@ VoxelScan scan_voxels(const VoxelRows& rows, bool labels) {
       if (any)
         for (int i = 0; i < v.nx; ++i) p.occ_i[std::size_t(i)] |= std::uint8_t(row[i] != 0);
       const std::size_t r = std::size_t(k) * std::size_t(v.ny) + std::size_t(j);
-      if (any) p.occ_j[std::size_t(j)] = 1, p.any = true;
+      if (any) p.occ_j[std::size_t(j)] = 1, p.any = true, out.row_any[r] = 1;
       if (bad_finite) p.nonfinite = std::min(p.nonfinite, r);
       if (labels && bad_label) p.nonlabel = std::min(p.nonlabel, r);
     }
   });
-  VoxelScan out;
   out.occupied[0].assign(std::size_t(v.nx), 0);
   out.occupied[1].assign(std::size_t(v.ny), 0);
   out.occupied[2].assign(std::size_t(v.nz), 0);
@@ -225,7 +227,7 @@ struct LabelOccupancy {
   }
 };
 
-LabelOccupancy label_occupancy(const VoxelRows& rows, bool binary) {
+LabelOccupancy label_occupancy(const VoxelRows& rows, const std::vector<std::uint8_t>& row_any, bool binary) {
   const Volume& v = rows.volume();
   LabelOccupancy out;
   std::unordered_map<float, std::size_t> id;
@@ -240,7 +242,7 @@ LabelOccupancy label_occupancy(const VoxelRows& rows, bool binary) {
   std::vector<float> here(std::size_t(v.nx)), below_row(here.size()), behind_row(here.size());
   for (int k = 0; k < v.nz; ++k)
     for (int j = 0; j < v.ny; ++j) {
-      if (rows.known_zero(j, k)) continue;  // no run of a label
+      if (!row_any[std::size_t(k) * std::size_t(v.ny) + std::size_t(j)]) continue;  // no run of a label
       const float* row = rows.row(j, k, here.data());
       const float* below = j > 0 ? rows.row(j - 1, k, below_row.data()) : nullptr;   // (i, j - 1, k)
       const float* behind = k > 0 ? rows.row(j, k - 1, behind_row.data()) : nullptr;  // (i, j, k - 1)
@@ -298,10 +300,11 @@ int other_drawn_axis(const LabelOccupancy& occ, std::size_t l, int sliced, const
 
 // Labels: (1) a label drawn along another axis than the one sliced; (2) a
 // stray slice, with the labels it cuts.
-void label_warnings(const VoxelRows& rows, VolumeStack& vs, const std::string& path) {
+void label_warnings(const VoxelRows& rows, const std::vector<std::uint8_t>& row_any, VolumeStack& vs,
+                    const std::string& path) {
   constexpr std::size_t kNamed = 5;  // labels named per warning; the rest counted
   const Volume& v = rows.volume();
-  const LabelOccupancy occ = label_occupancy(rows, false);
+  const LabelOccupancy occ = label_occupancy(rows, row_any, false);
   const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
   const int a = vs.axis;
   auto label_of = [&](float key) {
@@ -403,17 +406,19 @@ VolumeStack slice_rows(const VoxelRows& rows, const VolumeSlicing& slicing, cons
   frame.axes.col(2) = v.direction.col(a) * su;
   frame.origin = Vec3d(v.origin[0], v.origin[1], v.origin[2]);
   st.patient = frame;
-  std::vector<float> buffer(std::size_t(v.nx));
-  for (int t : out.annotated) {
-    Slice s;
+  const bool masks = slicing.kind == InputKind::Masks;
+  const std::int64_t* table = v.value_table.empty() ? nullptr : v.value_table.data();
+  auto pixel = [&](float val) {
+    return masks ? (val != 0 ? 255u : 0u) : std::uint32_t(table ? table[std::size_t(val)] : std::int64_t(val));
+  };
+  st.slices.resize(out.annotated.size());
+  tbb::parallel_for(std::size_t(0), out.annotated.size(), [&](std::size_t i) {  // fresh images: faulted in on both threads
+    const int t = out.annotated[i];
+    Slice& s = st.slices[i];
     s.z = double(t) * sa / su;
     s.source = path + " slice " + std::string(1, kAxis[a]) + " = " + std::to_string(t);
     s.image = Grid2u32(st.width, st.height, 0);
-    const bool masks = slicing.kind == InputKind::Masks;
-    const std::int64_t* table = v.value_table.empty() ? nullptr : v.value_table.data();
-    auto pixel = [&](float val) {
-      return masks ? (val != 0 ? 255u : 0u) : std::uint32_t(table ? table[std::size_t(val)] : std::int64_t(val));
-    };
+    std::vector<float> buffer(std::size_t(v.nx));
     for (int y = 0; y < st.height; ++y) {
       std::uint32_t* dst = &s.image(0, y);
       if (a == 0) {  // pixel (x, y) is voxel (t, x, y)
@@ -423,12 +428,11 @@ VolumeStack slice_rows(const VoxelRows& rows, const VolumeSlicing& slicing, cons
         for (int x = 0; x < st.width; ++x) dst[x] = pixel(src[x]);
       }
     }
-    st.slices.push_back(std::move(s));
-  }
+  });
   if (labels) {
-    label_warnings(rows, out, path);
+    label_warnings(rows, scan.row_any, out, path);
   } else {
-    const LabelOccupancy occ = label_occupancy(rows, true);
+    const LabelOccupancy occ = label_occupancy(rows, scan.row_any, true);
     const std::array<std::size_t, 3> n{std::size_t(v.nx), std::size_t(v.ny), std::size_t(v.nz)};
     if (const int drawn = occ.keys.empty() ? -1 : other_drawn_axis(occ, 0, a, n); drawn >= 0)
       out.warnings.push_back(off_axis_warning(path, "the mask", drawn, a, scan.occupied[std::size_t(drawn)]));
