@@ -22,6 +22,9 @@ their contour vertices (mean, p95, max mm; vertices of loops the working
 grid drops, under one pixel, are left out as the reader leaves them out).
 Writes JSON and a Markdown table.
 
+Needs python3-pydicom for the P case (ISOLOFT_EXTRA_PACKAGES=python3-pydicom
+scripts/setup.sh --full, as scripts/reproduce.sh does) and python3-vtk9.
+
 usage: /usr/bin/python3 experiments/speed_bench.py [--isoloft build/isoloft] [--before OLD_CLI]
            [--runs 5] [--threads 2] [--cases rt,jawbone,P,frog,vtk] [--out DIR] [-- extra isoloft args]
 """

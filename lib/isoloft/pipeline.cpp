@@ -591,6 +591,7 @@ class Sampling final : public PlaneSource {
     field_.reach(k);
   }
   void evaluate(double z, Grid2f& out) const override { field_.evaluate(z, out); }
+  void evaluate_runs(double z, Grid2f& out, const PixelRuns& only) const override { field_.evaluate_runs(z, out, only); }
   void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override {
     field_.sides(k, iso, margin, out);
   }

@@ -231,6 +231,43 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
   }
 }
 
+// evaluate() on pixel runs (the streaming mesher's band) and on the whole
+// plane are twins: the same bits on the runs, the other pixels untouched.
+TEST(ZInterpolator, RunsGiveTheWholePlanesValuesThereAndLeaveTheRest) {
+  const int w = 7, h = 5;
+  const std::vector<double> z{0, 2, 5, 6};
+  std::vector<Grid2f> slices;
+  for (std::size_t k = 0; k < z.size(); ++k) {
+    Grid2f g(w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) g(x, y) = float(std::cos(0.7 * x + 1.3 * y + double(k)) * 3);
+    slices.push_back(g);
+  }
+  PixelRuns runs;  // row 0: none; row 1: [0, 2) and [4, 7); row 2: all; rows 3-4: [3, 4)
+  runs.first = {0, 0, 2, 3, 4, 5};
+  runs.runs = {{0, 2}, {4, 7}, {0, w}, {3, 4}, {3, 4}};
+  ASSERT_EQ(runs.pixels(), 2 + 3 + w + 1 + 1);
+  constexpr float kUntouched = -1234.5f;
+  for (auto kind : kAllKinds) {
+    const ZInterpolator zi(slices, z, kind);
+    for (double q : {0.0, 1.1, 2.0, 4.4, 6.0}) {
+      Grid2f whole, part(w, h, kUntouched);
+      zi.evaluate(q, whole);
+      zi.evaluate(q, part, &runs);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          bool in = false;
+          for (int r = runs.first[std::size_t(y)]; r < runs.first[std::size_t(y) + 1]; ++r)
+            in |= x >= runs.runs[std::size_t(r)][0] && x < runs.runs[std::size_t(r)][1];
+          EXPECT_EQ(part(x, y), in ? whole(x, y) : kUntouched)
+              << to_string(kind) << " pixel (" << x << ", " << y << ") z=" << q;
+        }
+    }
+    Grid2f wrong(w + 1, h);
+    EXPECT_THROW(zi.evaluate(1.0, wrong, &runs), ParamError) << to_string(kind);
+  }
+}
+
 // ZInterpolator::sides(): a pixel said to keep one side of iso over a knot
 // interval does so at every height in it (every kind); for monotone and
 // linear the side is given exactly when both knots are beyond iso by more than

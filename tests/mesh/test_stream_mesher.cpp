@@ -75,8 +75,11 @@ TEST(StreamMesher, SkippingCellsGivesTheSameMeshAsVisitingEvery) {
       const MeshCheck check = check_mesh(skipping.mesh);
       EXPECT_TRUE(check.closed && check.manifold && check.oriented) << what;
       EXPECT_EQ(full.cells_visited, full.cells) << what;
+      EXPECT_EQ(full.pixels_evaluated, full.pixels) << what;
+      EXPECT_EQ(skipping.pixels, full.pixels) << what;
       if (c.step < 1.0) {
         EXPECT_LT(skipping.cells_visited, skipping.cells / 2) << what << ": most cells should be skipped";
+        EXPECT_LT(skipping.pixels_evaluated, skipping.pixels / 2) << what << ": most pixels should be left out";
       }
     }
   }

@@ -214,17 +214,24 @@ void ZInterpolator::sides(std::size_t k, float iso, float margin, Grid2<std::int
   }
 }
 
-void ZInterpolator::evaluate(double q, Grid2f& out) const {
+long PixelRuns::pixels() const {
+  long n = 0;
+  for (const auto& r : runs) n += long(r[1] - r[0]);
+  return n;
+}
+
+void ZInterpolator::evaluate(double q, Grid2f& out, const PixelRuns* only) const {
   const int w = width(), h = height();
+  if (only && (out.width != w || out.height != h || only->first.size() != std::size_t(h) + 1))
+    throw ParamError("spline: pixel runs for a " + std::to_string(w) + "x" + std::to_string(h) + " plane expected");
   if (out.width != w || out.height != h) out = Grid2f(w, h);
   const std::size_t k = interval(q);
   q = std::clamp(q, z_.front(), z_.back());
   const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
   const HermiteBasis basis(kind_, z_[k], z_[k + 1], q);
-  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
-    const std::size_t p0 = f0.index(0, rows.begin()), p1 = f0.index(0, rows.end() - 1) + std::size_t(w);
-    const float *a = f0.data.data(), *b = f1.data.data(), *ma = m0.data.data(), *mb = m1.data.data();
-    float* o = out.data.data();
+  const float *a = f0.data.data(), *b = f1.data.data(), *ma = m0.data.data(), *mb = m1.data.data();
+  float* o = out.data.data();
+  auto span = [&](std::size_t p0, std::size_t p1) {  // pixels [p0, p1)
     if (basis.linear) {
       for (std::size_t p = p0; p < p1; ++p) o[p] = float(double(a[p]) + basis.t * (double(b[p]) - double(a[p])));
       return;
@@ -232,6 +239,17 @@ void ZInterpolator::evaluate(double q, Grid2f& out) const {
     const double h00 = basis.h00, h10h = basis.h10h, h01 = basis.h01, h11h = basis.h11h;
     for (std::size_t p = p0; p < p1; ++p)  // HermiteBasis::value, vectorised
       o[p] = float(h00 * double(a[p]) + h10h * double(ma[p]) + h01 * double(b[p]) + h11h * double(mb[p]));
+  };
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    if (!only) {
+      span(f0.index(0, rows.begin()), f0.index(0, rows.end() - 1) + std::size_t(w));
+      return;
+    }
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (std::int32_t r = only->first[std::size_t(y)]; r < only->first[std::size_t(y) + 1]; ++r) {
+        const auto& run = only->runs[std::size_t(r)];
+        span(f0.index(run[0], y), f0.index(run[1] - 1, y) + 1);
+      }
   });
 }
 

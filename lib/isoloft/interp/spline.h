@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
@@ -125,6 +126,14 @@ class Spline1D {
   SplineKind kind_;
 };
 
+/// Pixels of a plane as runs per row: row y's runs are
+/// runs[first[y]] .. runs[first[y + 1]] - 1, each [x0, x1).
+struct PixelRuns {
+  std::vector<std::int32_t> first;                 ///< height + 1 offsets into runs
+  std::vector<std::array<std::int32_t, 2>> runs;  ///< [x0, x1) in increasing x
+  [[nodiscard]] long pixels() const;
+};
+
 /// Per-pixel splines through equally sized fields.
 /// @warning Beyond [z.front(), z.back()] the end values hold.
 class ZInterpolator {
@@ -134,8 +143,9 @@ class ZInterpolator {
   /// Only the tangents of knots lo..hi (the others 0): evaluate() and sides()
   /// on the intervals between them only. \pre lo <= hi < z.size().
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo, std::size_t hi);
-  /// The field at z, parallel over rows.
-  void evaluate(double z, Grid2f& out) const;
+  /// The field at z, parallel over rows; with `only`, just those pixels (the
+  /// others keep out's values; out must then be width x height already).
+  void evaluate(double z, Grid2f& out, const PixelRuns* only = nullptr) const;
   [[nodiscard]] const std::vector<double>& z() const { return z_; }
   [[nodiscard]] int width() const { return slices_.front().width; }
   [[nodiscard]] int height() const { return slices_.front().height; }

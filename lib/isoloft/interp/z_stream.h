@@ -30,6 +30,11 @@ class PlaneSource {
   /// Makes interval k readable. \pre k not below an earlier reach.
   virtual void reach(std::size_t k) = 0;
   virtual void evaluate(double z, Grid2f& out) const = 0;  ///< as ZInterpolator::evaluate
+  /// At least the pixels `only` (out already width x height); by default all.
+  virtual void evaluate_runs(double z, Grid2f& out, const PixelRuns& only) const {
+    (void)only;
+    evaluate(z, out);
+  }
   virtual void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const = 0;  ///< as ZInterpolator::sides
   /// Wall seconds spent preparing intervals in reach() (tangents,
   /// correspondences), knot pulls excluded.
@@ -45,6 +50,7 @@ class WholeField final : public PlaneSource {
   [[nodiscard]] std::size_t interval(double z) const override { return f_.interval(z); }
   void reach(std::size_t) override {}
   void evaluate(double z, Grid2f& out) const override { f_.evaluate(z, out); }
+  void evaluate_runs(double z, Grid2f& out, const PixelRuns& only) const override { f_.evaluate(z, out, &only); }
   void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override {
     f_.sides(k, iso, margin, out);
   }
@@ -90,6 +96,7 @@ class ZStream final : public PlaneSource {
   /// Pulls knots as needed. \throw ParamError for a knot of another size.
   void reach(std::size_t k) override;
   void evaluate(double z, Grid2f& out) const override;
+  void evaluate_runs(double z, Grid2f& out, const PixelRuns& only) const override;
   void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override;
   [[nodiscard]] double setup_seconds() const override { return tangent_seconds_; }  ///< computing tangents
 

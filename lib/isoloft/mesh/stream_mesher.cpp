@@ -92,18 +92,52 @@ StreamMesher::StreamMesher(const PlaneSource& field, double x0, double y0, const
 
 StreamMesher::~StreamMesher() = default;
 
-void StreamMesher::add(const Grid2f& plane, double z, std::size_t k, long count) {
-  const auto t0 = Clock::now();
-  Grid2f padded = pad(plane, options_.outside);
-  const std::size_t j = std::size_t(builder_.planes_added());
-  if (options_.on_plane) options_.on_plane(padded, x0_ - 1.0, y0_ - 1.0, z, int(j), int(count));
+bool StreamMesher::layer_visit(std::size_t k) {
   // Planes in one or two adjacent knot intervals: the layer may skip cells.
-  const bool skip = options_.skip_cells && j > 0 && k - k_prev_ <= 1;
+  const bool skip = options_.skip_cells && builder_.planes_added() > 0 && k - k_prev_ <= 1;
   if (skip && visit_for_ != std::array<std::size_t, 2>{k_prev_, k}) {
     const Grid2<std::int8_t>& below = sides_->of(k_prev_);  // k_prev and k use different slots, or are equal
     layer_cells_to_visit(below, sides_->of(k), visit_);
     visit_for_ = {k_prev_, k};
   }
+  return skip;
+}
+
+const PixelRuns* StreamMesher::needed(std::size_t k, bool next_in_interval) {
+  // The layer above reads only cells visited in (k, k), a subset of those
+  // visited in (k_prev, k): no cell keeps one side over k_prev and k but
+  // not over k alone. A next plane in another interval: all pixels.
+  if (options_.on_plane || !next_in_interval || !layer_visit(k)) return nullptr;
+  if (needed_for_ == visit_for_) return &needed_;  // planes of one interval pair share it
+  const auto t0 = Clock::now();
+  const int w = field_.width(), h = field_.height(), cw = w + 1;  // visit_: (w + 1) x (h + 1) padded cells
+  needed_.first.assign(std::size_t(h) + 1, 0);
+  needed_.runs.clear();
+  std::vector<std::uint8_t> row(static_cast<std::size_t>(cw)), need(static_cast<std::size_t>(w));
+  for (int y = 0; y < h; ++y) {
+    // Pixel (x, y) is padded (x + 1, y + 1): a corner of padded cells x, x + 1 in rows y, y + 1.
+    const std::uint8_t *c0 = visit_.data() + std::size_t(y) * std::size_t(cw), *c1 = c0 + cw;
+    for (int x = 0; x < cw; ++x) row[std::size_t(x)] = c0[x] | c1[x];
+    for (int x = 0; x < w; ++x) need[std::size_t(x)] = row[std::size_t(x)] | row[std::size_t(x) + 1];
+    const std::uint8_t *b = need.data(), *e = b + w;
+    for (const std::uint8_t* p = std::find(b, e, 1); p != e;) {
+      const std::uint8_t* q = std::find(p, e, 0);
+      needed_.runs.push_back({std::int32_t(p - b), std::int32_t(q - b)});
+      p = std::find(q, e, 1);
+    }
+    needed_.first[std::size_t(y) + 1] = std::int32_t(needed_.runs.size());
+  }
+  needed_for_ = visit_for_;
+  out_.mesh_seconds += seconds_since(t0);
+  return &needed_;
+}
+
+void StreamMesher::add(const Grid2f& plane, double z, std::size_t k, long count) {
+  const auto t0 = Clock::now();
+  Grid2f padded = pad(plane, options_.outside);
+  const std::size_t j = std::size_t(builder_.planes_added());
+  if (options_.on_plane) options_.on_plane(padded, x0_ - 1.0, y0_ - 1.0, z, int(j), int(count));
+  const bool skip = layer_visit(k);
   if (j > 0) {
     const long layer = long(field_.width() + 1) * long(field_.height() + 1);
     out_.cells += layer;
@@ -126,19 +160,30 @@ StreamMeshResult mesh_interpolated_field(PlaneSource& field, const std::vector<d
                                          const MarchingCubesParams& mc, const StreamMeshOptions& options) {
   if (planes.size() < 2) throw ParamError("mesh_interpolated_field: needs at least 2 planes");
   StreamMesher mesher(field, x0, y0, mc, options);
-  Grid2f plane;
+  Grid2f plane(field.width(), field.height());
   double interp_seconds = 0;
+  long pixels = 0, evaluated = 0;
   const long count = long(planes.size());
-  for (const double z : planes) {
+  for (std::size_t j = 0; j < planes.size(); ++j) {
+    const double z = planes[j];
     const std::size_t k = field.interval(z);
     field.reach(k);  // untimed: a stream's knots may be computed here
+    const bool next_in_interval = j + 1 == planes.size() || field.interval(planes[j + 1]) == k;
+    const PixelRuns* only = mesher.needed(k, next_in_interval);
     const auto t0 = Clock::now();
-    field.evaluate(z, plane);
+    if (only)
+      field.evaluate_runs(z, plane, *only);
+    else
+      field.evaluate(z, plane);
     interp_seconds += seconds_since(t0);
+    pixels += long(plane.size());
+    evaluated += only ? only->pixels() : long(plane.size());
     mesher.add(plane, z, k, count);
   }
   StreamMeshResult out = mesher.finish();
   out.interp_seconds = interp_seconds;
+  out.pixels = pixels;
+  out.pixels_evaluated = evaluated;
   return out;
 }
 

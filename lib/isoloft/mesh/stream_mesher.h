@@ -7,6 +7,8 @@
 // known side of iso over both planes' knot intervals (ZInterpolator::sides(),
 // layer_cells_to_visit; the pad has `outside`'s side) is skipped, and the mesh
 // is bit for bit the one of visiting every cell (skip_cells = false, tested).
+// Likewise only the pixels of a plane that are corners of cells visited
+// below or above it are evaluated (needed(); unless on_plane sees the planes).
 // Sign convention: positive inside; a sample is inside iff value > iso.
 // @warning Layers more than one knot interval apart (slices denser than the
 // plane step) visit every cell; splines that overshoot (all but monotone and
@@ -46,6 +48,8 @@ struct StreamMeshResult {
   double mesh_seconds = 0;     ///< wall time in Marching Cubes
   long cells = 0;              ///< cells of all layers
   long cells_visited = 0;      ///< of those, the ones Marching Cubes looked at
+  long pixels = 0;             ///< pixels of all planes
+  long pixels_evaluated = 0;   ///< of those, the ones the spline was evaluated at
 };
 
 /// Marching Cubes of one z-interpolated field fed plane by plane, so that
@@ -62,11 +66,16 @@ class StreamMesher {
   /// The next plane (field.width() x field.height()) at z, in knot interval k,
   /// of `count` planes in all (for progress and on_plane).
   void add(const Grid2f& plane, double z, std::size_t k, long count);
+  /// Before add(): the pixels of the next plane (interval k) Marching Cubes
+  /// may read, given whether the plane after it is in interval k too; nullptr:
+  /// all of them (the first plane, a layer visiting every cell, on_plane set).
+  const PixelRuns* needed(std::size_t k, bool next_in_interval);
   /// The mesh and counts; interp_seconds is the caller's.
   StreamMeshResult finish();
 
  private:
   class SideCache;
+  bool layer_visit(std::size_t k);  // visit_ for the layer below the next plane; false: visit every cell
   const PlaneSource& field_;
   StreamMeshOptions options_;
   std::unique_ptr<SideCache> sides_;
@@ -76,6 +85,8 @@ class StreamMesher {
   std::vector<std::uint8_t> visit_;
   std::array<std::size_t, 2> visit_for_{std::size_t(-1), std::size_t(-1)};  // the interval pair visit_ was made for
   std::size_t k_prev_ = std::size_t(-1);
+  PixelRuns needed_;
+  std::array<std::size_t, 2> needed_for_{std::size_t(-1), std::size_t(-1)};  // the interval pair needed_ was made for
 };
 
 /// Marching Cubes of `field` on the planes z = `planes` (increasing, within
