@@ -32,7 +32,8 @@ namespace {
 
 // The heap on transparent huge pages, one arena (docs/decisions.md: the
 // CLI's heap). The pipeline touches fresh memory all along (slice images,
-// fields, meshes); on 4 KB pages a fault per page is a fifth of a run, and
+// fields, meshes); on 4 KB pages a fault per page was a fifth of a run on one
+// VM (x1.10 slower with the tunables on another, where faults are cheap), and
 // glibc's per-thread arenas still grow 4 KB at a time. glibc reads its
 // tunables at start-up only, so the process runs itself once more with them
 // added, unless the caller's GLIBC_TUNABLES names either or

@@ -454,8 +454,9 @@ class SliceFields {
   std::deque<Computed> ready_;
   std::deque<Computed> batch_;        // the batch computing in group_, from slice *ahead_
   std::optional<std::size_t> ahead_;
-  // Isolated: started in one task and waited for in another (the mesher's
-  // plane ahead), its cancellation is this object's own (the destructor).
+  // Isolated: started in one task and waited for in another (the label
+  // partition reaches each label's stream from a parallel_for), its
+  // cancellation is this object's own (the destructor).
   tbb::task_group_context context_{tbb::task_group_context::isolated};
   tbb::task_group group_{context_};
   double batch_wall_ = 0;
