@@ -91,17 +91,15 @@ void ZStream::reach(std::size_t k) {
   while (!window_ || k >= e1_) next_block();
 }
 
-void ZStream::evaluate(double z, Grid2f& out) const {
+const ZInterpolator& ZStream::reached(double z) const {
   const std::size_t k = interval(z);
   if (!window_ || k < e0_ || k >= e1_) throw ParamError("z stream: evaluate() outside the reached interval");
-  window_->evaluate(z, out);
+  return *window_;
 }
 
-void ZStream::evaluate_runs(double z, Grid2f& out, const PixelRuns& only) const {
-  const std::size_t k = interval(z);
-  if (!window_ || k < e0_ || k >= e1_) throw ParamError("z stream: evaluate() outside the reached interval");
-  window_->evaluate(z, out, &only);
-}
+void ZStream::evaluate(double z, Grid2f& out) const { reached(z).evaluate(z, out); }
+
+void ZStream::evaluate_runs(double z, Grid2f& out, const PixelRuns& only) const { reached(z).evaluate(z, out, &only); }
 
 void ZStream::sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const {
   // The block's intervals and the one before: the window's tangents are those.

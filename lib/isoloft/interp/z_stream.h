@@ -102,6 +102,7 @@ class ZStream final : public PlaneSource {
 
  private:
   void next_block();
+  const ZInterpolator& reached(double z) const;  // the window holding z's interval \throw ParamError if none
   void count(long delta) const;
 
   std::vector<double> z_;

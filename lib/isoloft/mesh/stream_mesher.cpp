@@ -113,12 +113,11 @@ const PixelRuns* StreamMesher::needed(std::size_t k, bool next_in_interval) {
   const int w = field_.width(), h = field_.height(), cw = w + 1;  // visit_: (w + 1) x (h + 1) padded cells
   needed_.first.assign(std::size_t(h) + 1, 0);
   needed_.runs.clear();
-  std::vector<std::uint8_t> row(static_cast<std::size_t>(cw)), need(static_cast<std::size_t>(w));
+  std::vector<std::uint8_t> need(static_cast<std::size_t>(w));
   for (int y = 0; y < h; ++y) {
     // Pixel (x, y) is padded (x + 1, y + 1): a corner of padded cells x, x + 1 in rows y, y + 1.
     const std::uint8_t *c0 = visit_.data() + std::size_t(y) * std::size_t(cw), *c1 = c0 + cw;
-    for (int x = 0; x < cw; ++x) row[std::size_t(x)] = c0[x] | c1[x];
-    for (int x = 0; x < w; ++x) need[std::size_t(x)] = row[std::size_t(x)] | row[std::size_t(x) + 1];
+    for (int x = 0; x < w; ++x) need[std::size_t(x)] = c0[x] | c0[x + 1] | c1[x] | c1[x + 1];
     const std::uint8_t *b = need.data(), *e = b + w;
     for (const std::uint8_t* p = std::find(b, e, 1); p != e;) {
       const std::uint8_t* q = std::find(p, e, 0);
