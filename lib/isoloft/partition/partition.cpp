@@ -1,0 +1,288 @@
+// @file partition/partition.cpp
+// @brief The label partition (partition/partition.h): the union's field from
+// the labels' knots, the competition at each height, the cell sides that let
+// the mesher skip.
+#include "isoloft/partition/partition.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+
+#include "isoloft/core/error.h"
+#include "isoloft/methods/method.h"
+#include "isoloft/mesh/stream_mesher.h"
+#include "isoloft/pipeline/column_stream.h"
+
+namespace isoloft::detail {
+
+namespace {
+
+// What bounds a label's partition field psi_l = phi_l - max(phi_m (m != l),
+// -phi_union) over a knot interval, for cell skipping: the background's
+// competitor is -phi_union, so psi_l <= phi_l + phi_union, and a cell is
+// surely outside where both fields surely are (iso at most the margin);
+// nothing else is known (a label claims gaps where its own field is < 0).
+class PartitionSides final : public PlaneSource {
+ public:
+  // The union's sides of one interval, shared by every label (thread-safe).
+  class UnionSides {
+   public:
+    explicit UnionSides(const PlaneSource& uni) : uni_(uni) {}
+    const Grid2<std::int8_t>& of(std::size_t k, float iso, float margin) {
+      std::lock_guard lock(m_);
+      if (k != k_) {
+        uni_.sides(k, iso, margin, sides_);
+        k_ = k;
+      }
+      return sides_;
+    }
+
+   private:
+    const PlaneSource& uni_;
+    std::mutex m_;
+    std::size_t k_ = std::size_t(-1);
+    Grid2<std::int8_t> sides_;
+  };
+
+  PartitionSides(const PlaneSource& label, const PixelBox& box, UnionSides& uni, const PixelBox& ubox)
+      : label_(label), uni_(uni), dx_(box.x0 - ubox.x0), dy_(box.y0 - ubox.y0) {}
+  [[nodiscard]] int width() const override { return label_.width(); }
+  [[nodiscard]] int height() const override { return label_.height(); }
+  [[nodiscard]] std::size_t interval(double z) const override { return label_.interval(z); }
+  void reach(std::size_t) override {}
+  void evaluate(double, Grid2f&) const override { throw Error("PartitionSides: sides only"); }
+  void sides(std::size_t k, float iso, float margin, Grid2<std::int8_t>& out) const override {
+    label_.sides(k, iso, margin, out);
+    if (!(iso <= margin)) {
+      std::fill(out.data.begin(), out.data.end(), std::int8_t(0));
+      return;
+    }
+    const Grid2<std::int8_t>& us = uni_.of(k, iso, margin);
+    for (int y = 0; y < out.height; ++y)
+      for (int x = 0; x < out.width; ++x) {
+        std::int8_t& o = out(x, y);
+        o = o == -1 && us(x + dx_, y + dy_) == -1 ? std::int8_t(-1) : std::int8_t(0);
+      }
+  }
+
+ private:
+  const PlaneSource& label_;
+  UnionSides& uni_;
+  int dx_, dy_;
+};
+
+// The highest and second-highest field over the union's box at one height:
+// the background's (-phi_union) and every label's over its own box (beyond
+// it a label is outside), and whose the highest is (-1: the background).
+struct Competition {
+  Grid2f top1, top2;
+  Grid2<std::int32_t> who;
+
+  // phi[l] over boxes[l] for the labels l < labels; phi[labels] the union's.
+  void compute(const std::vector<Grid2f>& phi, const std::vector<PixelBox>& boxes, std::size_t labels) {
+    const Grid2f& uni = phi[labels];
+    const PixelBox& ubox = boxes[labels];
+    top1 = uni;
+    for (float& v : top1.data) v = -v;
+    top2 = Grid2f(uni.width, uni.height, -std::numeric_limits<float>::infinity());
+    who = Grid2<std::int32_t>(uni.width, uni.height, -1);
+    for (std::size_t l = 0; l < labels; ++l) {
+      const PixelBox& b = boxes[l];
+      for (int y = 0; y < b.height(); ++y) {
+        const float* f = &phi[l](0, y);
+        const std::size_t row = std::size_t(y + b.y0 - ubox.y0) * std::size_t(uni.width) + std::size_t(b.x0 - ubox.x0);
+        float* t1 = top1.data.data() + row;
+        float* t2 = top2.data.data() + row;
+        std::int32_t* w = who.data.data() + row;
+        for (int x = 0; x < b.width(); ++x) {
+          const float v = f[x];
+          if (v > t1[x]) {
+            t2[x] = t1[x], t1[x] = v, w[x] = std::int32_t(l);
+          } else if (v > t2[x]) {
+            t2[x] = v;
+          }
+        }
+      }
+    }
+  }
+
+  // Label l's partition field over its box: its field minus the best other.
+  // A tie goes to the first label in order: the highest's value is at least
+  // the least positive float, so exactly one label claims every point.
+  void psi(std::size_t l, const Grid2f& phi, const PixelBox& b, const PixelBox& ubox, Grid2f& out) const {
+    out = Grid2f(b.width(), b.height());
+    for (int y = 0; y < b.height(); ++y)
+      for (int x = 0; x < b.width(); ++x) {
+        const int ux = x + b.x0 - ubox.x0, uy = y + b.y0 - ubox.y0;
+        out(x, y) = who(ux, uy) == std::int32_t(l) ? std::max(phi(x, y) - top2(ux, uy), kTieWinner)
+                                                   : phi(x, y) - top1(ux, uy);
+      }
+  }
+  static constexpr float kTieWinner = std::numeric_limits<float>::denorm_min();
+};
+
+// The labels' union as a field, from the labels' own knots: knot i is the
+// highest label knot i at each pixel, plus, inside the union, how much
+// farther the union's edge is than the pixel's own label's edge
+// (union_healing): zero wherever a label meets only the background, so
+// there the union's field is its label's, and deep across the boundaries
+// between labels, so the union does not dip to zero along them. The labels'
+// streams deposit each knot as they pull it (before the union pulls it: the
+// same knots, in lockstep).
+class UnionStream {
+ public:
+  UnionStream(const Run& run, ObjectResult& obj, std::size_t labels)
+      : run_(run), obj_(obj), labels_(labels), z_(knot_z(run)) {
+    stream_ = z_scheme_spec(run.params.z_scheme)
+                  .make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, run.params);
+  }
+  [[nodiscard]] PlaneSource& field() { return *stream_; }
+
+  // Label knot i over `box`, max-accumulated (thread-safe).
+  void deposit(std::size_t i, const Grid2f& f, const PixelBox& box) {
+    std::lock_guard lock(m_);
+    Pending& d = pending_[i];
+    if (d.field.empty()) d.field = Grid2f(obj_.box.width(), obj_.box.height(), -float(run_.params.crop_margin));
+    for (int y = 0; y < box.height(); ++y)
+      for (int x = 0; x < box.width(); ++x) {
+        float& u = d.field(x + box.x0 - obj_.box.x0, y + box.y0 - obj_.box.y0);
+        u = std::max(u, f(x, y));
+      }
+    ++d.labels;
+  }
+
+  void finish(double interp_seconds) {
+    obj_.peak_resident_fields = count_.peak;
+    run_.result.times.interp += interp_seconds + stream_->setup_seconds();
+  }
+
+ private:
+  struct Pending {
+    Grid2f field;
+    std::size_t labels = 0;
+  };
+
+  Grid2f next() {
+    const std::size_t i = next_++;
+    Pending d;
+    {
+      std::lock_guard lock(m_);
+      const auto it = pending_.find(i);
+      if (it == pending_.end() || it->second.labels != labels_) throw Error("UnionStream: knot pulled before every label's");
+      d = std::move(it->second);
+      pending_.erase(it);
+    }
+    // Knots 1..n are the slices (0 and n + 1 the end caps: no healing).
+    if (i >= 1 && i <= run_.slices())
+      with_slice(run_.stack, i - 1, [&](const Slice& s) {
+        const Grid2f h = union_healing(s.image, obj_.box);
+        for (std::size_t j = 0; j < h.size(); ++j) d.field.data[j] += h.data[j];
+      });
+    return std::move(d.field);
+  }
+
+  const Run& run_;
+  ObjectResult& obj_;
+  std::size_t labels_;
+  std::vector<double> z_;
+  ResidentCount count_;
+  std::mutex m_;
+  std::map<std::size_t, Pending> pending_;
+  std::size_t next_ = 0;
+  std::unique_ptr<PlaneSource> stream_;
+};
+
+}  // namespace
+
+// Stages (paper 2.1-2.5 but decimation) of a label partition
+// (ReconstructParams::label_partition): every label's field and the union's
+// streamed in lockstep; at every plane and sample height label l's field
+// becomes psi_l = phi_l - max(phi_m (m != l), -phi_union), positive where l's
+// field is the highest of the labels' and the background's. So neighbours l
+// and m share the zero set of psi_l = -psi_m = phi_l - phi_m, a point inside
+// the union goes to its nearest label, and a label that meets only the
+// background keeps its own surface (there phi_union = phi_l). The union (the
+// last object) is not meshed.
+void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
+  const std::size_t labels = objects.size() - 1;
+  std::vector<PixelBox> boxes(labels + 1);
+  for (std::size_t i = 0; i <= labels; ++i) boxes[i] = objects[i].obj.box;
+  const PixelBox& ubox = boxes[labels];
+  UnionStream uni(objects[labels].run, objects[labels].obj, labels);
+  std::vector<std::unique_ptr<ObjectStream>> streams(labels);
+  for (std::size_t l = 0; l < labels; ++l)
+    streams[l] = std::make_unique<ObjectStream>(
+        objects[l].run, objects[l].obj, std::move(objects[l].masks),
+        [&uni, box = boxes[l]](std::size_t i, const Grid2f& f) { uni.deposit(i, f, box); });
+  const std::vector<double>& knots = streams[0]->knots();
+  // Heights in order: every plane, and every sample height within the knots.
+  struct Height {
+    double z;
+    bool sample;
+  };
+  std::vector<Height> heights;
+  const std::vector<double> planes = streams[0]->planes();
+  for (const double z : planes) heights.push_back({z, false});
+  if (run.options.on_sample)
+    for (const double z : run.options.sample_z)
+      if (z >= knots.front() && z <= knots.back()) heights.push_back({z, true});
+  std::stable_sort(heights.begin(), heights.end(), [](const Height& a, const Height& b) { return a.z < b.z; });
+
+  PartitionSides::UnionSides union_sides(uni.field());
+  std::vector<PartitionSides> bounds;
+  std::vector<std::unique_ptr<StreamMesher>> meshers(labels);
+  bounds.reserve(labels);
+  for (std::size_t l = 0; l < labels; ++l) {
+    bounds.emplace_back(streams[l]->field(), boxes[l], union_sides, ubox);
+    StreamMeshOptions o = mesh_options(objects[l].run, objects[l].obj);
+    o.progress = nullptr;  // once per plane for all labels, below
+    meshers[l] = std::make_unique<StreamMesher>(bounds[l], boxes[l].x0, boxes[l].y0, run.params.mc, std::move(o));
+  }
+  std::vector<Grid2f> phi(labels + 1), psi(labels);
+  std::vector<double> seconds(labels + 1, 0.0);
+  Competition c;
+  const bool serial_planes = bool(run.options.on_plane);
+  long done = 0;
+  const long count = long(planes.size());
+  for (const Height& h : heights) {
+    const std::size_t k = streams[0]->field().interval(h.z);
+    // The labels first: their knots feed the union's.
+    tbb::parallel_for(std::size_t(0), labels + 1, [&](std::size_t i) {
+      if (i == labels) return;
+      PlaneSource& f = streams[i]->field();
+      f.reach(k);
+      const auto t0 = Clock::now();
+      f.evaluate(h.z, phi[i]);
+      seconds[i] += seconds_since(t0);
+    });
+    uni.field().reach(k);
+    auto t0 = Clock::now();
+    uni.field().evaluate(h.z, phi[labels]);
+    seconds[labels] += seconds_since(t0);
+    t0 = Clock::now();
+    c.compute(phi, boxes, labels);
+    tbb::parallel_for(std::size_t(0), labels, [&](std::size_t l) {
+      c.psi(l, phi[l], boxes[l], ubox, psi[l]);
+      if (!h.sample && !serial_planes) meshers[l]->add(psi[l], h.z, k, count);
+    });
+    if (!h.sample && serial_planes)  // on_plane sees the labels' planes one label at a time, in label order
+      for (std::size_t l = 0; l < labels; ++l) meshers[l]->add(psi[l], h.z, k, count);
+    const double shared = seconds_since(t0) / double(labels);
+    for (std::size_t l = 0; l < labels; ++l) seconds[l] += shared;
+    if (h.sample) {
+      for (std::size_t l = 0; l < labels; ++l) run.options.on_sample(objects[l].obj.label, psi[l], boxes[l], h.z);
+    } else {
+      ++done;  // every label's planes advance together
+      for (std::size_t l = 0; l < labels; ++l) objects[l].run.progress("interpolate+mesh", done, count);
+    }
+  }
+  for (std::size_t l = 0; l < labels; ++l) streams[l]->finish(meshers[l]->finish(), seconds[l]);
+  uni.finish(seconds[labels]);
+}
+
+}  // namespace isoloft::detail

@@ -1,0 +1,70 @@
+// @file pipeline/column_stream.h
+// @brief The column streaming engine of reconstruct() (paper 2.1-2.5 but
+// decimation): an object's slice fields computed a window at a time in
+// parallel (the method's MethodSpec::slice_field), the knot feed (end caps,
+// empty slices closed), the z scheme's plane source, meshed plane by plane;
+// only the packed masks are kept for every slice. Internals of
+// reconstruct(), in detail.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "isoloft/interp/z_stream.h"
+#include "isoloft/mesh/stream_mesher.h"
+#include "isoloft/pipeline/field_band.h"
+#include "isoloft/pipeline/objects.h"
+
+namespace isoloft::detail {
+
+/// The knot heights: the slices' z and the end caps' (add_end_caps; a cap of
+/// an empty field is empty).
+std::vector<double> knot_z(const Run& run);
+
+/// One object's cost from its packed masks, before any fit (the budget
+/// check; docs/decisions.md, work budget).
+WorkEstimate estimate_work(const Run& run, const std::vector<PackedMasks>& masks, const ObjectResult& obj);
+
+/// One object's interpolated field, streamed (paper 2.1-2.4): the slice fields
+/// computed a window at a time, the knot feed, the z scheme's plane source;
+/// only the packed masks are kept for every slice.
+class ObjectStream {
+ public:
+  /// Each knot the stream pulls, with its index, goes to `tap` too (if set).
+  using KnotTap = std::function<void(std::size_t, const Grid2f&)>;
+
+  /// band: the fields are exact only where they reach the mesh (pipeline/field_band.h).
+  /// \throw InputError if the knots span less than one plane step.
+  ObjectStream(const Run& run, ObjectResult& obj, std::vector<PackedMasks> masks, KnotTap tap = {},
+               const std::optional<FieldBand::Setup>& band = std::nullopt);
+  ~ObjectStream();
+  ObjectStream(const ObjectStream&) = delete;
+  ObjectStream& operator=(const ObjectStream&) = delete;
+
+  [[nodiscard]] PlaneSource& field();
+  [[nodiscard]] const std::vector<double>& knots() const;
+  [[nodiscard]] std::vector<double> planes() const;
+
+  /// The object's mesh and the stream's statistics and times; `interp_seconds`
+  /// evaluating planes and samples.
+  void finish(StreamMeshResult r, double interp_seconds);
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The mesher's options for an object: the pad outside the end caps' value,
+/// --volume planes, progress.
+StreamMeshOptions mesh_options(const Run& run, const ObjectResult& obj);
+
+/// Stages (paper 2.1-2.5 but decimation) of one object, its mesh into obj.
+/// The fields banded (pipeline/field_band.h) unless a hook sees them or the
+/// options ask for whole fields. An empty mesh is made again with whole
+/// fields: its reason quotes the fields' maximum, which a band does not keep.
+void stream_stages(const Run& run, std::vector<PackedMasks> masks, ObjectResult& obj);
+
+}  // namespace isoloft::detail
