@@ -12,7 +12,7 @@
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 #include "isoloft/synth/synth.h"
 #if ISOLOFT_HAVE_VALIDATION
 #include "validation/hausdorff.h"
@@ -25,8 +25,8 @@ namespace isoloft::cli {
 int Commands::synth() {
   if (s_.list) {
     for (const auto& n : shape_names()) std::cout << n << "\n";
-    for (const auto& n : oblique_shape_names()) std::cout << n << "\n";
-    for (const auto& n : oblique_kit_names()) std::cout << n << "\n";
+    for (const auto& n : tilted_shape_names()) std::cout << n << "\n";
+    for (const auto& n : tilted_kit_names()) std::cout << n << "\n";
     return 0;
   }
   if (s_.shape.empty()) throw ParamError("synth: no SHAPE given (see isoloft synth --list)");
@@ -34,24 +34,24 @@ int Commands::synth() {
   SynthParams p;
   p.z_spacing = s_.z_spacing;
   p.kind = enum_from_string<InputKind>(s_.kind, "--kind");
-  const std::vector<std::string> oblique = oblique_shape_names(), kit = oblique_kit_names();
-  const bool is_oblique = std::find(oblique.begin(), oblique.end(), s_.shape) != oblique.end();
+  const std::vector<std::string> tilted = tilted_shape_names(), kit = tilted_kit_names();
+  const bool is_tilted = std::find(tilted.begin(), tilted.end(), s_.shape) != tilted.end();
   const bool is_kit = std::find(kit.begin(), kit.end(), s_.shape) != kit.end();
   SynthResult r;
-  if (is_oblique || is_kit) {
-    if (s_.size) throw ParamError("synth --size: the oblique shapes size their images to fit");
+  if (is_tilted || is_kit) {
+    if (s_.size) throw ParamError("synth --size: the tilted-tube shapes size their images to fit");
     if (is_kit && (s_.tilt || s_.radius || s_.gap || s_.slices))
       throw ParamError("synth: a kit case (" + s_.shape + ") has its own tilt, radius, gap and slices");
-    ObliqueOptions o;
+    TiltedOptions o;
     o.spacing = s_.z_spacing;
     o.tilt = s_.tilt.value_or(o.tilt), o.radius = s_.radius.value_or(o.radius), o.gap = s_.gap.value_or(o.gap);
     o.slices = s_.slices.value_or(0);
-    const ObliqueCase c = is_kit ? oblique_kit_case(s_.shape) : make_oblique_shape(s_.shape, o);
+    const TiltedCase c = is_kit ? tilted_kit_case(s_.shape) : make_tilted_shape(s_.shape, o);
     r = synthesize(c, p.kind, p.polyline_step);
   } else {
     for (const auto& [flag, given] : {std::pair{"--tilt", bool(s_.tilt)}, {"--radius", bool(s_.radius)},
                                       {"--gap", bool(s_.gap)}, {"--slices", bool(s_.slices)}})
-      if (given) throw ParamError(std::string("synth ") + flag + ": only with the oblique shapes (see isoloft synth --list)");
+      if (given) throw ParamError(std::string("synth ") + flag + ": only with the tilted-tube shapes (see isoloft synth --list)");
     p.size = s_.size.value_or(p.size);
     r = synthesize(*make_default_shape(s_.shape, p.size), p);
   }
@@ -74,7 +74,7 @@ int Commands::synth() {
     write_png((fs::path(s_.out) / name.str()).string(), img);
   }
   r.description["stack"]["files"] = "slice_000.png ...";
-  // Slice k at k z_spacing (the analytic shapes), else the slices' own z (the oblique shapes).
+  // Slice k at k z_spacing (the analytic shapes), else the slices' own z (the tilted-tube shapes).
   bool uniform = true;
   std::string slice_z;
   for (std::size_t k = 0; k < r.stack.slices.size(); ++k) {

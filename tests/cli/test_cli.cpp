@@ -67,10 +67,10 @@ TEST_F(Cli, TheReportSaysHowTheHeapWasSetUp) {
   EXPECT_EQ(a.triangles, c.triangles);
 }
 
-// The oblique kit from the command line, reconstructed by the track z scheme
+// The tilted-tube kit from the command line, reconstructed by the track z scheme
 // (one piece, where the default spline gives one per slice); its flags are
 // errors with another scheme, and the shape flags with another shape.
-TEST_F(Cli, SynthesizesAnObliqueTubeThatTheTrackSchemeKeepsWhole) {
+TEST_F(Cli, SynthesizesATiltedTubeThatTheTrackSchemeKeepsWhole) {
   const CliRun s = run("synth tube --tilt 80 --radius 3 --kind masks --out " + p("tube"));
   ASSERT_EQ(s.code, 0) << s.err;
   std::ifstream in(p("tube/shape.json"));
@@ -93,7 +93,7 @@ TEST_F(Cli, SynthesizesAnObliqueTubeThatTheTrackSchemeKeepsWhole) {
   EXPECT_NE(wrong.err.find("--z-scheme track"), std::string::npos) << wrong.err;
   const CliRun tilt = run("synth sphere --tilt 80 --out " + p("sphere"));
   EXPECT_NE(tilt.code, 0);
-  EXPECT_NE(tilt.err.find("oblique"), std::string::npos) << tilt.err;
+  EXPECT_NE(tilt.err.find("tilted-tube"), std::string::npos) << tilt.err;
 }
 
 TEST_F(Cli, PrintParamsRoundTripsThroughParamsFile) {

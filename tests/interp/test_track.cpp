@@ -3,7 +3,7 @@
 // overshoot; Marching Cubes skipping cells by its sides() gives the mesh of
 // visiting every cell; the knots held do not grow with the knot count; the
 // bridging rule (interp/track_graph.h) on parts with known answers. Fields:
-// exact distances of the oblique kit's masks (synth/oblique.h), end caps as
+// exact distances of the tilted-tube kit's masks (synth/tilted_tubes.h), end caps as
 // the pipeline's.
 #include <gtest/gtest.h>
 
@@ -18,7 +18,7 @@
 #include "isoloft/methods/method.h"
 #include "isoloft/mesh/mesh_check.h"
 #include "isoloft/mesh/stream_mesher.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 
 using namespace isoloft;
 
@@ -31,7 +31,7 @@ struct Knots {
 };
 
 // The masks' signed distances at their slices, with the pipeline's end caps.
-Knots knots_of(const ObliqueCase& c) {
+Knots knots_of(const TiltedCase& c) {
   const SynthResult s = synthesize(c, InputKind::Masks);
   Knots k;
   k.width = s.stack.width, k.height = s.stack.height;
@@ -63,7 +63,7 @@ std::vector<std::string> kit_cases() { return {"tube80_r3_s8", "fork60_r3_s8", "
 
 TEST(Track, GivesBackEveryKnotAtItsZBitForBit) {
   for (const std::string& name : kit_cases()) {
-    const Knots k = knots_of(oblique_kit_case(name));
+    const Knots k = knots_of(tilted_kit_case(name));
     for (const TrackMotion motion : {TrackMotion::Gated, TrackMotion::RuleOnly, TrackMotion::Auto})
       for (const SplineKind kind : {SplineKind::ExtremumPreserving, SplineKind::Monotone, SplineKind::CatmullRom}) {
         const std::string what = name + ", " + to_string(motion) + ", " + to_string(kind);
@@ -120,7 +120,7 @@ TEST(Track, DoesNotOvershootAlongAMonotoneTrajectory) {
 
 TEST(Track, SkippingCellsGivesTheSameMeshAsVisitingEvery) {
   for (const std::string& name : kit_cases()) {
-    const Knots k = knots_of(oblique_kit_case(name));
+    const Knots k = knots_of(tilted_kit_case(name));
     for (const SplineKind kind : {SplineKind::ExtremumPreserving, SplineKind::Monotone}) {
       const std::string what = name + ", " + to_string(kind);
       const std::vector<double> planes = sample_planes(k.z.front(), k.z.back(), 1.0);
@@ -177,7 +177,7 @@ TEST(Track, HoldsAWindowOfKnotsThatDoesNotGrowWithTheKnots) {
 }
 
 TEST(Track, RejectsReadingOutOfOrderAndBadKnots) {
-  const Knots k = knots_of(oblique_kit_case("tube80_r3_s8"));
+  const Knots k = knots_of(tilted_kit_case("tube80_r3_s8"));
   TrackStream s = stream_of(k, TrackParams{}, SplineKind::ExtremumPreserving);
   Grid2f out;
   Grid2<std::int8_t> sides;

@@ -19,7 +19,7 @@
 #include "isoloft/pipeline.h"
 #include "isoloft/pipeline/field_band.h"
 #include "isoloft/pipeline/slice_fields.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 #include "isoloft/synth/synth.h"
 
 using namespace isoloft;
@@ -198,7 +198,7 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
     SliceStack stack;
     SplineKind spline;
   };
-  const ObliqueCase tube = oblique_kit_case("tube80_r3_s8");
+  const TiltedCase tube = tilted_kit_case("tube80_r3_s8");
   const std::vector<Case> cases{
       {"two blobs, traced masks", cut("two-blobs", 80, 10.0, InputKind::Masks), SplineKind::ExtremumPreserving},
       {"branching cylinders, traced masks, monotone", cut("branching-cylinders", 72, 9.0, InputKind::Masks),
@@ -211,7 +211,7 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
        cut("sphere", 96, 3.0, InputKind::Polylines, {6, 12, 13}), SplineKind::ExtremumPreserving},
       {"tilted torus, drawn polygons", cut("tilted-torus", 72, 8.0, InputKind::Polylines), SplineKind::ExtremumPreserving},
       {"square prism, drawn polygons, linear (the caps' trend)", prism(96, 30.5, 6, 5.0), SplineKind::Linear},
-      {"oblique tube (80 deg), drawn polygons", synthesize(tube, InputKind::Polylines).stack, SplineKind::ExtremumPreserving},
+      {"tilted tube (80 deg), drawn polygons", synthesize(tube, InputKind::Polylines).stack, SplineKind::ExtremumPreserving},
   };
   for (const Case& c : cases) {
     ReconstructParams p;

@@ -1,5 +1,5 @@
-// The track z scheme through reconstruct() on the oblique kit (the targets
-// it was built for, synth/oblique.h): one component per true component, the volume
+// The track z scheme through reconstruct() on the tilted-tube kit (the targets
+// it was built for, synth/tilted_tubes.h): one component per true component, the volume
 // within 5 % and the mean two-sided distance <= 0.25 px where the per-column
 // spline breaks the structure apart; separate objects on neighbouring slices
 // stay separate; the fields held do not grow with the slice count.
@@ -11,7 +11,7 @@
 #include "isoloft/eval/volume.h"
 #include "isoloft/mesh/mesh_check.h"
 #include "isoloft/pipeline.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 #include "isoloft/synth/synth.h"
 #if defined(ISOLOFT_HAVE_VALIDATION)
 #include "validation/hausdorff.h"
@@ -30,7 +30,7 @@ struct Result {
   double volume_ratio = 0;
 };
 
-Result run(const ObliqueCase& c, const std::string& scheme) {
+Result run(const TiltedCase& c, const std::string& scheme) {
   const SynthResult s = synthesize(c, InputKind::Masks);
   ReconstructParams p;
   // The z scheme alone, on the pixel-centre boundary: the traced boundary (the
@@ -54,9 +54,9 @@ Result run(const ObliqueCase& c, const std::string& scheme) {
 
 }  // namespace
 
-TEST(TrackKit, ObliqueStructuresStayWholeAndInPlace) {
+TEST(TrackKit, TiltedStructuresStayWholeAndInPlace) {
   for (const std::string name : {"tube80_r3_s8", "fork60_r3_s8", "helix_r3_s8"}) {
-    const ObliqueCase c = oblique_kit_case(name);
+    const TiltedCase c = tilted_kit_case(name);
     const Result r = run(c, "track");
     EXPECT_EQ(r.components, c.components) << name;
     EXPECT_NEAR(r.volume_ratio, 1.0, kVolumeTarget) << name;
@@ -66,13 +66,13 @@ TEST(TrackKit, ObliqueStructuresStayWholeAndInPlace) {
 #endif
   }
   // What the kit catches: the per-column spline falls apart on the 80 deg tube (a piece per slice).
-  const ObliqueCase tube = oblique_kit_case("tube80_r3_s8");
+  const TiltedCase tube = tilted_kit_case("tube80_r3_s8");
   EXPECT_EQ(run(tube, "columns").components, int(tube.slice_z.size()));
 }
 
 TEST(TrackKit, SeparateObjectsOnNeighbouringSlicesStaySeparate) {
   for (const std::string name : {"two_spheres_R6_s8", "two_spheres_R4_s8_gap2", "two_bars_end_s8", "two_columns_R5_s8"}) {
-    const ObliqueCase c = oblique_kit_case(name);
+    const TiltedCase c = tilted_kit_case(name);
     EXPECT_EQ(run(c, "track").components, c.components) << name;
   }
 }
@@ -83,7 +83,7 @@ TEST(TrackKit, SeparateObjectsOnNeighbouringSlicesStaySeparate) {
 TEST(TrackKit, FieldsHeldDoNotGrowWithTheSlices) {
   long peak_at_fewer = 0;
   for (const double turns : {9.0, 20.0}) {
-    const ObliqueCase c = oblique_helix(3, 12, 24, 2, turns);
+    const TiltedCase c = tilted_helix(3, 12, 24, 2, turns);
     ReconstructParams p = method_defaults(Method::Levin);
     p.z_scheme = "track";
     p.decimate.max_error = 0;

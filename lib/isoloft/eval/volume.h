@@ -1,6 +1,6 @@
 // @file eval/volume.h
-// @brief Volume ratios for the oblique kit (experiments/oblique_kit.cpp), as
-// the oblique kit defines them: the samples inside
+// @brief Volume ratios for the tilted-tube kit (experiments/tilted_tubes.cpp), as
+// the tilted-tube kit defines them: the samples inside
 // a closed mesh over those inside the analytic truth, at every pixel centre
 // (x, y whole) and every kVolumeSampleStep in z over the slice range. At the
 // slices this counts what the masks can show (a pixel is in a mask iff its

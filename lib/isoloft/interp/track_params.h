@@ -20,7 +20,7 @@ inline constexpr std::array<EnumName<TrackMotion>, 3> kTrackMotionNames{
     {{TrackMotion::Gated, "gated"}, {TrackMotion::RuleOnly, "rule-only"}, {TrackMotion::Auto, "auto"}}};
 constexpr std::span<const EnumName<TrackMotion>> enum_names(TrackMotion) { return kTrackMotionNames; }
 
-/// Measured values: docs/decisions.md, "The track z scheme" (the oblique kit, experiments/oblique_kit.cpp).
+/// Measured values: docs/decisions.md, "The track z scheme" (the tilted-tube kit, experiments/tilted_tubes.cpp).
 struct TrackParams {
   TrackMotion motion = TrackMotion::Gated;
   double iou_max = 0.3;

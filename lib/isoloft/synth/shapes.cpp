@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "isoloft/core/error.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 
 namespace isoloft {
 
@@ -204,7 +204,7 @@ std::unique_ptr<Shape> shape_from_json(const json& j) {
     if (caps.empty()) throw ParamError("shape: 'capsules' is empty");
     return std::make_unique<Capsules>(std::move(caps), num(j, "blend"), type);
   }
-  if (std::unique_ptr<Shape> oblique = oblique_shape_from_json(j)) return oblique;
+  if (std::unique_ptr<Shape> tilted = tilted_shape_from_json(j)) return tilted;
   throw ParamError("unknown shape type '" + type + "'");
 }
 

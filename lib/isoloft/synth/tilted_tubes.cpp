@@ -1,4 +1,4 @@
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 
 #include <algorithm>
 #include <cmath>
@@ -169,20 +169,20 @@ class Balls final : public Shape {
   std::vector<double> r_;
 };
 
-// The lines moved so that their xy bounds start kObliqueMargin + r from 0;
+// The lines moved so that their xy bounds start kTiltedMargin + r from 0;
 // the image holds them with that margin on every side.
-ObliqueCase tube_case(std::string name, std::vector<std::vector<Vec3d>> lines, double r, std::vector<double> slice_z,
+TiltedCase tube_case(std::string name, std::vector<std::vector<Vec3d>> lines, double r, std::vector<double> slice_z,
                       int components, json params) {
   Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
   for (const auto& l : lines)
     for (const Vec3d& q : l) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
-  const Vec3d shift(kObliqueMargin + r - lo.x(), kObliqueMargin + r - lo.y(), 0);
+  const Vec3d shift(kTiltedMargin + r - lo.x(), kTiltedMargin + r - lo.y(), 0);
   for (auto& l : lines)
     for (Vec3d& q : l) q += shift;
-  ObliqueCase c;
+  TiltedCase c;
   c.name = std::move(name);
-  c.width = int(std::ceil(hi.x() + shift.x() + r + kObliqueMargin)) + 1;
-  c.height = int(std::ceil(hi.y() + shift.y() + r + kObliqueMargin)) + 1;
+  c.width = int(std::ceil(hi.x() + shift.x() + r + kTiltedMargin)) + 1;
+  c.height = int(std::ceil(hi.y() + shift.y() + r + kTiltedMargin)) + 1;
   c.shape = std::make_unique<Tubes>(std::move(lines), r);
   c.slice_z = std::move(slice_z);
   c.components = components;
@@ -198,7 +198,7 @@ std::vector<double> slices(int n, double spacing) {
 }
 
 void check_positive(double v, const char* what) {
-  if (!(v > 0) || !std::isfinite(v)) throw ParamError(std::string("oblique shape: ") + what + " must be positive");
+  if (!(v > 0) || !std::isfinite(v)) throw ParamError(std::string("tilted-tube shape: ") + what + " must be positive");
 }
 
 std::string num(double v) {
@@ -209,10 +209,10 @@ std::string num(double v) {
 
 }  // namespace
 
-ObliqueCase oblique_tube(double tilt_deg, double r, double spacing, int n_slices, double azimuth_deg) {
+TiltedCase tilted_tube(double tilt_deg, double r, double spacing, int n_slices, double azimuth_deg) {
   check_positive(r, "the radius"), check_positive(spacing, "the spacing");
-  if (!(tilt_deg >= 0 && tilt_deg < 89)) throw ParamError("oblique tube: the tilt must be in [0, 89) deg");
-  if (n_slices < 2) throw ParamError("oblique tube: at least 2 slices");
+  if (!(tilt_deg >= 0 && tilt_deg < 89)) throw ParamError("tilted tube: the tilt must be in [0, 89) deg");
+  if (n_slices < 2) throw ParamError("tilted tube: at least 2 slices");
   const double th = tilt_deg * kDeg, az = azimuth_deg * kDeg;
   const Vec3d u(std::sin(th) * std::cos(az), std::sin(th) * std::sin(az), std::cos(th));
   // Its ends lie half a spacing plus r beyond the first and last slice: every slice cuts a full ellipse.
@@ -222,11 +222,11 @@ ObliqueCase oblique_tube(double tilt_deg, double r, double spacing, int n_slices
                    {{"shape", "tube"}, {"tilt_deg", tilt_deg}, {"spacing", spacing}, {"azimuth_deg", azimuth_deg}});
 }
 
-ObliqueCase oblique_fork(double r, double spacing, double branch_deg, int trunk_slices, int branch_slices,
+TiltedCase tilted_fork(double r, double spacing, double branch_deg, int trunk_slices, int branch_slices,
                          double azimuth_deg) {
   check_positive(r, "the radius"), check_positive(spacing, "the spacing");
-  if (!(branch_deg >= 0 && branch_deg < 89)) throw ParamError("oblique fork: the branch angle must be in [0, 89) deg");
-  if (trunk_slices < 1 || branch_slices < 1) throw ParamError("oblique fork: at least 1 trunk and 1 branch slice");
+  if (!(branch_deg >= 0 && branch_deg < 89)) throw ParamError("tilted fork: the branch angle must be in [0, 89) deg");
+  if (trunk_slices < 1 || branch_slices < 1) throw ParamError("tilted fork: at least 1 trunk and 1 branch slice");
   const double az = azimuth_deg * kDeg, b = branch_deg * kDeg;
   const double zj = (trunk_slices - 0.5) * spacing;  // the junction, midway between two slices
   const double ztop = (trunk_slices + branch_slices - 0.5) * spacing + r;
@@ -241,7 +241,7 @@ ObliqueCase oblique_fork(double r, double spacing, double branch_deg, int trunk_
                    {{"shape", "fork"}, {"branch_deg", branch_deg}, {"spacing", spacing}});
 }
 
-ObliqueCase oblique_helix(double r, double coil_radius, double pitch, double spacing, double turns) {
+TiltedCase tilted_helix(double r, double coil_radius, double pitch, double spacing, double turns) {
   check_positive(r, "the radius"), check_positive(spacing, "the spacing"), check_positive(coil_radius, "the coil radius");
   check_positive(pitch, "the pitch"), check_positive(turns, "the turns");
   constexpr double kSegmentDeg = 2.0;  // the axis polyline's step: chord error R (1 - cos 1 deg) = 0.003 px at R = 20
@@ -263,14 +263,14 @@ ObliqueCase oblique_helix(double r, double coil_radius, double pitch, double spa
                     {"tilt_deg", tilt}});
 }
 
-ObliqueCase two_spheres(double radius, double spacing, double gap, int n_slices) {
+TiltedCase two_spheres(double radius, double spacing, double gap, int n_slices) {
   check_positive(radius, "the radius"), check_positive(spacing, "the spacing");
   if (n_slices < 4) throw ParamError("two spheres: at least 4 slices");
   // One centred on slice 1, the other on slice 2, their discs `gap` apart in x.
   std::vector<Vec3d> c{{0, 0, spacing}, {2 * radius + gap, 0, 2 * spacing}};
-  const double pad = kObliqueMargin + radius;
+  const double pad = kTiltedMargin + radius;
   for (Vec3d& q : c) q += Vec3d(pad, pad, 0);
-  ObliqueCase out;
+  TiltedCase out;
   out.name = "two_spheres_R" + num(radius) + "_s" + num(spacing) + "_gap" + num(gap);
   out.width = int(std::ceil(c[1].x() + pad)) + 1;
   out.height = int(std::ceil(c[1].y() + pad)) + 1;
@@ -281,7 +281,7 @@ ObliqueCase two_spheres(double radius, double spacing, double gap, int n_slices)
   return out;
 }
 
-ObliqueCase two_columns(double radius, double spacing, double gap, int per_column) {
+TiltedCase two_columns(double radius, double spacing, double gap, int per_column) {
   check_positive(radius, "the radius"), check_positive(spacing, "the spacing");
   if (per_column < 1) throw ParamError("two columns: at least 1 slice each");
   // Side by side in x; the first on slices 0 .. n - 1, the second on n .. 2n - 1.
@@ -292,7 +292,7 @@ ObliqueCase two_columns(double radius, double spacing, double gap, int per_colum
                    slices(2 * per_column, spacing), 2, {{"shape", "two-columns"}, {"gap", gap}, {"spacing", spacing}});
 }
 
-ObliqueCase two_bars(double radius, double length, double spacing, double gap, bool end_to_end, int n_slices) {
+TiltedCase two_bars(double radius, double length, double spacing, double gap, bool end_to_end, int n_slices) {
   check_positive(radius, "the radius"), check_positive(spacing, "the spacing"), check_positive(length, "the length");
   if (n_slices < 4) throw ParamError("two bars: at least 4 slices");
   // Horizontal capsules along x, on slices 1 and 2: beside each other in y,
@@ -309,41 +309,41 @@ ObliqueCase two_bars(double radius, double length, double spacing, double gap, b
                    {{"shape", "two-bars-" + how}, {"length", length}, {"gap", gap}, {"spacing", spacing}});
 }
 
-std::vector<std::string> oblique_shape_names() {
+std::vector<std::string> tilted_shape_names() {
   return {"tube", "fork", "helix", "two-spheres", "two-columns", "two-bars-side", "two-bars-end"};
 }
 
-ObliqueCase make_oblique_shape(const std::string& name, const ObliqueOptions& o) {
+TiltedCase make_tilted_shape(const std::string& name, const TiltedOptions& o) {
   const int n = o.slices;
-  if (name == "tube") return oblique_tube(o.tilt, o.radius, o.spacing, n ? n : 5);
-  if (name == "fork") return oblique_fork(o.radius, o.spacing, o.tilt, n ? (n + 1) / 2 : 3, n ? n / 2 : 3);
-  if (name == "helix") return oblique_helix(o.radius, 20, 48, o.spacing);
+  if (name == "tube") return tilted_tube(o.tilt, o.radius, o.spacing, n ? n : 5);
+  if (name == "fork") return tilted_fork(o.radius, o.spacing, o.tilt, n ? (n + 1) / 2 : 3, n ? n / 2 : 3);
+  if (name == "helix") return tilted_helix(o.radius, 20, 48, o.spacing);
   if (name == "two-spheres") return two_spheres(o.radius, o.spacing, o.gap, n ? n : 4);
   if (name == "two-columns") return two_columns(o.radius, o.spacing, o.gap, n ? (n + 1) / 2 : 3);
   if (name == "two-bars-side" || name == "two-bars-end")
     return two_bars(o.radius, 16, o.spacing, o.gap, name == "two-bars-end", n ? n : 4);
-  throw ParamError("unknown oblique shape '" + name + "'");
+  throw ParamError("unknown tilted-tube shape '" + name + "'");
 }
 
 namespace {
-// The kit of the research (oblique_kit.py), by name.
-const std::vector<std::pair<std::string, std::function<ObliqueCase()>>>& kit() {
-  static const std::vector<std::pair<std::string, std::function<ObliqueCase()>>> k{
-      {"tube80_r3_s8", [] { return oblique_tube(80, 3, 8); }},
-      {"tube70_r4_s8", [] { return oblique_tube(70, 4, 8); }},
-      {"fork60_r3_s8", [] { return oblique_fork(3, 8, 60); }},
-      {"tube45_r3_s8", [] { return oblique_tube(45, 3, 8); }},
-      {"tube60_r2_s8", [] { return oblique_tube(60, 2, 8); }},
-      {"tube85_r2_s8", [] { return oblique_tube(85, 2, 8); }},
-      {"tube85_r5_s8", [] { return oblique_tube(85, 5, 8); }},
-      {"tube80_r3_s4", [] { return oblique_tube(80, 3, 4, 7); }},
-      {"tube70_r2_s6", [] { return oblique_tube(70, 2, 6, 6); }},
-      {"fork60_r4_s4", [] { return oblique_fork(4, 4, 60, 4, 5); }},
-      {"helix_r3_s8", [] { return oblique_helix(3, 20, 48, 8); }},
-      {"helix_r4_s6", [] { return oblique_helix(4, 16, 40, 6); }},
+// The kit of the research (tilted_tubes_kit.py), by name.
+const std::vector<std::pair<std::string, std::function<TiltedCase()>>>& kit() {
+  static const std::vector<std::pair<std::string, std::function<TiltedCase()>>> k{
+      {"tube80_r3_s8", [] { return tilted_tube(80, 3, 8); }},
+      {"tube70_r4_s8", [] { return tilted_tube(70, 4, 8); }},
+      {"fork60_r3_s8", [] { return tilted_fork(3, 8, 60); }},
+      {"tube45_r3_s8", [] { return tilted_tube(45, 3, 8); }},
+      {"tube60_r2_s8", [] { return tilted_tube(60, 2, 8); }},
+      {"tube85_r2_s8", [] { return tilted_tube(85, 2, 8); }},
+      {"tube85_r5_s8", [] { return tilted_tube(85, 5, 8); }},
+      {"tube80_r3_s4", [] { return tilted_tube(80, 3, 4, 7); }},
+      {"tube70_r2_s6", [] { return tilted_tube(70, 2, 6, 6); }},
+      {"fork60_r4_s4", [] { return tilted_fork(4, 4, 60, 4, 5); }},
+      {"helix_r3_s8", [] { return tilted_helix(3, 20, 48, 8); }},
+      {"helix_r4_s6", [] { return tilted_helix(4, 16, 40, 6); }},
       // Controls: upright tubes, whose cross-sections do not move (what the slice fields alone lose).
-      {"tube0_r2_s8", [] { return oblique_tube(0, 2, 8); }},
-      {"tube0_r3_s8", [] { return oblique_tube(0, 3, 8); }},
+      {"tube0_r2_s8", [] { return tilted_tube(0, 2, 8); }},
+      {"tube0_r3_s8", [] { return tilted_tube(0, 3, 8); }},
       {"two_spheres_R6_s8", [] { return two_spheres(6, 8, 4); }},
       {"two_spheres_R4_s8_gap2", [] { return two_spheres(4, 8, 2); }},
       {"two_columns_R5_s8", [] { return two_columns(5, 8, 4); }},
@@ -354,23 +354,23 @@ const std::vector<std::pair<std::string, std::function<ObliqueCase()>>>& kit() {
 }
 }  // namespace
 
-std::vector<std::string> oblique_kit_names() {
+std::vector<std::string> tilted_kit_names() {
   std::vector<std::string> out;
   for (const auto& [name, make] : kit()) out.push_back(name);
   return out;
 }
 
-ObliqueCase oblique_kit_case(const std::string& name) {
+TiltedCase tilted_kit_case(const std::string& name) {
   for (const auto& [n, make] : kit())
     if (n == name) {
-      ObliqueCase c = make();
+      TiltedCase c = make();
       c.name = name;
       return c;
     }
-  throw ParamError("unknown oblique kit case '" + name + "'");
+  throw ParamError("unknown tilted-tube kit case '" + name + "'");
 }
 
-SynthResult synthesize(const ObliqueCase& c, InputKind kind, double polyline_step) {
+SynthResult synthesize(const TiltedCase& c, InputKind kind, double polyline_step) {
   SynthParams p;
   p.kind = kind;
   p.polyline_step = polyline_step;
@@ -381,7 +381,7 @@ SynthResult synthesize(const ObliqueCase& c, InputKind kind, double polyline_ste
   return r;
 }
 
-std::unique_ptr<Shape> oblique_shape_from_json(const json& j) {
+std::unique_ptr<Shape> tilted_shape_from_json(const json& j) {
   const std::string type = j.value("type", "");
   if (type == "tubes") {
     if (!j.contains("polylines") || !j["polylines"].is_array() || j["polylines"].empty())

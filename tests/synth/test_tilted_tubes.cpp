@@ -1,4 +1,4 @@
-// The oblique kit (synth/oblique.h): exact signed distances (a closest point
+// The tilted-tube kit (synth/tilted_tubes.h): exact signed distances (a closest point
 // on the surface, |value| its distance, outside and inside), the cuts it
 // makes, its JSON round trip, and the sample counts of eval/volume.h on a
 // mesh whose inside is known exactly.
@@ -9,7 +9,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/eval/volume.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 #include "isoloft/synth/synth.h"
 
 using namespace isoloft;
@@ -19,9 +19,9 @@ namespace {
 constexpr double kExact = 1e-9;
 }  // namespace
 
-TEST(Oblique, ValuesAreSignedDistancesToTheirClosestPoints) {
-  for (const std::string& name : oblique_kit_names()) {
-    const ObliqueCase c = oblique_kit_case(name);
+TEST(TiltedTubes, ValuesAreSignedDistancesToTheirClosestPoints) {
+  for (const std::string& name : tilted_kit_names()) {
+    const TiltedCase c = tilted_kit_case(name);
     const auto [lo, hi] = c.shape->bounds();
     for (int i = 0; i < 40; ++i) {
       const Vec3d p = lo + (hi - lo).cwiseProduct(Vec3d((i * 37 % 40 + 0.31) / 40.0, (i * 11 % 40 + 0.17) / 40.0,
@@ -36,9 +36,9 @@ TEST(Oblique, ValuesAreSignedDistancesToTheirClosestPoints) {
   }
 }
 
-TEST(Oblique, KitCasesCutWhatTheySay) {
-  for (const std::string& name : oblique_kit_names()) {
-    const ObliqueCase c = oblique_kit_case(name);
+TEST(TiltedTubes, KitCasesCutWhatTheySay) {
+  for (const std::string& name : tilted_kit_names()) {
+    const TiltedCase c = tilted_kit_case(name);
     const SynthResult s = synthesize(c, InputKind::Masks);
     ASSERT_EQ(s.stack.slices.size(), c.slice_z.size()) << name;
     EXPECT_EQ(s.description["components"], c.components) << name;
@@ -54,27 +54,27 @@ TEST(Oblique, KitCasesCutWhatTheySay) {
     if (c.components == 1) EXPECT_EQ(with_inside, int(c.slice_z.size())) << name;
   }
   // The 80 deg tube: consecutive ellipses do not overlap.
-  const SynthResult t = synthesize(oblique_kit_case("tube80_r3_s8"), InputKind::Masks);
+  const SynthResult t = synthesize(tilted_kit_case("tube80_r3_s8"), InputKind::Masks);
   for (std::size_t k = 0; k + 1 < t.stack.slices.size(); ++k) {
     long both = 0;
     for (std::size_t i = 0; i < t.stack.slices[k].image.size(); ++i)
       both += t.stack.slices[k].image.data[i] && t.stack.slices[k + 1].image.data[i];
     EXPECT_EQ(both, 0) << "slices " << k << ", " << k + 1;
   }
-  EXPECT_THROW(oblique_kit_case("tube"), ParamError);
-  EXPECT_THROW(make_oblique_shape("cone", {}), ParamError);
-  EXPECT_THROW(oblique_tube(90, 3, 8), ParamError);
+  EXPECT_THROW(tilted_kit_case("tube"), ParamError);
+  EXPECT_THROW(make_tilted_shape("cone", {}), ParamError);
+  EXPECT_THROW(tilted_tube(90, 3, 8), ParamError);
 }
 
-TEST(Oblique, GenericShapesTakeTheirOptions) {
-  ObliqueOptions o;
+TEST(TiltedTubes, GenericShapesTakeTheirOptions) {
+  TiltedOptions o;
   o.tilt = 70, o.radius = 4, o.spacing = 8;
-  const ObliqueCase a = make_oblique_shape("tube", o), b = oblique_kit_case("tube70_r4_s8");
+  const TiltedCase a = make_tilted_shape("tube", o), b = tilted_kit_case("tube70_r4_s8");
   EXPECT_EQ(a.shape->to_json(), b.shape->to_json());
   EXPECT_EQ(a.slice_z, b.slice_z);
   o.slices = 9;
-  EXPECT_EQ(make_oblique_shape("tube", o).slice_z.size(), 9u);
-  EXPECT_EQ(make_oblique_shape("two-spheres", o).components, 2);
+  EXPECT_EQ(make_tilted_shape("tube", o).slice_z.size(), 9u);
+  EXPECT_EQ(make_tilted_shape("two-spheres", o).components, 2);
 }
 
 // A box [2, 7] x [3, 5] x [1, 4] as 12 outward triangles: grid points off

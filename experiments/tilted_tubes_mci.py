@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
 """ITK MorphologicalContourInterpolator (3D Slicer's Fill between slices) on
-the oblique kit's masks, for experiments/oblique_kit.cpp's peer column.
+the tilted-tube kit's masks, for experiments/tilted_tubes.cpp's peer column.
 
-Reads DIR/<case>/slice_NNN.png and DIR/<case>/z.txt (oblique_kit
+Reads DIR/<case>/slice_NNN.png and DIR/<case>/z.txt (tilted_tubes
 --write-masks: whole-pixel slice z), runs the peer as the real-anatomy
 benchmark does (anatomy_peers.run_mci: Slicer's settings, surface by
 discrete flying edges and Slicer's smoothing) and writes DIR/<case>/mci.ply
 in the kit's pixel frame.
 
-usage: oblique_mci.py DIR
+usage: tilted_tubes_mci.py DIR
 """
 import os
 import sys
@@ -24,7 +24,7 @@ import anatomy_peers as peers  # noqa: E402
 def main():
     root = sys.argv[1]
     if not peers.mci_available():
-        sys.exit("oblique_mci: the ITK-Wasm peer is not installed (npm ci in %s)" % peers.NODE_DIR)
+        sys.exit("tilted_tubes_mci: the ITK-Wasm peer is not installed (npm ci in %s)" % peers.NODE_DIR)
     for case in sorted(os.listdir(root)):
         d = os.path.join(root, case)
         if not os.path.isfile(os.path.join(d, "z.txt")):
@@ -32,7 +32,7 @@ def main():
         z = [float(v) for v in open(os.path.join(d, "z.txt")).read().strip().split(",")]
         zi = [int(round(v)) for v in z]
         if not np.allclose(zi, z):
-            print("oblique_mci: %s: slice z not whole pixels, skipped" % case)
+            print("tilted_tubes_mci: %s: slice z not whole pixels, skipped" % case)
             continue
         files = sorted(f for f in os.listdir(d) if f.startswith("slice_") and f.endswith(".png"))
         masks = [np.asarray(Image.open(os.path.join(d, f))) > 0 for f in files]
@@ -46,7 +46,7 @@ def main():
         w.SetInputData(poly)
         w.SetFileTypeToBinary()
         w.Write()
-        print("oblique_mci: %s: %d triangles" % (case, poly.GetNumberOfPolys()))
+        print("tilted_tubes_mci: %s: %d triangles" % (case, poly.GetNumberOfPolys()))
 
 
 if __name__ == "__main__":

@@ -1,20 +1,20 @@
 // Question (issue 23): do thin structures that travel sideways between
 // slices stay whole and in place, and do separate objects on neighbouring
-// slices stay separate? Every case of the oblique kit (synth/oblique.h) is
+// slices stay separate? Every case of the tilted-tube kit (synth/tilted_tubes.h) is
 // cut into masks and reconstructed by the default method with each z scheme
 // (columns: the per-column spline; track and its motion choices), scored
 // against its analytic truth inside the slice range: components of the mesh,
 // volume ratio (eval/volume.h, samples 0.5 px apart) and the mean two-sided
 // distance (validation/hausdorff.h, as experiments/accuracy.cpp). A peer's
-// meshes (ITK MorphologicalContourInterpolator, experiments/oblique_mci.py)
+// meshes (ITK MorphologicalContourInterpolator, experiments/tilted_tubes_mci.py)
 // are scored the same way. And what the scheme costs: reconstruct() of a real
 // input with columns and with track, alternately, --runs times each
 // (median wall seconds, reading excluded).
 //
-// usage: oblique_kit [--out DIR] [--cases a,b] [--configs a,b] [--peer NAME=DIR] [--threads N]
-//        oblique_kit --write-masks DIR [--cases a,b]    (DIR/<case>/slice_NNN.png and z.txt, for the peers)
-//        oblique_kit --time INPUT --kind labels [--z-spacing S] [--runs N] [--name NAME] [--out DIR]
-// writes DIR/oblique.{csv,json,md}, or DIR/timing_<NAME>.json
+// usage: tilted_tubes [--out DIR] [--cases a,b] [--configs a,b] [--peer NAME=DIR] [--threads N]
+//        tilted_tubes --write-masks DIR [--cases a,b]    (DIR/<case>/slice_NNN.png and z.txt, for the peers)
+//        tilted_tubes --time INPUT --kind labels [--z-spacing S] [--runs N] [--name NAME] [--out DIR]
+// writes DIR/tilted_tubes.{csv,json,md}, or DIR/timing_<NAME>.json
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -34,7 +34,7 @@
 #include "isoloft/mesh/mesh_check.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/run.h"
-#include "isoloft/synth/oblique.h"
+#include "isoloft/synth/tilted_tubes.h"
 #include "validation/hausdorff.h"
 
 using namespace isoloft;
@@ -95,7 +95,7 @@ struct Score {
   long triangles = 0;
 };
 
-Score score(const TriMesh& mesh, const ObliqueCase& c) {
+Score score(const TriMesh& mesh, const TiltedCase& c) {
   Score s;
   const MeshCheck check = check_mesh(mesh);
   s.components = check.components;
@@ -118,7 +118,7 @@ std::string cell(const Score& s, int true_components) {
 
 int write_masks(const std::string& dir, const std::vector<std::string>& cases) {
   for (const std::string& name : cases) {
-    const ObliqueCase c = oblique_kit_case(name);
+    const TiltedCase c = tilted_kit_case(name);
     const SynthResult s = synthesize(c, InputKind::Masks);
     const fs::path d = fs::path(dir) / name;
     fs::create_directories(d);
@@ -174,8 +174,8 @@ int time_schemes(const std::string& input, const std::string& kind, double z_spa
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string out = "experiments/out/oblique", masks_dir, time_input, kind = "labels", name = "input";
-  std::vector<std::string> cases = oblique_kit_names(), config_names{"columns", "track", "track rule-only", "track auto",
+  std::string out = "experiments/out/tilted_tubes", masks_dir, time_input, kind = "labels", name = "input";
+  std::vector<std::string> cases = tilted_kit_names(), config_names{"columns", "track", "track rule-only", "track auto",
                                                                      "track z_step 0.5"};
   std::vector<std::pair<std::string, std::string>> peers;
   int threads = 0, runs = kDefaultRuns;
@@ -217,13 +217,13 @@ int main(int argc, char** argv) {
   for (const auto& [peer, dir] : peers) columns.push_back(peer);
 
   fs::create_directories(out);
-  std::ofstream csv(fs::path(out) / "oblique.csv");
+  std::ofstream csv(fs::path(out) / "tilted_tubes.csv");
   csv << "case,true_components,system,components,closed,volume_ratio,mean_two_sided_px,triangles,seconds\n";
   nlohmann::json rows = nlohmann::json::array();
   std::map<std::string, std::map<std::string, std::string>> cells;
   std::map<std::string, int> wrong_components, volume_off, distance_over;  // per system, over the kit
   for (const std::string& name_ : cases) {
-    const ObliqueCase c = oblique_kit_case(name_);
+    const TiltedCase c = tilted_kit_case(name_);
     const SynthResult s = synthesize(c, InputKind::Masks);
     auto record = [&](const std::string& system, const Score& sc) {
       csv << c.name << "," << c.components << "," << system << "," << sc.components << "," << sc.closed << ","
@@ -259,8 +259,8 @@ int main(int argc, char** argv) {
       record(peer, score(read_mesh(mesh.string()), c));
     }
   }
-  std::ofstream(fs::path(out) / "oblique.json") << nlohmann::json{{"rows", rows}}.dump(1) << "\n";
-  std::ofstream md(fs::path(out) / "oblique.md");
+  std::ofstream(fs::path(out) / "tilted_tubes.json") << nlohmann::json{{"rows", rows}}.dump(1) << "\n";
+  std::ofstream md(fs::path(out) / "tilted_tubes.md");
   md << "Cells: components (**bold**: not the true count) / volume ratio / mean two-sided distance (px), inside the "
         "slice range. Input: masks. Default method (isoloft) unless the column says otherwise.\n\n| case (true "
         "components) |";
@@ -269,7 +269,7 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < columns.size(); ++i) md << "---|";
   md << "\n";
   for (const std::string& name_ : cases) {
-    const ObliqueCase c = oblique_kit_case(name_);
+    const TiltedCase c = tilted_kit_case(name_);
     md << "| " << c.name << " (" << c.components << ") |";
     for (const std::string& col : columns) md << " " << (cells[c.name].count(col) ? cells[c.name][col] : "-") << " |";
     md << "\n";
@@ -278,6 +278,6 @@ int main(int argc, char** argv) {
   for (const std::string& col : columns)
     md << " " << wrong_components[col] << " / " << volume_off[col] << " / " << distance_over[col] << " |";
   md << "\n";
-  std::cerr << "wrote " << out << "/oblique.{csv,json,md}\n";
+  std::cerr << "wrote " << out << "/tilted_tubes.{csv,json,md}\n";
   return 0;
 }

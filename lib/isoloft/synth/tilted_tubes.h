@@ -1,5 +1,5 @@
-// @file synth/oblique.h
-// @brief The oblique kit: thin structures that travel sideways
+// @file synth/tilted_tubes.h
+// @brief The tilted-tube kit: thin structures that travel sideways
 // between slices, and separate objects on neighbouring slices, with exact
 // signed distances. Pixel units (x column, y row, z height); slice k lies at
 // z = slice_z[k] and a pixel is inside if its centre is (as synthesize()).
@@ -23,10 +23,10 @@
 namespace isoloft {
 
 /// Empty pixels around every kit shape's image.
-inline constexpr double kObliqueMargin = 8;
+inline constexpr double kTiltedMargin = 8;
 
 /// A kit case: its truth, where it is cut, and its true component count.
-struct ObliqueCase {
+struct TiltedCase {
   std::string name;
   std::unique_ptr<Shape> shape;
   std::vector<double> slice_z;  ///< increasing, px
@@ -35,8 +35,8 @@ struct ObliqueCase {
   nlohmann::json params;        ///< how it was made
 };
 
-/// Generic oblique shapes, sized by these (`isoloft synth NAME --tilt ...`).
-struct ObliqueOptions {
+/// Generic tilted-tube shapes, sized by these (`isoloft synth NAME --tilt ...`).
+struct TiltedOptions {
   double tilt = 80;     ///< deg from the slice normal: a tube's axis, a fork's branches
   double radius = 3;    ///< px: the tube (the balls of two-spheres, the bars, the columns)
   double spacing = 8;   ///< px between slices
@@ -45,31 +45,31 @@ struct ObliqueOptions {
 };
 
 /// tube, fork, helix, two-spheres, two-columns, two-bars-side, two-bars-end.
-std::vector<std::string> oblique_shape_names();
+std::vector<std::string> tilted_shape_names();
 /// \throw ParamError on an unknown name or options it cannot use.
-ObliqueCase make_oblique_shape(const std::string& name, const ObliqueOptions& options);
+TiltedCase make_tilted_shape(const std::string& name, const TiltedOptions& options);
 
 /// The kit's named cases (tube80_r3_s8, ..., two_bars_end_s8): radius 2-5
 /// px, tilt 45-85 deg, spacing 4-8 px, forks, helices, separate objects.
-std::vector<std::string> oblique_kit_names();
+std::vector<std::string> tilted_kit_names();
 /// \throw ParamError on an unknown name.
-ObliqueCase oblique_kit_case(const std::string& name);
+TiltedCase tilted_kit_case(const std::string& name);
 
 /// The case cut at its slice_z into images (or polygons) of `kind`; the
 /// description adds "components".
-SynthResult synthesize(const ObliqueCase& c, InputKind kind, double polyline_step = SynthParams{}.polyline_step);
+SynthResult synthesize(const TiltedCase& c, InputKind kind, double polyline_step = SynthParams{}.polyline_step);
 
 /// A tube set or ball set from its JSON ({"type": "tubes"|"balls", ...}), or nullptr for another type.
 /// \throw ParamError on missing fields.
-std::unique_ptr<Shape> oblique_shape_from_json(const nlohmann::json& j);
+std::unique_ptr<Shape> tilted_shape_from_json(const nlohmann::json& j);
 
-// The kit's shapes one by one (oblique_kit.py of the research).
-ObliqueCase oblique_tube(double tilt_deg, double r, double spacing, int n_slices = 5, double azimuth_deg = 20);
-ObliqueCase oblique_fork(double r, double spacing, double branch_deg, int trunk_slices = 3, int branch_slices = 3,
+// The kit's shapes one by one (tilted_tubes_kit.py of the research).
+TiltedCase tilted_tube(double tilt_deg, double r, double spacing, int n_slices = 5, double azimuth_deg = 20);
+TiltedCase tilted_fork(double r, double spacing, double branch_deg, int trunk_slices = 3, int branch_slices = 3,
                          double azimuth_deg = 20);
-ObliqueCase oblique_helix(double r, double coil_radius, double pitch, double spacing, double turns = 1.25);
-ObliqueCase two_spheres(double radius, double spacing, double gap, int n_slices = 4);
-ObliqueCase two_columns(double radius, double spacing, double gap, int per_column = 3);
-ObliqueCase two_bars(double radius, double length, double spacing, double gap, bool end_to_end, int n_slices = 4);
+TiltedCase tilted_helix(double r, double coil_radius, double pitch, double spacing, double turns = 1.25);
+TiltedCase two_spheres(double radius, double spacing, double gap, int n_slices = 4);
+TiltedCase two_columns(double radius, double spacing, double gap, int per_column = 3);
+TiltedCase two_bars(double radius, double length, double spacing, double gap, bool end_to_end, int n_slices = 4);
 
 }  // namespace isoloft
