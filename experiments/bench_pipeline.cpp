@@ -280,7 +280,7 @@ int end_to_end(int argc, char** argv) {
 // ----------------------------------------------------------- micro-benchmarks
 
 // Inputs of every micro-benchmark, built once: one slice of the jawbone-scale
-// stack carried through the stages as pipeline.cpp chains them.
+// stack carried through the stages as reconstruct() chains them.
 struct Micro {
   Grid2u32 image;
   std::uint32_t max_value = 0;

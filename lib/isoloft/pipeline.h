@@ -80,7 +80,7 @@ inline constexpr std::array<EnumName<PolylineBoundary>, 2> kPolylineBoundaryName
 constexpr std::span<const EnumName<PolylineBoundary>> enum_names(PolylineBoundary) { return kPolylineBoundaryNames; }
 
 /// The pipeline's own parameters, then one struct per stage; docs in the rows
-/// of params_table<ReconstructParams>() (pipeline.cpp).
+/// of params_table<ReconstructParams>() (pipeline/params.cpp).
 struct ReconstructParams {
   Method method;                   ///< methods/method.h
   std::string z_scheme = "columns";  ///< methods/method.h: how the slice fields are interpolated in z

@@ -317,7 +317,7 @@ class ParamTable {
 };
 
 /// The table of S: one specialisation per Params struct, inline below the
-/// struct (ReconstructParams: pipeline.cpp).
+/// struct (ReconstructParams: pipeline/params.cpp).
 template <class S>
 const ParamTable<S>& params_table();
 
