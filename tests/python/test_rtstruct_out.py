@@ -165,3 +165,16 @@ def test_point_spacing_as_keyword_and_flag(tmp_path, data_dir):
     assert py["point_spacing_mm"] == pytest.approx(0.5, rel=0.05)
     with pytest.raises(isoloft.ParamError, match="rt_point_spacing"):
         isoloft.reconstruct(rtss, roi="Scar", rt_point_spacing=0.5)
+
+
+def test_volume_table_says_how_far_each_volume_can_be_trusted(tmp_path, data_dir):
+    r = run_cli("reconstruct", data_dir / "rtstruct" / "rtss.dcm", "--roi", "Borders", "--roi", "Heart", "-o",
+                tmp_path / "rt.ply", "--volumes", tmp_path / "v.csv")
+    rows = {row["name"]: row for row in csv.DictReader((tmp_path / "v.csv").open())}
+    borders, heart = rows["Borders"], rows["Heart"]
+    assert int(borders["planes"]) == 2 and float(borders["spacing"]) == pytest.approx(3.0, abs=0.01)
+    # Two planes 3 mm apart: the caps (half a spacing beyond each) are about
+    # half the volume; Heart on 33 planes has about 1/33 of it there.
+    assert 0.3 < float(borders["cap_share"]) < 0.7 and "on 2 planes" in borders["warning"]
+    assert 0 < float(heart["cap_share"]) < 0.05 and heart["warning"] == ""
+    assert "warning: 'Borders' on 2 planes" in r.stdout
