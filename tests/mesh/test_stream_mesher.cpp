@@ -4,6 +4,7 @@
 // cell, itself checked against plain Marching Cubes on the padded planes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -123,4 +124,25 @@ TEST(StreamMesher, RejectsBadPlanesAndAnInsidePad) {
   EXPECT_THROW(sample_planes(0, 1, 0.0), ParamError);
   EXPECT_THROW(sample_planes(1, 1, 0.5), ParamError);
   EXPECT_EQ(sample_planes(0, 1, 0.4), (std::vector<double>{0, 0.4, 0.8, 1.0}));
+}
+
+// Planes through every slice: knots 3.19 px apart (3 mm planes on a 0.94 mm
+// grid) get planes on each knot, steps of at most z_step; knots a whole
+// number of steps apart keep the z_step grid through the first slice.
+TEST(MeshPlanes, RunThroughEverySliceOffTheStepGrid) {
+  InterpParams interp;
+  interp.planes_on_slices = true;
+  interp.z_step = 1.0;
+  const std::vector<double> off{-1.0, 0.0, 3.19, 6.38, 9.57, 10.57};
+  const std::vector<double> planes = mesh_planes(off, interp);
+  for (std::size_t k = 0; k < off.size(); ++k)
+    EXPECT_TRUE(std::find(planes.begin(), planes.end(), off[k]) != planes.end()) << "knot " << k << " z " << off[k];
+  for (std::size_t i = 1; i < planes.size(); ++i) {
+    EXPECT_GT(planes[i], planes[i - 1]) << "plane " << i;
+    EXPECT_LE(planes[i] - planes[i - 1], interp.z_step + 1e-12) << "plane " << i;
+  }
+  const std::vector<double> on{-1.0, 0.0, 3.0, 6.0, 7.0};
+  const std::vector<double> grid = mesh_planes(on, interp);
+  ASSERT_EQ(grid.size(), 9u);
+  for (std::size_t i = 0; i < grid.size(); ++i) EXPECT_EQ(grid[i], -1.0 + double(i)) << "plane " << i;
 }

@@ -60,6 +60,10 @@ std::vector<double> sample_planes(double z_begin, double z_end, double step) {
   return z;
 }
 
+// A slice within this share of a step of a plane of the z_step grid is on it
+// (the knots' own rounding: z read as decimal strings, then scaled).
+constexpr double kOnGridSteps = 1e-6;
+
 std::vector<double> mesh_planes(const std::vector<double>& z, const InterpParams& interp) {
   if (!interp.planes_on_slices || z.size() < 3) return sample_planes(z.front(), z.back(), interp.z_step);
   if (!(interp.z_step > 0)) throw ParamError("interp.z_step must be positive");
@@ -69,6 +73,24 @@ std::vector<double> mesh_planes(const std::vector<double>& z, const InterpParams
   std::vector<double> planes;
   planes.reserve(std::size_t(below + above + 1));
   for (long j = -below; j <= above; ++j) planes.push_back(anchor + double(j) * step);
+  // A slice off that grid (a spacing not a multiple of z_step, or uneven
+  // spacing) would be cut between planes, its section then interpolated
+  // linearly across it: an island drawn on that slice alone can vanish and
+  // sections nobody drew appear (issue 38: BODY at a 0.94 mm grid, 3 mm
+  // apart). Then each knot interval is split into equal steps of at most
+  // z_step, so a plane runs through every slice.
+  bool on_grid = true;
+  for (std::size_t k = 2; k + 1 < z.size() && on_grid; ++k) {
+    const double j = (z[k] - anchor) / step;
+    on_grid = std::abs(j - std::round(j)) <= kOnGridSteps;
+  }
+  if (on_grid) return planes;
+  planes.assign(1, z.front());
+  for (std::size_t k = 0; k + 1 < z.size(); ++k) {
+    const long n = std::max(1L, long(std::ceil((z[k + 1] - z[k]) / step - 1e-9)));
+    for (long i = 1; i < n; ++i) planes.push_back(z[k] + (z[k + 1] - z[k]) * double(i) / double(n));
+    planes.push_back(z[k + 1]);
+  }
   return planes;
 }
 
