@@ -127,22 +127,34 @@ TEST(StreamMesher, RejectsBadPlanesAndAnInsidePad) {
 }
 
 // Planes through every slice: knots 3.19 px apart (3 mm planes on a 0.94 mm
-// grid) get planes on each knot, steps of at most z_step; knots a whole
-// number of steps apart keep the z_step grid through the first slice.
+// grid) get one step dividing the spacing (3.19 / 4), uneven knots each
+// interval split into equal steps; every slice on a plane (within
+// kOnPlanePx: the step's rounding), no step above z_step, the caps inside the
+// planes' span; knots a whole number of steps apart keep the z_step grid.
+constexpr double kOnPlanePx = 1e-9;
+
 TEST(MeshPlanes, RunThroughEverySliceOffTheStepGrid) {
   InterpParams interp;
   interp.planes_on_slices = true;
   interp.z_step = 1.0;
-  const std::vector<double> off{-1.0, 0.0, 3.19, 6.38, 9.57, 10.57};
-  const std::vector<double> planes = mesh_planes(off, interp);
-  for (std::size_t k = 0; k < off.size(); ++k)
-    EXPECT_TRUE(std::find(planes.begin(), planes.end(), off[k]) != planes.end()) << "knot " << k << " z " << off[k];
-  for (std::size_t i = 1; i < planes.size(); ++i) {
-    EXPECT_GT(planes[i], planes[i - 1]) << "plane " << i;
-    EXPECT_LE(planes[i] - planes[i - 1], interp.z_step + 1e-12) << "plane " << i;
+  for (const std::vector<double>& knots : {std::vector<double>{-1.0, 0.0, 3.19, 6.38, 9.57, 10.57},
+                                           std::vector<double>{-1.0, 0.0, 3.19, 5.0, 6.0}}) {
+    const std::vector<double> planes = mesh_planes(knots, interp);
+    for (std::size_t k = 1; k + 1 < knots.size(); ++k) {
+      double nearest = 1e9;
+      for (double p : planes) nearest = std::min(nearest, std::abs(p - knots[k]));
+      EXPECT_LE(nearest, kOnPlanePx) << "knots " << knots.size() << ", slice " << k << " z " << knots[k];
+    }
+    EXPECT_LE(planes.front(), knots.front());
+    EXPECT_GE(planes.back(), knots.back());
+    for (std::size_t i = 1; i < planes.size(); ++i) {
+      EXPECT_GT(planes[i], planes[i - 1]) << "plane " << i;
+      EXPECT_LE(planes[i] - planes[i - 1], interp.z_step + kOnPlanePx) << "plane " << i;
+    }
   }
-  const std::vector<double> on{-1.0, 0.0, 3.0, 6.0, 7.0};
-  const std::vector<double> grid = mesh_planes(on, interp);
+  const std::vector<double> even = mesh_planes({-1.0, 0.0, 3.19, 6.38, 9.57, 10.57}, interp);
+  EXPECT_NEAR(even[1] - even[0], 3.19 / 4, kOnPlanePx) << "one step dividing the spacing";
+  const std::vector<double> grid = mesh_planes({-1.0, 0.0, 3.0, 6.0, 7.0}, interp);
   ASSERT_EQ(grid.size(), 9u);
   for (std::size_t i = 0; i < grid.size(); ++i) EXPECT_EQ(grid[i], -1.0 + double(i)) << "plane " << i;
 }
