@@ -52,6 +52,11 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--labelmap", r_.labelmap, "Volumes: write the dense label map on the input's grid (.nii.gz, .nii, .nrrd, .mha): annotated slices as given, the others from the interpolated fields; with --reference, on the reference's grid");
   R->add_option("--reference", r_.reference, "With --labelmap: the grid of the label map, a reference image (a DICOM CT/MR series folder or one of its files, or .nii .nii.gz .nrrd .nhdr .mha .mhd): its size, spacing, origin and directions, one label per ROI number (RT) or label, the smallest object on top where they overlap");
   R->add_option("--rtstruct", r_.rtstruct, "RT Structure Sets: write the surfaces back as an RT Structure Set (.dcm), cut at the input's contour planes, the input's patient, study, frame of reference and ROI numbers, names and colours kept (also -o OUT.dcm)");
+  R->add_option("--rt-point-spacing", r_.rt_point_spacing, "RT Structure Set out: step between written contour points, mm (default 0: each plane's drawn contours' mean step)")
+      ->check(CLI::NonNegativeNumber);
+  R->add_option("--rt-min-area", r_.rt_min_area, "RT Structure Set out: a drawn contour the surface lost is written back as drawn unless smaller than this, mm^2 (then dropped and named in a warning; default 0: none dropped)")
+      ->check(CLI::NonNegativeNumber);
+  R->add_option("--rt-contours", r_.rt_contours, "RT Structure Set out: write the per-contour report as .csv (each drawn contour: plane, areas drawn and written, distances, lost/merged/shrunk; sections nobody drew)");
   R->add_option("--volumes", r_.volumes, "Write the volume table (per object: name, number, volume, slab volume = contour area x spacing, area, planes, closed) as .csv or .json; RT Structure Sets also print it on stdout");
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");

@@ -30,6 +30,9 @@ struct ReconstructArgs {
   std::string reference;           ///< the grid of --labelmap: a CT series folder or a volume
   std::string rtstruct;            ///< RT Structure Sets: the surfaces back as an RT Structure Set (or -o OUT.dcm)
   std::string volumes;             ///< the volume table as CSV or JSON
+  double rt_point_spacing = 0;     ///< RT Structure Set out: mm between written points (0 = as drawn)
+  double rt_min_area = 0;          ///< RT Structure Set out: lost drawn contours under this (mm^2) dropped
+  std::string rt_contours;         ///< RT Structure Set out: the per-contour report as CSV
   int threads = 0;
   std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output)
   long max_files = kDefaultMaxFiles;                  ///< --max-files (0 = no limit)

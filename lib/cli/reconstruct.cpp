@@ -161,9 +161,13 @@ int Commands::reconstruct() {
   const bool dcm_output = fs::path(o.output).extension() == ".dcm";
   if (dcm_output && !o.rtstruct.empty()) throw ParamError("give either -o OUT.dcm or --rtstruct OUT.dcm, not both");
   // Outputs in the order they are checked and written; each refuses a bad path before any work.
-  if (dcm_output) run.outputs.push_back(std::make_unique<RtStructOutput>(o.output, "-o"));
+  const RtContourParams rt_params{o.rt_point_spacing, o.rt_min_area};
+  if (!dcm_output && o.rtstruct.empty() && (o.rt_point_spacing > 0 || o.rt_min_area > 0 || !o.rt_contours.empty()))
+    throw ParamError("--rt-point-spacing, --rt-min-area and --rt-contours: only with an RT Structure Set out (-o OUT.dcm or --rtstruct OUT.dcm)");
+  if (dcm_output) run.outputs.push_back(std::make_unique<RtStructOutput>(o.output, "-o", rt_params, o.rt_contours));
   else run.outputs.push_back(std::make_unique<MeshOutput>(o.output, o.ascii));
-  if (!o.rtstruct.empty()) run.outputs.push_back(std::make_unique<RtStructOutput>(o.rtstruct));
+  if (!o.rtstruct.empty())
+    run.outputs.push_back(std::make_unique<RtStructOutput>(o.rtstruct, "--rtstruct", rt_params, o.rt_contours));
   if (!o.volumes.empty()) run.outputs.push_back(std::make_unique<VolumeTableOutput>(o.volumes));
   if (!o.volume.empty()) run.outputs.push_back(std::make_unique<VolumeOutput>(o.volume));
   if (!o.reference.empty() && o.labelmap.empty())

@@ -351,10 +351,13 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   check_surfaces(in, r, o.allow_empty);
 
   auto t0 = Clock::now();
+  const std::size_t warned = r.warnings.size();
   for (const auto& out : o.outputs) {
     activity("writing " + out->target());
     out->finish(ctx, r);
   }
+  if (o.warn)  // the outputs' own (e.g. RT contours dropped under --rt-min-area)
+    for (std::size_t i = warned; i < r.warnings.size(); ++i) o.warn(r.warnings[i]);
   const double write_seconds = seconds_since(t0);
   r.report = run_report(o.git, o.command, in, params, r,
                         {o.read_seconds, write_seconds, o.seconds_before + seconds_since(t_start)});

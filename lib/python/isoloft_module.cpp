@@ -425,6 +425,8 @@ struct CallbackStopped : std::exception {
 struct PyOutputs {
   std::string volume, labelmap, dump_stages, rtstruct, volumes, report;
   std::string reference;  ///< the grid of labelmap (a CT series folder or a volume)
+  RtContourParams rt;       ///< rtstruct's contours (rt_point_spacing, rt_min_area)
+  std::string rt_contours;  ///< rtstruct's per-contour report (.csv)
 };
 
 PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<std::uint32_t>& labels,
@@ -449,7 +451,10 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
   else if (!files.labelmap.empty())
     o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
   if (!files.dump_stages.empty()) o.outputs.push_back(std::make_unique<StageDumpOutput>(files.dump_stages));
-  if (!files.rtstruct.empty()) o.outputs.push_back(std::make_unique<RtStructOutput>(files.rtstruct));
+  if (files.rtstruct.empty() && (files.rt.point_spacing != 0 || files.rt.min_area != 0 || !files.rt_contours.empty()))
+    throw ParamError("rt_point_spacing, rt_min_area and rt_contours: only with rtstruct (an RT Structure Set out)");
+  if (!files.rtstruct.empty())
+    o.outputs.push_back(std::make_unique<RtStructOutput>(files.rtstruct, "--rtstruct", files.rt, files.rt_contours));
   if (!files.volumes.empty()) o.outputs.push_back(std::make_unique<VolumeTableOutput>(files.volumes));
   o.report_path = files.report;
   o.allow_empty = allow_empty;
@@ -756,15 +761,17 @@ PYBIND11_MODULE(_isoloft, m) {
   m.def("_reconstruct", [](const PyInput& input, const py::dict& params, const std::vector<std::uint32_t>& labels,
                            std::optional<int> threads, const py::object& progress, bool allow_empty,
                            const std::string& volume, const std::string& labelmap, const std::string& dump_stages,
-                           const std::string& rtstruct, const std::string& volumes, const std::string& report,
+                           const std::string& rtstruct, double rt_point_spacing, double rt_min_area,
+                           const std::string& rt_contours, const std::string& volumes, const std::string& report,
                            const std::string& max_memory, const std::string& max_output, long max_files,
                            const std::string& reference) {
           return run(input, params, labels, threads, progress, allow_empty,
-                     {volume, labelmap, dump_stages, rtstruct, volumes, report, reference}, max_memory, max_output,
-                     max_files);
+                     {volume, labelmap, dump_stages, rtstruct, volumes, report, reference,
+                      RtContourParams{rt_point_spacing, rt_min_area}, rt_contours},
+                     max_memory, max_output, max_files);
         }, py::arg("input"), py::arg("params"), py::arg("labels"), py::arg("threads"), py::arg("progress"),
         py::arg("allow_empty"), py::arg("volume"), py::arg("labelmap"), py::arg("dump_stages"), py::arg("rtstruct"),
-        py::arg("volumes"), py::arg("report"), py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"),
+        py::arg("rt_point_spacing"), py::arg("rt_min_area"), py::arg("rt_contours"), py::arg("volumes"), py::arg("report"), py::arg("max_memory"), py::arg("max_output"), py::arg("max_files"),
         py::arg("reference"));
   m.def("_synth", &synth, py::arg("shape"), py::arg("size"), py::arg("z_spacing"), py::arg("kind"));
   m.def("_evaluate", &evaluate, py::arg("mesh"), py::arg("truth"), py::arg("pixel_size"));

@@ -181,7 +181,7 @@ TEST_F(Cli, RtStructVolumesAndRtStructOut) {
   std::ifstream csv(p("v.csv"));
   std::string header, line;
   std::getline(csv, header);
-  EXPECT_EQ(header, "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed");
+  EXPECT_EQ(header, "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed,spacing,cap_share,warning");
   int rows = 0;
   while (std::getline(csv, line)) {
     ++rows;

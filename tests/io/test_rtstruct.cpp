@@ -6,6 +6,7 @@
 #include "dcmtk/config/osconfig.h"
 #include "dcmtk/dcmdata/dcdeftag.h"
 #include "dcmtk/dcmdata/dcfilefo.h"
+#include "dcmtk/dcmdata/dcstack.h"
 #include "dcmtk/dcmdata/dcuid.h"
 #include "dcmtk/dcmrt/drtstrct.h"
 
@@ -589,4 +590,104 @@ TEST(RtStruct, ZeroAreaContoursAndUnlistedRoiContoursSayWhy) {
   EXPECT_EQ(after.unlisted_contours.at(5), int(before.find("Heart")->contours.size()));
   EXPECT_TRUE(before.unlisted_contours.empty());
   std::filesystem::remove_all(dir);
+}
+
+// What every reader needs of the written file, read back with DCMTK's own
+// parser (not through read_rtstruct): Implicit VR Little Endian, so no
+// element comes back as UN, even a ContourData far over Explicit VR's 65,534
+// bytes; every DS value within its 16 characters; every contour of at least
+// 3 points, its NumberOfContourPoints its data's; the referenced frame of
+// reference and series as the input's. The contours: a 4,000-point circle
+// (about 120 kB of ContourData), a square with repeated points, and a
+// triangle under DS's 0.1 um resolution (not a polygon once written).
+constexpr std::size_t kDsMaxChars = 16;  // PS3.5 table 6.2-1
+
+TEST(RtStructWrite, EveryElementKeepsItsVrAndEveryContourItsCount) {
+  isoloft::test::TempDir dir;
+  const RtStructureSet set = read_rtstruct(kRtss);
+  const RtRoi& heart = *set.find("Heart");
+  const double z = heart.contours.front().points.front().z();
+  RtRoiContours out{&heart, {}};
+  RtRoiContours::Plane plane{z, {}};
+  std::vector<Vec2d> circle;
+  for (int i = 0; i < 4000; ++i) {
+    const double a = 2 * M_PI * i / 4000.0;
+    circle.emplace_back(-123.456789 + 150.0 * std::cos(a), 234.567891 + 150.0 * std::sin(a));
+  }
+  plane.loops.push_back(circle);
+  plane.loops.push_back({{0, 0}, {0, 0}, {10, 0}, {10, 10}, {10, 10}, {0, 10}, {0, 0}});
+  plane.loops.push_back({{5, 5}, {5 + 1e-6, 5}, {5, 5 + 1e-6}});
+  out.planes.push_back(plane);
+  const std::string path = dir.file("out.dcm");
+  write_rtstruct(path, kRtss, {out}, "isoloft test");
+
+  DcmFileFormat ff;
+  ASSERT_TRUE(ff.loadFile(path.c_str()).good());
+  OFString syntax;
+  ASSERT_TRUE(ff.getMetaInfo()->findAndGetOFString(DCM_TransferSyntaxUID, syntax).good());
+  EXPECT_EQ(syntax, UID_LittleEndianImplicitTransferSyntax);
+  DcmStack stack;
+  int elements = 0;
+  while (ff.getDataset()->nextObject(stack, OFTrue).good()) {
+    auto* e = dynamic_cast<DcmElement*>(stack.top());
+    if (!e) continue;
+    ++elements;
+    EXPECT_NE(e->ident(), EVR_UN) << "element " << e->getTag().toString();
+    if (e->ident() != EVR_DS) continue;
+    OFString all;  // the values at once (getOFString(value, v) rescans from the start for each v)
+    ASSERT_TRUE(e->getOFStringArray(all).good());
+    std::size_t v = 0, begin = 0;
+    for (std::size_t end = 0; end <= all.size(); ++end) {
+      if (end < all.size() && all[end] != '\\') continue;
+      EXPECT_LE(end - begin, kDsMaxChars) << "element " << e->getTag().toString() << " value " << v << ": "
+                                          << all.substr(begin, end - begin);
+      begin = end + 1, ++v;
+    }
+    EXPECT_EQ(v, e->getVM()) << "element " << e->getTag().toString();
+  }
+  EXPECT_GT(elements, 40);
+
+  DRTStructureSetIOD rt;
+  ASSERT_TRUE(rt.read(*ff.getDataset()).good());
+  ASSERT_EQ(rt.getROIContourSequence().getNumberOfItems(), 1u);
+  DRTContourSequence& cs = rt.getROIContourSequence().getItem(0).getContourSequence();
+  ASSERT_EQ(cs.getNumberOfItems(), 2u) << "the circle and the square; the sub-resolution triangle dropped";
+  const std::size_t expect_points[] = {4000, 4};
+  for (std::size_t k = 0; k < cs.getNumberOfItems(); ++k) {
+    Sint32 count = 0;
+    ASSERT_TRUE(cs.getItem(k).getNumberOfContourPoints(count).good());
+    OFVector<Float64> data;
+    ASSERT_TRUE(cs.getItem(k).getContourData(data).good());
+    EXPECT_EQ(std::size_t(count) * 3, data.size()) << "contour " << k;
+    EXPECT_EQ(std::size_t(count), expect_points[k]) << "contour " << k;
+  }
+  DcmElement* big = nullptr;  // the first ContourData in the file: the circle's
+  ASSERT_TRUE(ff.getDataset()->findAndGetElement(DCM_ContourData, big, OFTrue).good());
+  EXPECT_GT(big->getLength(), 65534u) << "the circle's data must be over Explicit VR's limit to test it";
+
+  // The referenced frame of reference and series: the input's.
+  DcmFileFormat src;
+  ASSERT_TRUE(src.loadFile(kRtss.c_str()).good());
+  DRTStructureSetIOD in;
+  ASSERT_TRUE(in.read(*src.getDataset()).good());
+  auto series_of = [](DRTStructureSetIOD& s, OFString& frame, OFString& series) {
+    auto& frames = s.getReferencedFrameOfReferenceSequence();
+    ASSERT_GT(frames.getNumberOfItems(), 0u);
+    frames.getItem(0).getFrameOfReferenceUID(frame);
+    auto& studies = frames.getItem(0).getRTReferencedStudySequence();
+    ASSERT_GT(studies.getNumberOfItems(), 0u);
+    auto& series_seq = studies.getItem(0).getRTReferencedSeriesSequence();
+    ASSERT_GT(series_seq.getNumberOfItems(), 0u);
+    series_seq.getItem(0).getSeriesInstanceUID(series);
+  };
+  OFString frame_in, series_in, frame_out, series_out;
+  series_of(in, frame_in, series_in);
+  series_of(rt, frame_out, series_out);
+  EXPECT_FALSE(frame_in.empty());
+  EXPECT_FALSE(series_in.empty());
+  EXPECT_EQ(frame_out, frame_in);
+  EXPECT_EQ(series_out, series_in);
+  OFString frame_uid;
+  rt.getFrameOfReferenceUID(frame_uid);
+  EXPECT_EQ(frame_uid, frame_in);
 }

@@ -63,3 +63,56 @@ TEST(PlaneCut, IslandsAndHolesKeepTheirOrientation) {
   EXPECT_EQ(negative, 1) << "the hole";
   EXPECT_NEAR(sum, 100.0 - 16.0 + 1.0, 1e-9);
 }
+
+// A circle of radius R drawn with 720 points resampled at a 1 mm step: about
+// 2 pi R points, all on the circle, and the deviation of the drawn points
+// from the chords what geometry says: the sagitta R (1 - cos(pi / n)) at
+// most, within kChordSlack (the drawn polygon is itself a chord polygon).
+constexpr double kChordSlack = 1e-3;
+
+TEST(PlaneCut, ResampledCircleHasItsStepAndChordDeviation) {
+  const double r = 20;
+  std::vector<Vec2d> circle;
+  for (int i = 0; i < 720; ++i) circle.emplace_back(r * std::cos(2 * M_PI * i / 720.0), r * std::sin(2 * M_PI * i / 720.0));
+  const ResampledLoop rs = resample_loop(circle, 1.0);
+  const auto expected = std::size_t(std::lround(2 * M_PI * r * std::cos(M_PI / 720.0)));  // the polygon's length
+  EXPECT_EQ(rs.points.size(), expected);
+  for (std::size_t i = 0; i < rs.points.size(); ++i) EXPECT_NEAR(rs.points[i].norm(), r, 1e-3) << "point " << i;
+  const double sagitta = r * (1 - std::cos(M_PI / double(rs.points.size())));
+  EXPECT_LE(rs.max_deviation, sagitta + kChordSlack);
+  EXPECT_GE(rs.max_deviation, 0.5 * sagitta) << "the drawn points between the chords' ends lie off them";
+  EXPECT_LE(rs.mean_deviation, rs.max_deviation);
+  EXPECT_NEAR(loop_area(rs.points), M_PI * r * r, 0.01 * M_PI * r * r);
+  EXPECT_NEAR(mean_point_spacing({rs.points}), 1.0, 0.01);
+  // Never fewer than 3 points; a loop too short to resample comes back as given.
+  EXPECT_EQ(resample_loop(circle, 1000.0).points.size(), 3u);
+  EXPECT_EQ(resample_loop({{0, 0}, {1, 0}}, 0.1).points.size(), 2u);
+  EXPECT_EQ(resample_loop(circle, 0.0).points.size(), circle.size());
+}
+
+TEST(PlaneCut, VolumeAboveAPlaneOfABoxAndABlockWithAShaft) {
+  TriMesh box;
+  add_box(box, {0, 0, 0}, {2, 3, 4});
+  EXPECT_NEAR(volume_above(box, -1e9), 24.0, 1e-9);
+  EXPECT_NEAR(volume_above(box, 1.0), 18.0, 1e-9);
+  EXPECT_NEAR(volume_above(box, 4.0), 0.0, 1e-9);
+  EXPECT_NEAR(volume_above(box, 0.0), 24.0, 1e-9) << "a plane through the bottom face: all of it";
+  // A box with an inward box inside (a 4x4 block less a 2x2 shaft, height 4):
+  // 48, a quarter of it above z = 3.
+  TriMesh tube;
+  add_box(tube, {0, 0, 0}, {4, 4, 4});
+  add_box(tube, {1, 1, 0}, {3, 3, 4}, true);  // the hole as an inward box: volumes add with their sign
+  const double whole = volume_above(tube, -1e9);
+  EXPECT_NEAR(whole, 48.0, 1e-9);
+  EXPECT_NEAR(volume_above(tube, 3.0), 12.0, 1e-9);
+}
+
+TEST(PlaneCut, DistanceToALoopAndItsArea) {
+  const std::vector<Vec2d> sq{{0, 0}, {2, 0}, {2, 2}, {0, 2}};
+  EXPECT_DOUBLE_EQ(loop_area(sq), 4.0);
+  EXPECT_DOUBLE_EQ(loop_area({sq.rbegin(), sq.rend()}), -4.0);
+  EXPECT_DOUBLE_EQ(distance_to_loop({1, 1}, sq), 1.0);
+  EXPECT_DOUBLE_EQ(distance_to_loop({3, 1}, sq), 1.0);
+  EXPECT_DOUBLE_EQ(distance_to_loop({-1, 0.5}, sq), 1.0) << "the closing edge counts";
+  EXPECT_TRUE(std::isinf(distance_to_loop({0, 0}, {})));
+}

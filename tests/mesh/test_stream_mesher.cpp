@@ -4,6 +4,7 @@
 // cell, itself checked against plain Marching Cubes on the padded planes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -123,4 +124,37 @@ TEST(StreamMesher, RejectsBadPlanesAndAnInsidePad) {
   EXPECT_THROW(sample_planes(0, 1, 0.0), ParamError);
   EXPECT_THROW(sample_planes(1, 1, 0.5), ParamError);
   EXPECT_EQ(sample_planes(0, 1, 0.4), (std::vector<double>{0, 0.4, 0.8, 1.0}));
+}
+
+// Planes through every slice: knots 3.19 px apart (3 mm planes on a 0.94 mm
+// grid) get one step dividing the spacing (3.19 / 4), uneven knots each
+// interval split into equal steps; every slice on a plane (within
+// kOnPlanePx: the step's rounding), no step above z_step, the caps inside the
+// planes' span; knots a whole number of steps apart keep the z_step grid.
+constexpr double kOnPlanePx = 1e-9;
+
+TEST(MeshPlanes, RunThroughEverySliceOffTheStepGrid) {
+  InterpParams interp;
+  interp.planes_on_slices = true;
+  interp.z_step = 1.0;
+  for (const std::vector<double>& knots : {std::vector<double>{-1.0, 0.0, 3.19, 6.38, 9.57, 10.57},
+                                           std::vector<double>{-1.0, 0.0, 3.19, 5.0, 6.0}}) {
+    const std::vector<double> planes = mesh_planes(knots, interp);
+    for (std::size_t k = 1; k + 1 < knots.size(); ++k) {
+      double nearest = 1e9;
+      for (double p : planes) nearest = std::min(nearest, std::abs(p - knots[k]));
+      EXPECT_LE(nearest, kOnPlanePx) << "knots " << knots.size() << ", slice " << k << " z " << knots[k];
+    }
+    EXPECT_LE(planes.front(), knots.front());
+    EXPECT_GE(planes.back(), knots.back());
+    for (std::size_t i = 1; i < planes.size(); ++i) {
+      EXPECT_GT(planes[i], planes[i - 1]) << "plane " << i;
+      EXPECT_LE(planes[i] - planes[i - 1], interp.z_step + kOnPlanePx) << "plane " << i;
+    }
+  }
+  const std::vector<double> even = mesh_planes({-1.0, 0.0, 3.19, 6.38, 9.57, 10.57}, interp);
+  EXPECT_NEAR(even[1] - even[0], 3.19 / 4, kOnPlanePx) << "one step dividing the spacing";
+  const std::vector<double> grid = mesh_planes({-1.0, 0.0, 3.0, 6.0, 7.0}, interp);
+  ASSERT_EQ(grid.size(), 9u);
+  for (std::size_t i = 0; i < grid.size(); ++i) EXPECT_EQ(grid[i], -1.0 + double(i)) << "plane " << i;
 }

@@ -77,7 +77,7 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
       field("z_step", &InterpParams::z_step, "px", "spacing of the sampled z planes (the Marching Cubes grid, paper 2.5)",
             above(0)),
       field("planes_on_slices", &InterpParams::planes_on_slices, "",
-            "the z planes run through the first slice (every slice when the spacing is a multiple of z_step), so the "
+            "the z planes run through every slice (a step below z_step when the spacing is not a multiple of it), so the "
             "mesh's cross-section there is the slice's own curve (not in the paper); false: from the lower end cap"),
   });
   return t;

@@ -470,14 +470,30 @@ std::vector<double> rt_planes(const SliceStack& st) {
 
 namespace {
 
-// A DS value (at most 16 characters): 4 decimals of a mm (0.1 um) fit any
-// patient coordinate below 10^10 mm.
+// The longest value a DS (decimal string) may hold (PS3.5 table 6.2-1).
+constexpr std::size_t kDsMaxChars = 16;
+
+// A DS value within its 16 characters: 4 decimals of a mm (0.1 um) for any
+// patient coordinate below 10^10 mm, fewer decimals beyond (never reached by
+// a body), and "0" for a non-finite value (never written: points are finite).
 std::string ds(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4f", v);
-  std::string t = buf;
-  while (t.size() > 1 && t.back() == '0') t.pop_back();
-  if (t.back() == '.') t.pop_back();
+  if (!std::isfinite(v)) return "0";
+  std::string t;
+  for (int decimals = 4; decimals >= 0; --decimals) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+    t = buf;
+    if (t.size() <= kDsMaxChars) break;
+  }
+  if (t.size() > kDsMaxChars) {  // |v| >= 10^16: exponent form, as DS allows
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.9e", v);
+    t = buf;
+  }
+  if (t.find('.') != std::string::npos && t.find('e') == std::string::npos) {
+    while (t.back() == '0') t.pop_back();
+    if (t.back() == '.') t.pop_back();
+  }
   if (t == "-0") t = "0";
   return t;
 }
@@ -562,18 +578,27 @@ void write_rtstruct(const std::string& path, const std::string& source, const st
     int number = 0;
     for (const auto& plane : out.planes) {
       const DRTContourImageSequence* image = nullptr;
+      const std::string zs = ds(plane.z);
       for (const auto& [z, seq] : images)
         if (std::abs(z - plane.z) <= kPlanarToleranceMm) image = &seq;
       for (const auto& loop : plane.loops) {
+        // Points as written: consecutive points (and the last and the first)
+        // equal after rounding to DS merged, so the count is of distinct points.
+        std::vector<std::string> points;
+        for (const Vec2d& p : loop) {
+          std::string q = ds(p.x()) + "\\" + ds(p.y()) + "\\" + zs;
+          if (points.empty() || q != points.back()) points.push_back(std::move(q));
+        }
+        while (points.size() > 1 && points.front() == points.back()) points.pop_back();
+        if (points.size() < 3) continue;  // not a polygon once rounded to 0.1 um
         DRTContourSequence::Item* c = nullptr;
         if (cs.addItem(c).bad()) throw InputError(path, "cannot add a contour (DCMTK)");
         if (image) c->getContourImageSequence() = *image;
         std::string data;
-        const std::string z = ds(plane.z);
-        for (const Vec2d& p : loop) data += (data.empty() ? "" : "\\") + ds(p.x()) + "\\" + ds(p.y()) + "\\" + z;
+        for (const std::string& q : points) data += (data.empty() ? "" : "\\") + q;
         c->setContourNumber(std::to_string(++number).c_str());
         c->setContourGeometricType("CLOSED_PLANAR");
-        c->setNumberOfContourPoints(std::to_string(loop.size()).c_str());
+        c->setNumberOfContourPoints(std::to_string(points.size()).c_str());
         c->setContourData(data.c_str());
       }
     }
@@ -583,7 +608,10 @@ void write_rtstruct(const std::string& path, const std::string& source, const st
   outf.getDataset()->putAndInsertString(DCM_PositionReferenceIndicator, "", OFFalse);
   outf.getDataset()->putAndInsertString(DCM_OperatorsName, "", OFFalse);
   AtomicFile f(path);
-  if (outf.saveFile(f.temp_path().c_str(), EXS_LittleEndianExplicit).bad()) throw InputError(path, "cannot write file");
+  // Implicit VR Little Endian, as planning systems write: every element keeps
+  // its VR (Explicit VR's 16-bit length would turn a DS over 65,534 bytes,
+  // a long contour's data, into UN).
+  if (outf.saveFile(f.temp_path().c_str(), EXS_LittleEndianImplicit).bad()) throw InputError(path, "cannot write file");
   f.commit();
 }
 

@@ -1,6 +1,9 @@
 #include "isoloft/mesh/plane_cut.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <utility>
 
@@ -57,6 +60,103 @@ std::vector<std::vector<Vec2d>> cut_mesh(const TriMesh& mesh, double z) {
     if (closed && loop.size() >= 3) loops.push_back(std::move(loop));
   }
   return loops;
+}
+
+namespace {
+
+double segment_distance(const Vec2d& p, const Vec2d& a, const Vec2d& b) {
+  const Vec2d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+}  // namespace
+
+ResampledLoop resample_loop(const std::vector<Vec2d>& loop, double spacing) {
+  ResampledLoop out;
+  const std::size_t n = loop.size();
+  if (n < 3 || !(spacing > 0)) {
+    out.points = loop;
+    return out;
+  }
+  std::vector<double> at(n + 1, 0.0);  // length along the loop at each vertex (at[n]: back to the first)
+  for (std::size_t i = 0; i < n; ++i) at[i + 1] = at[i] + (loop[(i + 1) % n] - loop[i]).norm();
+  const double length = at[n];
+  if (!(length > 0)) {
+    out.points = loop;
+    return out;
+  }
+  const std::size_t m = std::max<std::size_t>(3, std::size_t(std::lround(length / spacing)));
+  const double step = length / double(m);
+  out.points.reserve(m);
+  for (std::size_t k = 0, i = 0; k < m; ++k) {
+    const double s = double(k) * step;
+    while (at[i + 1] < s) ++i;
+    const double seg = at[i + 1] - at[i];
+    const double t = seg > 0 ? (s - at[i]) / seg : 0.0;
+    out.points.push_back(loop[i] + t * (loop[(i + 1) % n] - loop[i]));
+  }
+  double sum = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t k = std::min(m - 1, std::size_t(at[i] / step));
+    const double d = segment_distance(loop[i], out.points[k], out.points[(k + 1) % m]);
+    out.max_deviation = std::max(out.max_deviation, d);
+    sum += d;
+  }
+  out.mean_deviation = sum / double(n);
+  return out;
+}
+
+double volume_above(const TriMesh& mesh, double z) {
+  // A plane below the whole mesh (or at -infinity) is moved up to its lowest
+  // vertex: same volume, a finite origin.
+  double lowest = std::numeric_limits<double>::infinity();
+  for (const Vec3f& v : mesh.vertices) lowest = std::min(lowest, double(v.z()));
+  if (mesh.vertices.empty()) return 0.0;
+  z = std::max(z, lowest);
+  const Vec3d origin(0, 0, z);
+  double six = 0;  // six times the volume
+  auto tet = [&](const Vec3d& a, const Vec3d& b, const Vec3d& c) { six += (a - origin).dot((b - origin).cross(c - origin)); };
+  for (const auto& t : mesh.triangles) {
+    const Vec3d v[3] = {mesh.vertices[std::size_t(t[0])].cast<double>(), mesh.vertices[std::size_t(t[1])].cast<double>(),
+                        mesh.vertices[std::size_t(t[2])].cast<double>()};
+    // The triangle clipped to z >= `z` (a polygon of up to 4 corners, in order), fanned.
+    Vec3d poly[4];
+    int n = 0;
+    for (int i = 0; i < 3; ++i) {
+      const Vec3d& a = v[i];
+      const Vec3d& b = v[(i + 1) % 3];
+      if (a.z() >= z) poly[n++] = a;
+      if ((a.z() >= z) != (b.z() >= z)) poly[n++] = a + (z - a.z()) / (b.z() - a.z()) * (b - a);
+    }
+    for (int i = 1; i + 1 < n; ++i) tet(poly[0], poly[i], poly[i + 1]);
+  }
+  return six / 6.0;
+}
+
+double mean_point_spacing(const std::vector<std::vector<Vec2d>>& loops) {
+  double length = 0;
+  std::size_t points = 0;
+  for (const auto& l : loops) {
+    for (std::size_t i = 0; i < l.size(); ++i) length += (l[(i + 1) % l.size()] - l[i]).norm();
+    points += l.size();
+  }
+  return points ? length / double(points) : 0.0;
+}
+
+double loop_area(const std::vector<Vec2d>& loop) {
+  double a = 0;
+  for (std::size_t i = 0, j = loop.size() - 1; i < loop.size(); j = i++)
+    a += loop[j].x() * loop[i].y() - loop[i].x() * loop[j].y();
+  return 0.5 * a;
+}
+
+double distance_to_loop(const Vec2d& p, const std::vector<Vec2d>& loop) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0, j = loop.size() - 1; i < loop.size(); j = i++)
+    best = std::min(best, segment_distance(p, loop[j], loop[i]));
+  return best;
 }
 
 }  // namespace isoloft

@@ -4,7 +4,8 @@
 // A vertex exactly on the plane counts as above it (symbolic perturbation),
 // so a plane through vertices, as Marching Cubes puts them on its sampled
 // planes, still gives closed simple loops: the in-plane edges of the
-// triangles below it.
+// triangles below it. Also the loops' resampling to a point spacing (the
+// density contours were drawn at) and the measures that compare loops.
 #pragma once
 
 #include <vector>
@@ -21,5 +22,43 @@ namespace isoloft {
 /// @warning A mesh with boundary or non-manifold edges may give open chains:
 /// they are dropped.
 std::vector<std::vector<Vec2d>> cut_mesh(const TriMesh& mesh, double z);
+
+/// A closed loop resampled along its length, and how far it departs from the
+/// loop it replaces.
+struct ResampledLoop {
+  std::vector<Vec2d> points;
+  /// Distance of each vertex of the input loop from the chord of `points`
+  /// that spans it (same length along the loop): the resampling's departure
+  /// from the exact polyline, its largest and mean.
+  double max_deviation = 0, mean_deviation = 0;
+};
+
+/// `loop` (closed, the last point joining the first) with n = max(3,
+/// round(length / spacing)) points at equal steps of its length, starting at
+/// its first vertex. A loop of fewer than 3 points, or a spacing <= 0, comes
+/// back as given (deviation 0).
+/// @warning A chord cuts corners: the deviation grows as step^2 / (8 radius)
+/// on a curve and up to about half a step at a sharp corner.
+ResampledLoop resample_loop(const std::vector<Vec2d>& loop, double spacing);
+
+/// Volume of the part of the closed `mesh` above the plane z = `z` (the
+/// mesh clipped there and closed by its section), signed as the mesh's
+/// volume (positive for one oriented counter-clockwise seen from outside).
+/// With the origin on the plane the closing section adds nothing, so it is
+/// the clipped triangles' tetrahedra only: O(triangles).
+/// @warning A mesh with boundary edges gives a volume that depends on where
+/// the origin is (no closed volume exists).
+double volume_above(const TriMesh& mesh, double z);
+
+/// Mean distance between consecutive points of closed loops, over all of
+/// them (total length / total points); 0 if they have no points.
+double mean_point_spacing(const std::vector<std::vector<Vec2d>>& loops);
+
+/// Signed area of a closed loop (positive counter-clockwise).
+double loop_area(const std::vector<Vec2d>& loop);
+
+/// Distance from `p` to the closed polyline `loop` (its edges, the last
+/// joining the first); infinity for an empty loop.
+double distance_to_loop(const Vec2d& p, const std::vector<Vec2d>& loop);
 
 }  // namespace isoloft

@@ -109,7 +109,10 @@ std::vector<double> sample_planes(double z_begin, double z_end, double step);
 /// z_step grid through the first slice z[1] (every slice when the spacing is
 /// a multiple of z_step) from the last plane at or below z.front() to the
 /// first at or above z.back() (beyond the end knots a field holds their
-/// values).
+/// values). If a slice misses that grid, planes still run through every
+/// slice: evenly spaced slices get the largest step below z_step dividing
+/// their spacing (one step throughout), uneven ones each knot interval split
+/// into equal steps of at most z_step.
 std::vector<double> mesh_planes(const std::vector<double>& z, const InterpParams& interp);
 
 }  // namespace isoloft

@@ -173,22 +173,36 @@ void VolumeOutput::start_job(const RunContext& ctx, std::size_t job, JobHooks& h
   const double z_step = ctx.params.interp.z_step;
   hooks.on_plane([this, &ctx, &stack, job, z_step](std::uint32_t label, const Grid2f& plane, double x0, double y0, double z,
                                                    int index, int count) {
-    if (index == 0) {
+    // The file opens at the second plane, its step the first two planes'
+    // (z_step, or a divisor of an off-grid slice spacing: mesh_planes()); the
+    // step is uniform except possibly the last plane (snapped to the cap).
+    if (index == 0 && count > 1) {
+      first_[label] = {plane, z};
+      return;
+    }
+    if (index <= 1) {
+      const auto held = first_.find(label);
+      const double z0 = index == 0 ? z : held->second.second;
+      double step = index == 0 ? z_step : z - z0;
+      if (std::abs(step - z_step) <= 1e-9 * z_step) step = z_step;  // the grid's own step, exactly
       const std::string path = with_suffix(path_, object_suffix(ctx.in, job, label));
-      // The z step is uniform except possibly the last plane (snapped to the cap); record the nominal step.
       NrrdGeometry g;
       if (stack.patient) {
-        g.axes = stack.patient->axes * Eigen::Vector3d(1, 1, z_step).asDiagonal();
-        const Vec3d p0 = stack.patient->to_patient(Vec3d(x0, y0, z));
+        g.axes = stack.patient->axes * Eigen::Vector3d(1, 1, step).asDiagonal();
+        const Vec3d p0 = stack.patient->to_patient(Vec3d(x0, y0, z0));
         g.origin = {p0.x(), p0.y(), p0.z()};
         g.patient = true;
       } else {
         const double s = stack.pixel_size;
-        g.axes = Eigen::Vector3d(s, s, s * z_step).asDiagonal();
-        g.origin = {x0 * s, y0 * s, z * s};
+        g.axes = Eigen::Vector3d(s, s, s * step).asDiagonal();
+        g.origin = {x0 * s, y0 * s, z0 * s};
       }
       writers_[label] = std::make_unique<NrrdWriter>(ctx.files.stage(path), plane.width, plane.height, count, g);
       files_.push_back(path);
+      if (index == 1) {
+        writers_.at(label)->write_plane(held->second.first);
+        first_.erase(held);
+      }
     }
     NrrdWriter& writer = *writers_.at(label);
     writer.write_plane(plane);

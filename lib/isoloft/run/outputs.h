@@ -191,6 +191,7 @@ class VolumeOutput final : public RunOutput {
   std::string path_;
   std::vector<std::string> files_;
   std::map<std::uint32_t, std::unique_ptr<NrrdWriter>> writers_;  // per object streamed (a label partition interleaves them)
+  std::map<std::uint32_t, std::pair<Grid2f, double>> first_;       // per object its first plane and z, until the second gives the step
 };
 
 /// --labelmap: the dense label map on a volume input's grid and geometry

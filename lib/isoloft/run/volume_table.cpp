@@ -4,12 +4,14 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/rtstruct.h"
+#include "isoloft/mesh/plane_cut.h"
 #include "isoloft/run.h"
 
 namespace fs = std::filesystem;
@@ -73,6 +75,26 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
       for (const Slice& sl : st.slices) area += even_odd_area(sl.polygons);
       row.slab = area * typical_step(st) * s * s * s;
     }
+    // The end caps: beyond the first and last slices with contours (working
+    // px); known for polygon stacks (an image stack's object may leave its
+    // end slices blank, and a label's slices are not kept).
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Slice& sl : st.slices)
+      if (!sl.polygons.empty()) lo = std::min(lo, sl.z), hi = std::max(hi, sl.z);
+    const TriMesh& mesh = o.object.mesh;
+    const double whole = st.has_polygons() ? volume_above(mesh, -std::numeric_limits<double>::infinity()) : 0.0;
+    row.cap_share = std::numeric_limits<double>::quiet_NaN();
+    if (hi >= lo && whole > 0) {
+      if (in.format == InputFormat::RtStruct && row.planes == 1) lo = hi = 0.5 * (lo + hi);  // one plane: two slices round it
+      row.cap_share = std::clamp((volume_above(mesh, hi) + whole - volume_above(mesh, lo)) / whole, 0.0, 1.0);
+    }
+    row.spacing = row.planes > 1 ? typical_step(st) * s : 0.0;
+    if (row.planes < kTrustedPlanes)
+      row.warning = "on " + std::to_string(row.planes) + " plane" + (row.planes == 1 ? "" : "s") +
+                    ": its volume is mostly end caps" +
+                    (std::isnan(row.cap_share) ? std::string()
+                                               : " (" + std::to_string(int(std::lround(100 * row.cap_share))) + " %)") +
+                    ", where no contour bounds it";
     rows.push_back(std::move(row));
   }
   return rows;
@@ -83,30 +105,41 @@ std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_m
   const double v = patient_mm ? 1000.0 : 1.0, a = patient_mm ? 100.0 : 1.0;
   o << std::left << std::setw(24) << "ROI" << std::right << std::setw(7) << "number" << std::setw(14)
     << (patient_mm ? "volume (cc)" : "volume") << std::setw(12) << (patient_mm ? "slab (cc)" : "slab") << std::setw(16)
-    << (patient_mm ? "area (cm^2)" : "area") << std::setw(8) << "planes" << std::setw(8) << "closed" << "\n";
+    << (patient_mm ? "area (cm^2)" : "area") << std::setw(8) << "planes" << std::setw(14)
+    << (patient_mm ? "spacing (mm)" : "spacing") << std::setw(8) << "caps" << std::setw(8) << "closed" << "\n";
   for (const VolumeRow& r : rows) {
     o << std::left << std::setw(24) << ("'" + r.name + "'") << std::right << std::setw(7) << r.number << std::fixed
       << std::setprecision(3) << std::setw(14) << r.volume / v << std::setw(12);
     if (r.slab > 0) o << r.slab / v;
     else o << "-";
-    o << std::setw(16) << std::setprecision(2) << r.area / a << std::setw(8) << r.planes << std::setw(8)
-      << (r.closed ? "yes" : "NO") << "\n";
+    o << std::setw(16) << std::setprecision(2) << r.area / a << std::setw(8) << r.planes << std::setw(14);
+    if (r.spacing > 0) o << r.spacing;
+    else o << "-";
+    o << std::setw(8);
+    if (std::isnan(r.cap_share)) o << "-";
+    else o << std::to_string(int(std::lround(100 * r.cap_share))) + " %";
+    o << std::setw(8) << (r.closed ? "yes" : "NO") << "\n";
   }
+  for (const VolumeRow& r : rows)
+    if (!r.warning.empty()) o << "warning: '" << r.name << "' " << r.warning << "\n";
   return o.str();
 }
 
 std::string volume_table_csv(const std::vector<VolumeRow>& rows) {
   std::ostringstream o;
-  o << "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed\n" << std::setprecision(10);
+  o << "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed,spacing,cap_share,warning\n"
+    << std::setprecision(10);
+  auto quote = [](std::string text) {
+    if (text.find_first_of(",\"\n") == std::string::npos) return text;
+    std::string q = "\"";
+    for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+  };
   for (const VolumeRow& r : rows) {
-    std::string name = r.name;
-    if (name.find_first_of(",\"\n") != std::string::npos) {
-      std::string q = "\"";
-      for (char c : name) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-      name = q + "\"";
-    }
-    o << name << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
-      << (r.closed ? "true" : "false") << "\n";
+    o << quote(r.name) << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
+      << (r.closed ? "true" : "false") << "," << r.spacing << ",";
+    if (!std::isnan(r.cap_share)) o << r.cap_share;
+    o << "," << quote(r.warning) << "\n";
   }
   return o.str();
 }
@@ -115,7 +148,9 @@ nlohmann::json volume_table_json(const std::vector<VolumeRow>& rows) {
   nlohmann::json a = nlohmann::json::array();
   for (const VolumeRow& r : rows)
     a.push_back({{"name", r.name}, {"number", r.number}, {"volume_mm3", r.volume}, {"slab_volume_mm3", r.slab},
-                 {"area_mm2", r.area}, {"planes", r.planes}, {"closed", r.closed}});
+                 {"area_mm2", r.area}, {"planes", r.planes}, {"closed", r.closed}, {"spacing", r.spacing},
+                 {"cap_share", std::isnan(r.cap_share) ? nlohmann::json(nullptr) : nlohmann::json(r.cap_share)},
+                 {"warning", r.warning}});
   return a;
 }
 

@@ -128,7 +128,7 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
 def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
                 voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
                 progress=None, allow_empty=False, volume=None, labelmap=None, reference=None, dump_stages=None,
-                rtstruct=None, volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
+                rtstruct=None, rt_point_spacing=0.0, rt_min_area=0.0, rt_contours=None, volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
     slices, one of:
@@ -158,7 +158,10 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     reference, a CT series folder or a volume file, on that grid: one label
     per ROI number or label, the smallest object on top where they overlap),
     dump_stages (a directory: per-slice fields), rtstruct (an RT Structure
-    Set input's surfaces back as OUT.dcm, cut at its contour planes), volumes
+    Set input's surfaces back as OUT.dcm, cut at its contour planes; with
+    rt_point_spacing mm between points, 0 = as drawn; rt_min_area mm^2, lost
+    drawn contours under it dropped; rt_contours, the per-contour report as
+    .csv; .report["rtstruct_contours"] always has it), volumes
     (the volume table, .csv or .json; .report["volumes"] always has it),
     report (the JSON of .report). max_memory, max_output: the work budget ("4G", "512M", bytes;
     0 = no limit), checked before the work; max_files: the most files the run
@@ -194,7 +197,8 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
         labels = [int(l) for l in labels]
     return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
                                  _path_or_empty(volume), _path_or_empty(labelmap), _path_or_empty(dump_stages),
-                                 _path_or_empty(rtstruct), _path_or_empty(volumes), _path_or_empty(report),
+                                 _path_or_empty(rtstruct), float(rt_point_spacing), float(rt_min_area),
+                                 _path_or_empty(rt_contours), _path_or_empty(volumes), _path_or_empty(report),
                                  str(max_memory), str(max_output), int(max_files), _path_or_empty(reference))
 
 
