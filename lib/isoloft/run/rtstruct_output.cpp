@@ -44,7 +44,7 @@ void write_run_rtstruct(const std::string& path, const Inputs& in, const RunResu
     }
     rois.push_back(std::move(out));
   }
-  write_rtstruct(path, in.files.front(), rois, "isoloft");
+  write_rtstruct(path, in.files.front(), rois, "isoloft", &in.rtstruct->bytes);  // the input as read, not read again
 }
 
 RtStructOutput::RtStructOutput(std::string path, std::string option) : path_(std::move(path)), option_(std::move(option)) {
