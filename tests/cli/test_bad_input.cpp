@@ -697,3 +697,9 @@ TEST_F(BadInput, FloatLabelsFrom2To24AndAsciiMetaImages) {
   expect_error("reconstruct " + p("maybe.mhd") + " -o " + p("m.ply") + " --method levin", 1,
                "maybe.mhd: BinaryData = 'Maybe' is neither True nor False");
 }
+
+// A grid size once printed as -9223372036854775808 (a long cast of 1e302).
+TEST_F(BadInput, HugeGridSizesAreNeverPrintedNegative) {
+  expect_error("reconstruct " + kRtss + " --roi Heart --method levin -o " + p("m.ply") + " --voxel-size 1e-300", 1,
+               "--voxel-size 1e-300 mm: ROI 'Heart' would need a 1.039e+302 x 8.582e+301 pixel grid");
+}

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <fstream>
@@ -474,9 +475,12 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   const double s = grid.voxel_size;
   const double wx = std::ceil((xhi - xlo) / s) + 2.0 * grid.margin + 1, wy = std::ceil((yhi - ylo) / s) + 2.0 * grid.margin + 1;
   constexpr double kMaxGrid = 1 << 15;  // pixels across: a 32768^2 working grid is surely a wrong voxel size
-  if (!(wx <= kMaxGrid && wy <= kMaxGrid))  // as doubles: a long cast of 1e300 printed -9223372036854775808
+  if (!(wx <= kMaxGrid && wy <= kMaxGrid)) {  // as doubles: a long cast of 1e300 printed -9223372036854775808
+    char size[64];
+    std::snprintf(size, sizeof size, "%.4g x %.4g", wx, wy);
     throw ParamError(option_name("--voxel-size") + " " + detail::shortest_text(s) + " mm: " + what + " would need a " +
-                     detail::shortest_text(wx) + " x " + detail::shortest_text(wy) + " pixel grid");
+                     size + " pixel grid");
+  }
   SliceStack st;
   st.kind = InputKind::Polylines;
   st.width = int(wx);
