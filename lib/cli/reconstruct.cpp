@@ -178,7 +178,7 @@ int Commands::reconstruct() {
   if (!o.labelmap.empty() && !o.reference.empty()) {
     // The reference's headers (its voxels dropped), before the input is read.
     auto out = std::make_unique<ReferenceLabelmapOutput>(o.labelmap,
-                                                        std::make_shared<const ReferenceGrid>(read_reference(o.reference)));
+                                                        std::make_shared<const ReferenceGrid>(read_reference(o.reference, run.budget.max_memory)));
     reference_labelmap = out.get();
     run.outputs.push_back(std::move(out));
   } else if (!o.labelmap.empty()) {
@@ -188,6 +188,7 @@ int Commands::reconstruct() {
   }
   if (!o.dump_stages.empty()) run.outputs.push_back(std::make_unique<StageDumpOutput>(o.dump_stages));
   run.report_path = o.report;
+  run.read_files = {{"--params", o.params_file}, {"--reference", o.reference}};
   run.allow_empty = o.allow_empty;
 
   std::unique_ptr<tbb::global_control> threads;

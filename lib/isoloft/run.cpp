@@ -59,26 +59,26 @@ std::vector<PlannedObject> planned_objects(const Inputs& in, const std::vector<s
   return out;
 }
 
-// Before any work: how many files the run writes, and that no two writers
-// share one (ROI names that meet once made file-safe, one path given twice).
+// Before any work: how many files the run writes, and every output path
+// resolved (check_output_paths: no input, params file or device replaced,
+// no two writers on one file).
 void check_planned_files(const Inputs& in, const RunOptions& o) {
   const std::vector<PlannedObject> objects = planned_objects(in, o.labels);
-  std::vector<PlannedFile> files;
-  for (const auto& out : o.outputs)
-    for (PlannedFile& f : out->planned_files(in, objects)) files.push_back(std::move(f));
-  if (!o.report_path.empty()) files.push_back({o.report_path, option_name("--report")});
+  std::vector<PlannedFile> files, dirs;
+  for (const auto& out : o.outputs) {
+    for (PlannedFile& f : out->planned_files(in, objects)) {
+      f.option = out->option();
+      files.push_back(std::move(f));
+    }
+    if (const std::string dir = out->output_directory(); !dir.empty()) dirs.push_back({dir, out->option(), out->option()});
+  }
+  if (!o.report_path.empty()) files.push_back({o.report_path, option_name("--report"), "--report"});
   if (o.budget.max_files > 0 && long(files.size()) > o.budget.max_files)
     throw ParamError(option_name("--max-files") + ": the run would write " + std::to_string(files.size()) +
                      " files (" + std::to_string(objects.size()) + (in.labels() ? " labels" : " objects") +
                      "), over the limit of " + std::to_string(o.budget.max_files) + "; select labels with " +
                      option_name("--labels") + " or raise " + option_name("--max-files") + " (0 = no limit)");
-  std::map<std::string, const PlannedFile*> by_key;
-  for (const PlannedFile& f : files) {
-    const auto [it, fresh] = by_key.emplace(output_key(f.path), &f);
-    if (!fresh)
-      throw ParamError(f.path + ": " + it->second->what + " and " + f.what +
-                       " would both be written to this file; give them different names");
-  }
+  check_output_paths(in, o.read_files, files, dirs);
 }
 
 // Before any work: the outputs' own checks, the files they will write, the
@@ -94,7 +94,35 @@ void check_run(const Inputs& in, const ReconstructParams& params, const RunOptio
                "the contour stage of " + std::to_string(st.slices.size()) + " slices of " + std::to_string(st.width) +
                    "x" + std::to_string(st.height) + " px",
                input_bytes(in), o.budget.max_memory);
+  // What the outputs hold and write whatever the objects (a label map on a reference grid).
+  double fixed = 0;
+  for (const auto& out : o.outputs) {
+    const std::string what = option_name(out->option()) + " " + out->target();
+    check_held_memory(option_name("--max-memory"), what, input_bytes(in) + out->memory_bytes(in), o.budget.max_memory);
+    fixed += out->fixed_file_bytes(in);
+    check_budget(option_name("--max-output"), what, fixed, o.budget.max_output);
+  }
   check_labels(in, o.labels, option_name("--labels"));
+}
+
+// Runs `write`, an output's work: its error names the flag (if given) and
+// the final path of every file, never a hidden staged one.
+template <class F>
+void as_output(const OutputSet& files, const std::string& flag, F&& write) {
+  auto named = [&](const char* what) {
+    std::string m = files.final_names(what);
+    const std::string opt = flag.empty() ? std::string() : option_name(flag);
+    return opt.empty() || m.rfind(opt, 0) == 0 ? m : opt + " " + m;
+  };
+  try {
+    write();
+  } catch (const ParamError& e) {
+    throw ParamError(named(e.what()));
+  } catch (const InputError& e) {
+    throw InputError("", named(e.what()));
+  } catch (const Error& e) {
+    throw Error(named(e.what()));
+  }
 }
 
 // Object-level progress: per (job, label) the steps of its stages (contour,
@@ -296,6 +324,10 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   // their fields too. 16,384 labels of 2x2 px: 1.2 GiB of fields together.
   const bool joint_fields = params.label_partition && in.labels();
   double held_bytes = 0;
+  // The files written so far count against --max-output together (every
+  // object's meshes and volumes, and the label maps' once).
+  double output_bytes = 0, output_memory = 0;
+  for (const auto& out : o.outputs) output_bytes += out->fixed_file_bytes(in), output_memory += out->memory_bytes(in);
   // ROIs run side by side (run_jobs): the fields of the jobs in flight.
   std::vector<double> job_fields(in.jobs.size(), 0.0);
   std::mutex held_mutex;
@@ -312,12 +344,18 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
                    (joint_fields ? "the labels' fields and meshes held together up to "
                                  : "the meshes held and the fields of the jobs running up to ") +
                        what,
-                   in_bytes + held_bytes + (joint_fields ? 0.0 : in_flight), o.budget.max_memory);
+                   in_bytes + held_bytes + output_memory + (joint_fields ? 0.0 : in_flight), o.budget.max_memory);
     }
     double bytes = 0;
     std::string note;
     for (const auto& out : o.outputs) bytes += out->file_bytes(in, e), note += out->budget_note();
-    check_budget(option_name("--max-output"), what + note, bytes, o.budget.max_output);
+    double total = 0;
+    {
+      std::lock_guard lock(held_mutex);
+      total = output_bytes += bytes;
+    }
+    check_budget(option_name("--max-output"), what + note + (total > bytes ? " and the files before it" : ""), total,
+                 o.budget.max_output);
     activity("reconstructing " + what);
   };
 
@@ -325,7 +363,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   std::vector<JobHooks> hooks(in.jobs.size());
   ProgressTracker tracker(params.decimate.max_error > 0);
   RunResult r;
-  arena.execute([&] {
+  arena.execute([&] { as_output(files, "", [&] {
     r = run_jobs(in, params, o.labels, [&](std::size_t j, ReconstructOptions& ropt) {
       for (const auto& out : o.outputs) out->start_job(ctx, j, hooks[j]);
       hooks[j].apply(ropt);
@@ -343,7 +381,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
       const std::lock_guard lock(held_mutex);
       job_fields[j] = 0;  // its fields are freed
     });
-  });
+  }); });
   r.threads = std::min(arena.max_concurrency(),
                        int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
   if (o.warn)
@@ -354,7 +392,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   const std::size_t warned = r.warnings.size();
   for (const auto& out : o.outputs) {
     activity("writing " + out->target());
-    out->finish(ctx, r);
+    as_output(files, out->option(), [&] { out->finish(ctx, r); });
   }
   if (o.warn)  // the outputs' own (e.g. RT contours dropped under --rt-min-area)
     for (std::size_t i = warned; i < r.warnings.size(); ++i) o.warn(r.warnings[i]);
@@ -363,7 +401,8 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
                         {o.read_seconds, write_seconds, o.seconds_before + seconds_since(t_start)});
   if (!o.heap.empty()) r.report["heap"] = o.heap;
   for (const auto& out : o.outputs) out->report(r.report);
-  if (!o.report_path.empty()) write_text_atomic(files.stage(o.report_path), r.report.dump(2) + "\n");
+  if (!o.report_path.empty())
+    as_output(files, "--report", [&] { write_text_atomic(files.stage(o.report_path), r.report.dump(2) + "\n"); });
   files.commit();
   return r;
 }

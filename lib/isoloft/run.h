@@ -70,6 +70,8 @@ struct RunOptions {
   /// What it writes besides the report, in this order (e.g. MeshOutput first).
   std::vector<std::unique_ptr<RunOutput>> outputs;
   std::string report_path;  ///< the JSON report ("" = none; RunResult::report always)
+  /// Files read besides the input (the --params file, a --reference): no output may replace them.
+  std::vector<ReadFile> read_files;
   bool allow_empty = false;  ///< an object with no triangles is kept instead of an error
   int threads = 0;           ///< worker threads (0 = all the environment allows)
   std::function<void(const RunProgress&)> progress;

@@ -447,7 +447,7 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
                      " with it");
   if (!files.labelmap.empty() && !files.reference.empty())
     o.outputs.push_back(std::make_unique<ReferenceLabelmapOutput>(
-        files.labelmap, std::make_shared<const ReferenceGrid>(read_reference(files.reference))));
+        files.labelmap, std::make_shared<const ReferenceGrid>(read_reference(files.reference, o.budget.max_memory))));
   else if (!files.labelmap.empty())
     o.outputs.push_back(std::make_unique<LabelmapOutput>(files.labelmap));
   if (!files.dump_stages.empty()) o.outputs.push_back(std::make_unique<StageDumpOutput>(files.dump_stages));
@@ -457,6 +457,7 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
     o.outputs.push_back(std::make_unique<RtStructOutput>(files.rtstruct, "--rtstruct", files.rt, files.rt_contours));
   if (!files.volumes.empty()) o.outputs.push_back(std::make_unique<VolumeTableOutput>(files.volumes));
   o.report_path = files.report;
+  o.read_files = {{"--reference", files.reference}};
   o.allow_empty = allow_empty;
   o.threads = threads.value_or(0);
   o.git = ISOLOFT_GIT;

@@ -575,3 +575,131 @@ TEST_F(BadInput, ThePartitionsFieldsAreCountedTogetherAgainstTheBudget) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------- issue 39: output paths
+
+namespace {
+
+const std::string kRtss = std::string(ISOLOFT_SOURCE_DIR) + "/data/rtstruct/rtss.dcm";
+
+bool is_char_device(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && S_ISCHR(st.st_mode);
+}
+
+}  // namespace
+
+// Once replaced with exit 0: an output naming the input (or a link to it),
+// the --params file or another output. Refused before any work, naming the
+// flag and the path; the input byte for byte unchanged.
+TEST_F(BadInput, AnOutputNeverReplacesAFileTheRunReads) {
+  fs::copy_file(kRtss, p("rt.dcm"));
+  const std::string rt = slurp(p("rt.dcm"));
+  const std::string in = "reconstruct " + p("rt.dcm") + " --roi Heart --method levin";
+  expect_error(in + " -o " + p("rt.dcm"), 1, "-o " + p("rt.dcm") + ": is the input " + p("rt.dcm") + "; an output never replaces");
+  expect_error(in + " -o " + p("m.ply") + " --rtstruct " + p("rt.dcm"), 1, "--rtstruct " + p("rt.dcm") + ": is the input");
+  expect_error(in + " -o " + p("m.ply") + " --report " + p("rt.dcm"), 1, "--report " + p("rt.dcm") + ": is the input");
+  fs::create_hard_link(p("rt.dcm"), p("hard.json"));  // the same inode by another name
+  fs::create_symlink(p("rt.dcm"), p("soft.json"));
+  for (const char* link : {"hard.json", "soft.json"})
+    expect_error(in + " -o " + p("m.ply") + " --report " + p(link), 1, "--report " + p(link) + ": is the input");
+  EXPECT_EQ(slurp(p("rt.dcm")), rt) << "the input changed";
+
+  write_volume(p("v.nrrd"), small_labels());
+  const std::string vol = slurp(p("v.nrrd"));
+  const std::string v = "reconstruct " + p("v.nrrd") + " --method levin --input masks";
+  expect_error(v + " -o " + p("m.ply") + " --volume " + p("v.nrrd"), 1, "--volume " + p("v.nrrd") + ": is the input");
+  expect_error(v + " -o " + p("m.ply") + " --labelmap " + p("v.nrrd"), 1, "--labelmap " + p("v.nrrd") + ": is the input");
+  text("params.json", "{\"method\": \"levin\"}\n");
+  expect_error(v + " -o " + p("m.ply") + " --params " + p("params.json") + " --report " + p("params.json"), 1,
+               "--report " + p("params.json") + ": is the --params file " + p("params.json"));
+  // Two outputs on one file through a hard link.
+  text("a.json", "{}");
+  fs::create_hard_link(p("a.json"), p("b.json"));
+  expect_error(v + " -o " + p("m.ply") + " --report " + p("a.json") + " --volumes " + p("b.json"), 1,
+               "would both be written to this file");
+  EXPECT_EQ(slurp(p("v.nrrd")), vol) << "the input changed";
+  EXPECT_EQ(slurp(p("params.json")), "{\"method\": \"levin\"}\n");
+  EXPECT_EQ(slurp(p("a.json")), "{}");
+}
+
+// A device or FIFO output is written in place: no temp file beside it, no
+// rename over it (as root that once made /dev/null a regular file); a full
+// device is an error naming the flag, the path and the errno text.
+TEST_F(BadInput, DevicesAreWrittenInPlaceAndAFullDiskIsAnError) {
+  write_volume(p("v.nrrd"), small_labels());
+  const std::string v = "reconstruct " + p("v.nrrd") + " --method levin --input masks -o " + p("m.ply");
+  const CliRun null = run(v + " --report /dev/null");
+  EXPECT_EQ(null.code, 0) << null.err;
+  EXPECT_TRUE(is_char_device("/dev/null"));
+  const CliRun out = run(v + " --report /dev/stdout");
+  EXPECT_EQ(out.code, 0) << out.err;
+  EXPECT_NE(out.out.find("\"peak_memory_mib\""), std::string::npos) << out.out;
+  EXPECT_TRUE(fs::is_symlink("/dev/stdout") || is_char_device("/dev/stdout"));  // the link itself kept
+  fs::remove(p("m.ply"));
+  expect_error(v + " --report /dev/full", 1, "--report /dev/full: cannot write file (No space left on device)");
+  EXPECT_TRUE(is_char_device("/dev/full"));
+  // A full disk under the label map (NIfTI, compressed and not): once exit 0 with a truncated file.
+  for (const char* name : {"full.nii.gz", "full.nii"}) {
+    fs::create_symlink("/dev/full", p(name));
+    expect_error(v + " --labelmap " + p(name), 1, std::string("--labelmap ") + p(name) + ": cannot write file (No space left on device)");
+    fs::remove(p(name));
+  }
+  // A FIFO is written in place too (read here by a child).
+  ASSERT_EQ(::mkfifo(p("pipe.json").c_str(), 0600), 0);
+  std::string piped;
+  std::thread reader([&] { piped = slurp(p("pipe.json")); });
+  const CliRun fifo = run(v + " --report " + p("pipe.json"));
+  reader.join();
+  EXPECT_EQ(fifo.code, 0) << fifo.err;
+  EXPECT_NE(piped.find("\"peak_memory_mib\""), std::string::npos);
+  fs::remove(p("m.ply"));
+  // Not a regular file and not a stream: refused before any work.
+  fs::create_directories(p("d.json"));
+  expect_error(v + " --report " + p("d.json"), 1, "--report " + p("d.json") + ": is a directory, not a regular file");
+  text("file", "x");
+  expect_error("reconstruct " + p("v.nrrd") + " --input masks -o " + p("m.ply") + " --dump-stages " + p("file"), 1, "--dump-stages " + p("file") + ": is a regular file, not a folder");
+  expect_error(v + " --report " + p("file/r.json"), 1, "--report " + p("file/r.json") + ": " + p("file") + " is not a folder");
+}
+
+// Once silent: labels at or above 2^24 stored as float32 (16777217 reads as
+// 16777216, so labels there may have merged in the file) are refused; a
+// MetaImage of ASCII samples (BinaryData = False) gives the meshes of its
+// binary twin; a BinaryData that is neither True nor False is named.
+TEST_F(BadInput, FloatLabelsFrom2To24AndAsciiMetaImages) {
+  Volume f = small_labels();
+  f.integer = false;
+  for (float& x : f.data) x = x == 7 ? 16777216.0f : x;
+  write_volume(p("float.nii"), f);
+  expect_error("reconstruct " + p("float.nii") + " -o " + p("m.ply") + " --method levin", 1,
+               "float.nii: float voxels hold label 16777216, at or above 2^24 where float32 cannot tell neighbouring "
+               "integers apart");
+  const CliRun masks = run("reconstruct " + p("float.nii") + " -o " + p("m.ply") + " --method levin --input masks");
+  EXPECT_EQ(masks.code, 0) << masks.err;
+
+  const Volume v = small_labels();
+  std::string ascii;
+  for (const float x : v.data) ascii += std::to_string(int(x)) + (ascii.size() % 64 ? " " : "\n");
+  text("ascii.raw", ascii);
+  text("ascii.mhd", mhd_header(v, "ascii.raw", "BinaryData = False\n"));
+  text("binary.raw", uchar_bytes(v));
+  text("binary.mhd", mhd_header(v, "binary.raw"));
+  const CliRun a = run("reconstruct " + p("ascii.mhd") + " -o " + p("a.ply") + " --method levin");
+  const CliRun b = run("reconstruct " + p("binary.mhd") + " -o " + p("b.ply") + " --method levin");
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  for (const char* label : {"_label3.ply", "_label7.ply"}) {
+    const TriMesh ma = read_mesh(p(std::string("a") + label)), mb = read_mesh(p(std::string("b") + label));
+    ASSERT_EQ(ma.vertices.size(), mb.vertices.size()) << label;
+    for (std::size_t i = 0; i < ma.vertices.size(); ++i) ASSERT_EQ(ma.vertices[i], mb.vertices[i]) << label << " vertex " << i;
+  }
+  text("maybe.mhd", mhd_header(v, "binary.raw", "BinaryData = Maybe\n"));
+  expect_error("reconstruct " + p("maybe.mhd") + " -o " + p("m.ply") + " --method levin", 1,
+               "maybe.mhd: BinaryData = 'Maybe' is neither True nor False");
+}
+
+// A grid size once printed as -9223372036854775808 (a long cast of 1e302).
+TEST_F(BadInput, HugeGridSizesAreNeverPrintedNegative) {
+  expect_error("reconstruct " + kRtss + " --roi Heart --method levin -o " + p("m.ply") + " --voxel-size 1e-300", 1,
+               "--voxel-size 1e-300 mm: ROI 'Heart' would need a 1.039e+302 x 8.582e+301 pixel grid");
+}

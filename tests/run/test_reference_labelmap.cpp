@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <iomanip>
 #include <numbers>
 #include <set>
@@ -83,6 +84,7 @@ struct SeriesSpec {
   Eigen::Vector3d first, row{1, 0, 0}, column{0, 1, 0};
   double row_mm = 1, col_mm = 1, step = 3;
   int rows = 8, columns = 8, slices = 4;
+  bool pixel_data = true;  // false: headers only (a grid too large to hold)
 };
 
 void write_ct_series(const std::string& dir, const SeriesSpec& s) {
@@ -91,7 +93,7 @@ void write_ct_series(const std::string& dir, const SeriesSpec& s) {
   dcmGenerateUniqueIdentifier(series, SITE_SERIES_UID_ROOT);
   dcmGenerateUniqueIdentifier(study, SITE_STUDY_UID_ROOT);
   const Eigen::Vector3d normal = s.row.cross(s.column);
-  const std::vector<Uint16> pixels(std::size_t(s.rows) * std::size_t(s.columns), 1000);
+  const std::vector<Uint16> pixels(s.pixel_data ? std::size_t(s.rows) * std::size_t(s.columns) : 0, 1000);
   for (int k = 0; k < s.slices; ++k) {
     DcmFileFormat ff;
     DcmDataset& d = *ff.getDataset();
@@ -117,7 +119,7 @@ void write_ct_series(const std::string& dir, const SeriesSpec& s) {
     d.putAndInsertUint16(DCM_BitsStored, 12);
     d.putAndInsertUint16(DCM_HighBit, 11);
     d.putAndInsertUint16(DCM_PixelRepresentation, 0);
-    d.putAndInsertUint16Array(DCM_PixelData, pixels.data(), unsigned(pixels.size()));
+    if (s.pixel_data) d.putAndInsertUint16Array(DCM_PixelData, pixels.data(), unsigned(pixels.size()));
     const std::string file = (fs::path(dir) / ("ct" + std::to_string(1000 + k) + ".dcm")).string();
     ASSERT_TRUE(ff.saveFile(file.c_str(), EXS_LittleEndianExplicit).good()) << file;
   }
@@ -436,4 +438,181 @@ TEST_F(Cli, ReferenceLabelmapAndItsErrors) {
   write_circle(p("a.png"));
   refused("--reference " + p("a.png") + " --labelmap " + p("bad.nii.gz"), p("a.png"), "not a reference grid");
   refused("--reference " + p("ct"), "--labelmap", "--reference");
+}
+
+// ---------------------------------------------------------------- issue 39: references and RT
+
+namespace {
+
+// A copy of rtss.dcm with `edit` applied to the StructureSetROISequence item
+// of ROI `roi` and to its ROIContourSequence item.
+void edited_rtss(const std::string& out, const std::string& roi,
+                 const std::function<void(DcmItem& roi_item, DcmItem* contour_item)>& edit) {
+  DcmFileFormat ff;
+  ASSERT_TRUE(ff.loadFile(kRtss.c_str()).good());
+  DcmDataset& d = *ff.getDataset();
+  std::string number;
+  DcmItem* roi_item = nullptr;
+  for (unsigned long i = 0; d.findAndGetSequenceItem(DCM_StructureSetROISequence, roi_item, long(i)).good(); ++i) {
+    OFString name, n;
+    roi_item->findAndGetOFString(DCM_ROIName, name);
+    if (std::string(name.c_str()) != roi) continue;
+    roi_item->findAndGetOFString(DCM_ROINumber, n);
+    number = n.c_str();
+    break;
+  }
+  ASSERT_FALSE(number.empty()) << roi;
+  DcmItem* contour_item = nullptr;
+  DcmItem* c = nullptr;
+  for (unsigned long i = 0; d.findAndGetSequenceItem(DCM_ROIContourSequence, c, long(i)).good(); ++i) {
+    OFString n;
+    c->findAndGetOFString(DCM_ReferencedROINumber, n);
+    if (number == n.c_str()) contour_item = c;
+  }
+  edit(*roi_item, contour_item);
+  ASSERT_TRUE(ff.saveFile(out.c_str(), EXS_LittleEndianExplicit).good());
+}
+
+}  // namespace
+
+// The input is read once: the RT output derives from the bytes read at the
+// start, so a file replaced (or removed) during the run never mixes in.
+TEST(ReferenceLabelmap, TheRtInputIsReadOnce) {
+  const Temp t;
+  fs::copy_file(kRtss, t.p("rt.dcm"));
+  InputRequest req;
+  req.paths = {t.p("rt.dcm")};
+  req.rois = {"Scar"};
+  const Inputs in = read_inputs(req);
+  fs::remove(t.p("rt.dcm"));  // gone before the output is written
+  RunOptions o;
+  o.outputs.push_back(std::make_unique<RtStructOutput>(t.p("out.dcm")));
+  const RunResult r = run(in, method_defaults(Method::Levin), o);
+  ASSERT_EQ(r.objects.size(), 1u);
+  const RtStructureSet out = read_rtstruct(t.p("out.dcm"));
+  ASSERT_EQ(out.rois.size(), 1u);
+  EXPECT_EQ(out.rois[0].name, "Scar");
+  EXPECT_EQ(out.frame_of_reference, read_rtstruct(kRtss).frame_of_reference);
+}
+
+// ROIs on different frames of reference are different patient spaces: an
+// error naming each frame's ROIs (one of them alone still runs); ROI numbers
+// beyond a DICOM IS are refused, never wrapped onto another ROI's.
+TEST_F(Cli, RoisOnTwoFramesAndRoiNumbersBeyondIs) {
+  edited_rtss(p("frames.dcm"), "Scar", [](DcmItem& roi, DcmItem*) {
+    roi.putAndInsertString(DCM_ReferencedFrameOfReferenceUID, "1.2.826.0.1.3680043.2.1125.99");
+  });
+  const CliRun two = run("reconstruct " + p("frames.dcm") + " --roi Scar --roi \"Tumor Bed\" --method levin -o " + p("m.ply"));
+  EXPECT_EQ(two.code, 1) << two.err;
+  EXPECT_NE(two.err.find("frames.dcm: the ROIs are on different frames of reference ("), std::string::npos) << two.err;
+  EXPECT_NE(two.err.find("'Scar' on 1.2.826.0.1.3680043.2.1125.99"), std::string::npos) << two.err;
+  EXPECT_NE(two.err.find("'Tumor Bed' on "), std::string::npos) << two.err;
+  EXPECT_FALSE(fs::exists(p("m.ply")));
+  const CliRun one = run("reconstruct " + p("frames.dcm") + " --roi Scar --method levin -o " + p("m.ply"));
+  EXPECT_EQ(one.code, 0) << one.err;
+
+  // 2^32 + 8 once wrapped to 8 (another ROI's number).
+  edited_rtss(p("big.dcm"), "Scar", [](DcmItem& roi, DcmItem* contours) {
+    roi.putAndInsertString(DCM_ROINumber, "4294967304");
+    if (contours) contours->putAndInsertString(DCM_ReferencedROINumber, "4294967304");
+  });
+  const CliRun big = run("reconstruct " + p("big.dcm") + " --method levin -o " + p("b.ply"));
+  EXPECT_EQ(big.code, 1) << big.err;
+  EXPECT_NE(big.err.find("big.dcm: ROI 'Scar': ROINumber '4294967304' is not a DICOM integer (IS: -2^31 .. 2^31-1)"),
+            std::string::npos)
+      << big.err;
+  EXPECT_FALSE(fs::exists(p("b.ply")));
+
+  // DCMTK's reason names the attribute the source lacks, and the output as
+  // given (once a hidden staged file).
+  {
+    DcmFileFormat ff;
+    ASSERT_TRUE(ff.loadFile(kRtss.c_str()).good());
+    ff.getDataset()->findAndDeleteElement(DCM_StudyInstanceUID);
+    ASSERT_TRUE(ff.saveFile(p("nostudy.dcm").c_str(), EXS_LittleEndianExplicit).good());
+  }
+  const CliRun study = run("reconstruct " + p("nostudy.dcm") + " --roi Scar --method levin -o " + p("s.ply") +
+                           " --rtstruct " + p("out.dcm"));
+  EXPECT_EQ(study.code, 1) << study.err;
+  EXPECT_NE(study.err.find("--rtstruct " + p("out.dcm") + ": cannot build the RT Structure Set from " + p("nostudy.dcm")),
+            std::string::npos)
+      << study.err;
+  EXPECT_NE(study.err.find("StudyInstanceUID"), std::string::npos) << study.err;
+  EXPECT_EQ(study.err.find("/."), std::string::npos) << "a hidden file named: " << study.err;
+  EXPECT_FALSE(fs::exists(p("out.dcm")));
+  EXPECT_FALSE(fs::exists(p("s.ply")));
+}
+
+// A CT image without ImagePositionPatient is named (it was dropped: 18
+// slices for 19 images); a grid too large for the machine or the budget
+// fails before the work, naming the label map and the need.
+TEST_F(Cli, ReferenceSlicesWithoutAPositionAndGridsTooLarge) {
+  const RtStructureSet set = read_rtstruct(kRtss);
+  const auto b = box_of(roi_named(set, "Scar"));
+  SeriesSpec s;
+  s.frame = set.frame_of_reference;
+  s.first = Eigen::Vector3d(b[0] - 5, b[1] - 5, b[2] - 6);
+  s.columns = int(b[3] - b[0] + 10) + 1, s.rows = int(b[4] - b[1] + 10) + 1;
+  s.slices = int(std::lround((b[5] - b[2]) / 3)) + 5;
+  write_ct_series(p("ct"), s);
+  const std::string third = p("ct/ct1002.dcm");
+  {
+    DcmFileFormat ff;
+    ASSERT_TRUE(ff.loadFile(third.c_str()).good());
+    ff.getDataset()->findAndDeleteElement(DCM_ImagePositionPatient);
+    ASSERT_TRUE(ff.saveFile(third.c_str(), EXS_LittleEndianExplicit).good());
+  }
+  const std::string scar = "reconstruct " + kRtss + " --roi Scar --method levin -o " + p("bad.ply") + " --labelmap " + p("bad.nii.gz");
+  CliRun r = run(scar + " --reference " + p("ct"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(third + ": an image of the series "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" without ImagePositionPatient: its slice cannot be placed (" + std::to_string(s.slices - 1) +
+                       " other images in "),
+            std::string::npos)
+      << r.err;
+
+  SeriesSpec huge = s;  // 65535 x 65535 x 100: 429 G voxels, headers only
+  huge.rows = huge.columns = 65535, huge.slices = 100, huge.pixel_data = false;
+  write_ct_series(p("huge"), huge);
+  r = run(scar + " --reference " + p("huge") + " --max-memory 0 --max-output 0");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--labelmap " + p("bad.nii.gz") + " needs about "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("more than this machine's memory"), std::string::npos) << r.err;
+  SeriesSpec large = s;  // 2000 x 2000 x 40: 160 M voxels, ~1.3 GiB held
+  large.rows = large.columns = 2000, large.slices = 40, large.pixel_data = false;
+  write_ct_series(p("large"), large);
+  r = run(scar + " --reference " + p("large") + " --max-memory 512M");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--max-memory: --labelmap " + p("bad.nii.gz") + " needs about 1.3"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("GiB, over the budget of 512 MiB"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p("bad.ply")));
+  EXPECT_FALSE(fs::exists(p("bad.nii.gz")));
+}
+
+// "no ROI could be reconstructed" once came alone: now each ROI and its reason.
+TEST_F(Cli, NoRoiReconstructedNamesEachRoiAndWhy) {
+  DcmFileFormat ff;
+  ASSERT_TRUE(ff.loadFile(kRtss.c_str()).good());
+  DcmDataset& d = *ff.getDataset();
+  DcmItem* roi = nullptr;
+  for (long i = 0; d.findAndGetSequenceItem(DCM_ROIContourSequence, roi, i).good(); ++i) {
+    DcmItem* c = nullptr;
+    for (long k = 0; roi->findAndGetSequenceItem(DCM_ContourSequence, c, k).good(); ++k) {
+      DcmElement* e = nullptr;
+      if (c->findAndGetElement(DCM_ContourData, e).bad()) continue;
+      OFString all;
+      ASSERT_TRUE(e->getOFStringArray(all).good());
+      std::string flat, item;  // every point onto z = 0: one plane per ROI
+      std::stringstream ss(all.c_str());
+      for (int j = 0; std::getline(ss, item, '\\'); ++j) flat += (j ? "\\" : "") + (j % 3 == 2 ? std::string("0") : item);
+      ASSERT_TRUE(e->putString(flat.c_str()).good());
+    }
+  }
+  ASSERT_TRUE(ff.saveFile(p("flat.dcm").c_str(), EXS_LittleEndianExplicit).good());
+  const CliRun r = run("reconstruct " + p("flat.dcm") + " --method levin -o " + p("m.ply"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("flat.dcm: no ROI could be reconstructed (ROI '"), std::string::npos) << r.err;
+  for (const char* name : {"Heart", "Scar"})
+    EXPECT_NE(r.err.find(std::string("ROI '") + name + "' has contours on one plane only"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p("m.ply")));
 }

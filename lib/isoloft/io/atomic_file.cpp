@@ -13,7 +13,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <mutex>
 #include <set>
@@ -24,6 +23,68 @@
 namespace isoloft {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// /dev/stdout, /dev/fd/3, /proc/self/fd/1: links to what the process has
+// open (a terminal, a pipe, the file the shell redirected to). Written in
+// place: a temp file and rename would replace the link in /dev (or fail in
+// /proc), and renaming onto the link's target would leave the open file unlinked.
+bool under_dev_or_proc(const std::string& path) {
+  std::error_code ec;
+  const std::string a = fs::absolute(path, ec).lexically_normal().string();
+  return a.rfind("/dev/", 0) == 0 || a.rfind("/proc/", 0) == 0;
+}
+
+}  // namespace
+
+OutputNode output_node(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return OutputNode::Missing;
+  if (S_ISREG(st.st_mode)) return under_dev_or_proc(path) ? OutputNode::Stream : OutputNode::Regular;
+  if (S_ISDIR(st.st_mode)) return OutputNode::Directory;
+  if (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode)) return OutputNode::Stream;
+  return OutputNode::Other;
+}
+
+std::string node_kind(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return "missing";
+  if (S_ISREG(st.st_mode)) return "a regular file";
+  if (S_ISDIR(st.st_mode)) return "a directory";
+  if (S_ISCHR(st.st_mode)) return "a character device";
+  if (S_ISFIFO(st.st_mode)) return "a FIFO";
+  if (S_ISBLK(st.st_mode)) return "a block device";
+  if (S_ISSOCK(st.st_mode)) return "a socket";
+  return "not a regular file";
+}
+
+void write_file_bytes(const std::string& file, const std::string& path, const void* data, std::size_t size) {
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw InputError(path, std::string("cannot create file (") + std::strerror(errno) + ")");
+  const char* p = static_cast<const char*>(data);
+  for (std::size_t left = size; left > 0;) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : ENOSPC;  // 0 bytes written: the device is full
+      ::close(fd);
+      throw InputError(path, std::string("cannot write file (") + std::strerror(err) + ")");
+    }
+    p += n, left -= std::size_t(n);
+  }
+  if (::close(fd) != 0) throw InputError(path, std::string("cannot write file (") + std::strerror(errno) + ")");
+}
+
+namespace {
+
+// A block device or socket cannot take a file output; the rename would replace the node.
+void refuse_other_node(const std::string& path) {
+  if (output_node(path) == OutputNode::Other)
+    throw Error(path + ": is " + node_kind(path) + ", not a regular file; give a file path");
+}
+
+}  // namespace
 
 void ensure_parent_dir(const std::string& path) {
   const fs::path parent = fs::path(path).parent_path();
@@ -156,13 +217,19 @@ std::size_t remove_stale_temp_files(const std::string& final_path) noexcept {
 
 AtomicFile::AtomicFile(std::string final_path) : final_(std::move(final_path)) {
   if (final_.empty()) throw Error("output path is empty");
+  refuse_other_node(final_);
+  if (output_node(final_) == OutputNode::Stream) {
+    temp_ = final_;
+    in_place_ = true;
+    return;
+  }
   ensure_parent_dir(final_);
   temp_ = hidden_sibling(final_, "tmp");
   slot_ = register_temp(temp_);
 }
 
 AtomicFile::~AtomicFile() {
-  if (!committed_) {
+  if (!committed_ && !in_place_) {
     std::error_code ec;  // never throw from a destructor
     fs::remove(temp_, ec);
   }
@@ -171,6 +238,10 @@ AtomicFile::~AtomicFile() {
 
 void AtomicFile::commit() {
   if (committed_) throw Error(final_ + ": output already committed");
+  if (in_place_) {
+    committed_ = true;
+    return;
+  }
   std::error_code ec;
   if (!fs::exists(temp_, ec)) throw Error(final_ + ": nothing was written (temp file " + temp_ + " missing)");
   fs::rename(temp_, final_, ec);
@@ -204,12 +275,18 @@ void OutputSet::create_directories(const std::string& dir) {
 
 std::string OutputSet::stage(const std::string& final_path) {
   if (final_path.empty()) throw Error("output path is empty");
-  create_directories(fs::path(final_path).parent_path().string());
+  refuse_other_node(final_path);
+  const bool in_place = output_node(final_path) == OutputNode::Stream;
+  if (!in_place) create_directories(fs::path(final_path).parent_path().string());
   const std::string key = output_key(final_path);
   for (const auto& f : files_)
     if (f.key == key)
       throw Error(final_path + ": the run writes this file twice" +
                   (f.final_path == final_path ? "" : " (also as " + f.final_path + ")"));
+  if (in_place) {
+    files_.push_back({final_path, final_path, key, -1, true});
+    return final_path;
+  }
   {
     // Leftovers of killed runs, once per directory and process.
     static std::mutex m;
@@ -217,7 +294,7 @@ std::string OutputSet::stage(const std::string& final_path) {
     const std::lock_guard lock(m);
     if (swept.insert(fs::path(final_path).parent_path().string()).second) remove_stale_temp_files(final_path);
   }
-  File f{final_path, hidden_sibling(final_path, "run"), key, -1};
+  File f{final_path, hidden_sibling(final_path, "run"), key, -1, false};
   f.slot = register_temp(f.staged);
   files_.push_back(std::move(f));
   return files_.back().staged;
@@ -277,13 +354,13 @@ void OutputSet::commit() {
   // before the first rename, so no output appears.
   for (const auto& f : files_) {
     std::error_code ec;
-    if (fs::exists(f.staged, ec) && fs::is_directory(f.final_path, ec))
+    if (!f.in_place && fs::exists(f.staged, ec) && fs::is_directory(f.final_path, ec))
       throw Error(f.final_path + ": is a directory, cannot write the output there");
   }
   std::vector<std::string> placed;
   for (auto& f : files_) {
     std::error_code ec;
-    if (!fs::exists(f.staged, ec)) continue;
+    if (f.in_place || !fs::exists(f.staged, ec)) continue;
     fs::rename(f.staged, f.final_path, ec);
     if (ec) {
       // Any other failure: take back the outputs already placed (their
@@ -303,7 +380,7 @@ void OutputSet::commit() {
 void OutputSet::discard() noexcept {
   for (auto& f : files_) {
     std::error_code ec;
-    fs::remove(f.staged, ec);
+    if (!f.in_place) fs::remove(f.staged, ec);
     unregister_temp(f.slot);
   }
   files_.clear();
@@ -316,19 +393,25 @@ void OutputSet::discard() noexcept {
   created_dirs_.clear();
 }
 
+std::string OutputSet::final_names(std::string text) const {
+  for (const auto& f : files_) {
+    if (f.in_place) continue;
+    for (std::size_t at = 0; (at = text.find(f.staged, at)) != std::string::npos; at += f.final_path.size())
+      text.replace(at, f.staged.size(), f.final_path);
+  }
+  return text;
+}
+
 std::vector<std::string> OutputSet::staged() const {
   std::vector<std::string> out;
-  for (const auto& f : files_) out.push_back(f.staged);
+  for (const auto& f : files_)
+    if (!f.in_place) out.push_back(f.staged);
   return out;
 }
 
 void write_text_atomic(const std::string& path, const std::string& text) {
   AtomicFile f(path);
-  {
-    std::ofstream out(f.temp_path(), std::ios::binary);
-    out << text;
-    if (!out) throw InputError(path, "cannot write file");
-  }
+  write_file_bytes(f.temp_path(), path, text.data(), text.size());
   f.commit();
 }
 

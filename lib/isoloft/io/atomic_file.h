@@ -5,6 +5,11 @@
 // and staged path is also held in a process-wide registry that a signal
 // handler (remove_temp_files_on_signals) unlinks, so SIGINT, SIGTERM and
 // SIGHUP leave none either.
+//
+// A path that is a character device or a FIFO (/dev/null, a pipe), or any
+// file reached through /dev or /proc (/dev/stdout redirected to a file), is written in place: no temp file and no rename, which would replace
+// the node itself (as root, /dev/null for every process). Such an output
+// appears as it is written, not at the end with the others.
 #pragma once
 
 #include <string>
@@ -12,6 +17,25 @@
 #include <vector>
 
 namespace isoloft {
+
+/// What an output path names now (symbolic links followed).
+enum class OutputNode {
+  Missing,    ///< nothing there yet
+  Regular,    ///< a regular file: replaced by rename
+  Directory,  ///< cannot be a file output
+  Stream,     ///< a character device or FIFO, or any file reached through /dev or /proc (/dev/stdout): written in place
+  Other,      ///< a block device or socket: refused
+};
+[[nodiscard]] OutputNode output_node(const std::string& path);
+
+/// "a block device", "a socket", "a directory", ...: what `path` is, for messages.
+[[nodiscard]] std::string node_kind(const std::string& path);
+
+/// Writes `size` bytes to `file` (created or truncated; a device or FIFO
+/// written as it is); messages name `path`.
+/// \throw InputError naming `path` and the errno text ("No space left on
+///        device", "Read-only file system") if it cannot be written.
+void write_file_bytes(const std::string& file, const std::string& path, const void* data, std::size_t size);
 
 /// Creates the parent directories of path. \throw Error naming the directory.
 void ensure_parent_dir(const std::string& path);
@@ -24,7 +48,9 @@ void ensure_parent_dir(const std::string& path);
 /// removes the temp file unless committed.
 class AtomicFile {
  public:
-  /// Creates the parent directory (ensure_parent_dir); the writer creates the file.
+  /// Creates the parent directory (ensure_parent_dir); the writer creates the
+  /// file. A device or FIFO (OutputNode::Stream) is its own temp path.
+  /// \throw Error naming the path if it is a block device or a socket.
   explicit AtomicFile(std::string final_path);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
@@ -44,6 +70,7 @@ class AtomicFile {
   std::string temp_;
   int slot_ = -1;  // in the signal registry
   bool committed_ = false;
+  bool in_place_ = false;  // a device or FIFO: written directly, never renamed or removed
 };
 
 /// Writes text to `path` atomically (temp file + rename).
@@ -80,9 +107,10 @@ class OutputSet {
   /// run goes on unlocked.
   /// \throw Error naming the output and the other run's pid if one holds it.
   void lock(const std::string& output);
-  /// The path to write `final_path` to.
-  /// \throw Error if its directory cannot be created, or if the run already
-  ///        writes that file (by this name or another: "out/x", "./out/x").
+  /// The path to write `final_path` to (itself for a device or FIFO).
+  /// \throw Error if its directory cannot be created, if the run already
+  ///        writes that file (by this name or another: "out/x", "./out/x"),
+  ///        or if it is a block device or a socket.
   std::string stage(const std::string& final_path);
   /// Creates directory `dir` (and its parents) as an output: removed again
   /// by discard() if the run fails and it is still empty.
@@ -95,6 +123,9 @@ class OutputSet {
   /// Removes the staged files and the directories created for them (when
   /// empty), releases the lock (also called by the destructor).
   void discard() noexcept;
+  /// `text` with every staged path replaced by its final path: a writer's
+  /// error as the user named the file, never a hidden staged name.
+  [[nodiscard]] std::string final_names(std::string text) const;
   /// The staged paths not yet committed (e.g. for a signal handler).
   [[nodiscard]] std::vector<std::string> staged() const;
 
@@ -103,6 +134,7 @@ class OutputSet {
     std::string final_path, staged;
     std::string key;  // the final path, absolute with links resolved: one file, one key
     int slot;         // in the signal registry
+    bool in_place;    // a device or FIFO: written directly (staged == final_path)
   };
   void unlock() noexcept;
   std::vector<File> files_;

@@ -50,20 +50,33 @@ bool numbers(DcmDataset& d, const DcmTagKey& tag, double* out, int n) {
   return true;
 }
 
+// A DICOM image (it has Rows and Columns) whose image plane is incomplete.
+struct Planeless {
+  std::string file, series, missing;  // missing: the attributes' names
+};
+
 // The header of `file` if it is a DICOM image with an image plane; nullopt
-// for a DICOM file without one (an RT Structure Set, a DICOMDIR).
-std::optional<SliceHeader> read_header(const std::string& file) {
+// for a DICOM file without one (an RT Structure Set, a DICOMDIR), and then,
+// if it is an image all the same, what it lacks in `planeless`.
+std::optional<SliceHeader> read_header(const std::string& file, std::optional<Planeless>* planeless = nullptr) {
   DcmFileFormat ff;
-  if (ff.loadFileUntilTag(file.c_str(), EXS_Unknown, EGL_noChange, DCM_MaxReadLength, ERM_autoDetect, DCM_PixelData).bad())
-    throw InputError(file, "not a readable DICOM file");
+  if (const OFCondition st = ff.loadFileUntilTag(file.c_str(), EXS_Unknown, EGL_noChange, DCM_MaxReadLength,
+                                                 ERM_autoDetect, DCM_PixelData);
+      st.bad())
+    throw InputError(file, std::string("not a readable DICOM file (") + st.text() + ")");
   DcmDataset& d = *ff.getDataset();
   SliceHeader h;
   double pos[3], dir[6], spacing[2];
   Uint16 rows = 0, columns = 0;
-  if (!numbers(d, DCM_ImagePositionPatient, pos, 3) || !numbers(d, DCM_ImageOrientationPatient, dir, 6) ||
-      !numbers(d, DCM_PixelSpacing, spacing, 2) || d.findAndGetUint16(DCM_Rows, rows).bad() ||
-      d.findAndGetUint16(DCM_Columns, columns).bad())
+  const bool image = d.findAndGetUint16(DCM_Rows, rows).good() && d.findAndGetUint16(DCM_Columns, columns).good();
+  std::string missing;
+  if (!numbers(d, DCM_ImagePositionPatient, pos, 3)) missing += "ImagePositionPatient";
+  if (!numbers(d, DCM_ImageOrientationPatient, dir, 6)) missing += (missing.empty() ? "" : ", ") + std::string("ImageOrientationPatient");
+  if (!numbers(d, DCM_PixelSpacing, spacing, 2)) missing += (missing.empty() ? "" : ", ") + std::string("PixelSpacing");
+  if (!image || !missing.empty()) {
+    if (image && planeless) *planeless = Planeless{file, text(d, DCM_SeriesInstanceUID), missing};
     return std::nullopt;
+  }
   h.file = file;
   h.series = text(d, DCM_SeriesInstanceUID);
   h.modality = text(d, DCM_Modality);
@@ -111,16 +124,26 @@ DicomSeries read_dicom_series(const std::string& path) {
     if (e.is_regular_file(ec)) names.push_back(e.path().string());
   std::sort(names.begin(), names.end());
   std::map<std::string, std::vector<SliceHeader>> series;
+  std::vector<Planeless> planeless;  // images that cannot be placed
   for (const std::string& f : names) {
     if (!is_dicom_file(f)) continue;
     std::optional<SliceHeader> h;
+    std::optional<Planeless> lacks;
     try {
-      h = read_header(f);
+      h = read_header(f, &lacks);
     } catch (const InputError&) {
       continue;  // an unreadable file beside the series is not one of its slices
     }
     if (h && (wanted.empty() || h->series == wanted)) series[h->series].push_back(std::move(*h));
+    if (lacks) planeless.push_back(std::move(*lacks));
   }
+  // An image of the series without its plane: once dropped silently (18
+  // slices for 19 images), a gap in the grid nobody saw.
+  for (const Planeless& p : planeless)
+    if (series.count(p.series))
+      throw InputError(p.file, "an image of the series " + p.series + " without " + p.missing +
+                                   ": its slice cannot be placed (" + std::to_string(series[p.series].size()) +
+                                   " other images in " + dir.string() + "); fix or remove it");
   if (series.empty()) throw InputError(path, "no DICOM image with an image plane (ImagePositionPatient, ImageOrientationPatient, PixelSpacing) in " + dir.string());
   if (series.size() > 1) {
     std::ostringstream o;

@@ -53,6 +53,12 @@ bool is_true(const std::string& v) {
   return l == "true" || l == "1";
 }
 
+bool is_false(const std::string& v) {
+  std::string l = v;
+  std::transform(l.begin(), l.end(), l.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return l == "false" || l == "0";
+}
+
 // ASCII samples (BinaryData = False): count whitespace-separated numbers,
 // each checked against the element type, as native-endian elements of it.
 std::vector<unsigned char> ascii_samples(const std::string& file, const unsigned char* p, std::size_t size,
@@ -206,6 +212,8 @@ Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) 
   if (const auto* b = get("ElementByteOrderMSB")) big = is_true(*b);
   const bool compressed = get("CompressedData") && is_true(*get("CompressedData"));
   const bool binary = !get("BinaryData") || is_true(*get("BinaryData"));  // MetaIO's default: binary
+  if (const auto* b = get("BinaryData"); b && !binary && !is_false(*b))
+    throw InputError(mhd, "BinaryData = '" + *b + "' is neither True nor False");
   if (!binary && compressed) throw InputError(mhd, "ASCII data (BinaryData = False) cannot be compressed");
 
   const std::size_t count = detail::checked_voxel_count(v.nx, v.ny, v.nz, mhd);

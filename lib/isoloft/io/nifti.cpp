@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -284,7 +285,6 @@ void write_nifti(const std::string& path, const Volume& v) {
                                          nim->qoffset_z, nim->dx, nim->dy, nim->dz, nim->qfac);
   nim->qto_ijk = nifti_dmat44_inverse(nim->qto_xyz);
   std::vector<unsigned char> data = detail::encode_scalars(v, type);
-  nim->data = data.data();
   AtomicFile file(path);
   nim->nifti_type = NIFTI_FTYPE_NIFTI1_1;
   if (nifti_set_filenames(nim.get(), file.temp_path().c_str(), 0, 1) != 0) {
@@ -292,8 +292,22 @@ void write_nifti(const std::string& path, const Volume& v) {
     throw Error(path + ": not a NIfTI file name (use .nii or .nii.gz)");
   }
   nim->nifti_type = NIFTI_FTYPE_NIFTI1_1;  // nifti_set_filenames resets it
-  nifti_image_write(nim.get());
+  // The header by niftilib (write option 2: no data, the file left open), the
+  // voxels by us: nifti_image_write() returns nothing, so a full disk would
+  // leave a truncated file behind a run that exits 0.
   nim->data = nullptr;  // ours, not niftilib's to free
+  errno = 0;
+  znzFile fp = nifti_image_write_hdr_img(nim.get(), 2, "wb");
+  if (znz_isnull(fp))
+    throw InputError(path, std::string("cannot write the NIfTI header (") + std::strerror(errno ? errno : EIO) + ")");
+  const std::size_t written = znzwrite(data.data(), 1, data.size(), fp);
+  const int write_errno = errno;
+  const int closed = znzclose(fp);
+  const int close_errno = errno;
+  if (written != data.size() || closed != 0) {
+    const int err = written != data.size() ? write_errno : close_errno;
+    throw InputError(path, std::string("cannot write file (") + std::strerror(err ? err : EIO) + ")");
+  }
   file.commit();
 }
 

@@ -4,16 +4,22 @@
 #include "dcmtk/config/osconfig.h"
 #include "dcmtk/dcmdata/dcdeftag.h"
 #include "dcmtk/dcmdata/dcfilefo.h"
+#include "dcmtk/dcmdata/dcistrmb.h"
 #include "dcmtk/dcmdata/dcuid.h"
 #include "dcmtk/dcmrt/drtstrct.h"
+#include "dcmtk/oflog/appender.h"
+#include "dcmtk/oflog/spi/logevent.h"
 #include "dcmtk/oflog/oflog.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -24,6 +30,7 @@
 #include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/file_util.h"
+#include "isoloft/io/text.h"
 
 namespace isoloft {
 
@@ -81,6 +88,21 @@ std::string shared_number_error(const RtStructureSet& set, const RtRoi& roi) {
     if (r.number == roi.number) same.push_back(&r);
   return "ROI number " + std::to_string(roi.number) + " is used by " + std::to_string(same.size()) + " ROIs (" +
          quoted_names(same, false) + "): their contours cannot be told apart";
+}
+
+// An ROINumber or ReferencedROINumber (DICOM IS: -2^31 .. 2^31-1): a
+// larger one is refused, never wrapped onto another ROI's number.
+Sint32 roi_number_of(const OFString& text, const std::string& path, const std::string& what) {
+  const std::string t = rtrim(text.c_str());
+  const std::size_t start = t.find_first_not_of(' ');
+  if (start == std::string::npos) return -1;  // missing: no ROI refers to it
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(t.c_str() + start, &end, 10);
+  if (end == t.c_str() + start || *end != '\0' || errno == ERANGE || v < std::numeric_limits<Sint32>::min() ||
+      v > std::numeric_limits<Sint32>::max())
+    throw InputError(path, what + " '" + t.substr(start) + "' is not a DICOM integer (IS: -2^31 .. 2^31-1)");
+  return Sint32(v);
 }
 
 // A whole decimal number, as ROINumber is written.
@@ -175,12 +197,60 @@ bool is_dicom_file(const std::string& path) {
   return in.read(buf, sizeof buf) && std::memcmp(buf + 128, "DICM", 4) == 0;
 }
 
+namespace {
+
+// DCMTK's dcmrt names the attribute a structure set lacks only in its log
+// (silenced, see read_rtstruct): caught while one is built, for the error.
+class LogLines : public dcmtk::log4cplus::Appender {
+ public:
+  std::string text;
+  void close() override {}
+
+ protected:
+  void append(const dcmtk::log4cplus::spi::InternalLoggingEvent& e) override {
+    text += (text.empty() ? "" : "; ") + std::string(e.getMessage().c_str());
+  }
+};
+
+// Runs `build`; returns dcmrt's warnings and errors logged meanwhile.
+template <class F>
+std::string dcmrt_log(F&& build) {
+  static std::mutex m;  // one logger for the process
+  const std::lock_guard lock(m);
+  dcmtk::log4cplus::Logger logger = dcmtk::log4cplus::Logger::getInstance("dcmtk.dcmrt");
+  auto* lines = new LogLines;
+  const dcmtk::log4cplus::SharedAppenderPtr appender(lines);
+  const auto level = logger.getLogLevel();
+  const bool additive = logger.getAdditivity();
+  logger.setLogLevel(dcmtk::log4cplus::WARN_LOG_LEVEL);
+  logger.setAdditivity(false);  // not on stderr as well
+  logger.addAppender(appender);
+  build();
+  logger.removeAppender(appender);
+  logger.setAdditivity(additive);
+  logger.setLogLevel(level);
+  return lines->text;
+}
+
+// A DICOM file parsed from its bytes (read once, never again from disk).
+OFCondition load_dicom(DcmFileFormat& ff, const std::vector<unsigned char>& bytes) {
+  DcmInputBufferStream in;
+  in.setBuffer(bytes.data(), offile_off_t(bytes.size()));
+  in.setEos();
+  ff.transferInit();
+  const OFCondition st = ff.read(in);
+  ff.transferEnd();
+  return st;
+}
+
+}  // namespace
+
 RtStructureSet read_rtstruct(const std::string& path) {
-  (void)detail::read_file_bytes(path, 0);  // a missing or unreadable file named as such
+  std::vector<unsigned char> bytes = detail::read_file_bytes(path, 0);  // a missing or unreadable file named as such
   static std::once_flag quiet;
   std::call_once(quiet, [] { OFLog::configure(OFLogger::FATAL_LOG_LEVEL); });  // we say what is wrong
   DcmFileFormat ff;
-  OFCondition st = ff.loadFile(path.c_str());
+  OFCondition st = load_dicom(ff, bytes);
   if (st.bad()) throw InputError(path, std::string("not a readable DICOM file (") + st.text() + ")");
   OFString sop;
   ff.getDataset()->findAndGetOFString(DCM_SOPClassUID, sop);
@@ -192,26 +262,31 @@ RtStructureSet read_rtstruct(const std::string& path) {
   if (st.bad()) throw InputError(path, std::string("not a valid RT Structure Set (") + st.text() + ")");
 
   RtStructureSet out;
+  out.bytes = std::move(bytes);
   std::map<Sint32, std::size_t> by_number;
   // Sequences are read by index: DCMTK's gotoNextItem() loops visit one empty item too many.
   DRTStructureSetROISequence& rois = rt->getStructureSetROISequence();
   for (std::size_t i = 0; i < rois.getNumberOfItems(); ++i) {
     Sint32 number = -1;
     OFString name, frame;
-    rois.getItem(i).getROINumber(number);
+    OFString number_text;
     rois.getItem(i).getROIName(name);
+    rois.getItem(i).getROINumber(number_text);
+    number = roi_number_of(number_text, path, "ROI '" + rtrim(name.c_str()) + "': ROINumber");
     rois.getItem(i).getReferencedFrameOfReferenceUID(frame);
     if (out.frame_of_reference.empty()) out.frame_of_reference = frame.c_str();
     const auto [it, added] = by_number.try_emplace(number, out.rois.size());
     out.rois.push_back({int(number), rtrim(name.c_str()), std::nullopt, {}});
+    out.rois.back().frame_of_reference = rtrim(frame.c_str());
     if (!added) out.rois[it->second].number_shared = out.rois.back().number_shared = true;
   }
   if (out.rois.empty()) throw InputError(path, "the RT Structure Set holds no ROI");
   DRTROIContourSequence& contours = rt->getROIContourSequence();
   for (std::size_t r = 0; r < contours.getNumberOfItems(); ++r) {
     auto& item = contours.getItem(r);
-    Sint32 ref = -1;
-    item.getReferencedROINumber(ref);
+    OFString ref_text;
+    item.getReferencedROINumber(ref_text);
+    const Sint32 ref = roi_number_of(ref_text, path, "ROIContourSequence item " + std::to_string(r + 1) + ": ReferencedROINumber");
     const auto it = by_number.find(ref);
     if (it == by_number.end()) {  // contours of no listed ROI: nobody's name, colour or number to give them
       out.unlisted_contours[int(ref)] += int(item.getContourSequence().getNumberOfItems());
@@ -400,9 +475,12 @@ SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& p
   const double s = grid.voxel_size;
   const double wx = std::ceil((xhi - xlo) / s) + 2.0 * grid.margin + 1, wy = std::ceil((yhi - ylo) / s) + 2.0 * grid.margin + 1;
   constexpr double kMaxGrid = 1 << 15;  // pixels across: a 32768^2 working grid is surely a wrong voxel size
-  if (wx > kMaxGrid || wy > kMaxGrid)
-    throw ParamError(option_name("--voxel-size") + " " + std::to_string(s) + " mm: " + what + " would need a " + std::to_string(long(wx)) +
-                     " x " + std::to_string(long(wy)) + " pixel grid");
+  if (!(wx <= kMaxGrid && wy <= kMaxGrid)) {  // as doubles: a long cast of 1e300 printed -9223372036854775808
+    char size[64];
+    std::snprintf(size, sizeof size, "%.4g x %.4g", wx, wy);
+    throw ParamError(option_name("--voxel-size") + " " + detail::shortest_text(s) + " mm: " + what + " would need a " +
+                     size + " pixel grid");
+  }
   SliceStack st;
   st.kind = InputKind::Polylines;
   st.width = int(wx);
@@ -507,9 +585,10 @@ std::string new_uid(const char* root) {
 }  // namespace
 
 void write_rtstruct(const std::string& path, const std::string& source, const std::vector<RtRoiContours>& rois,
-                    const std::string& label) {
+                    const std::string& label, const std::vector<unsigned char>* source_bytes) {
   DcmFileFormat ff;
-  if (ff.loadFile(source.c_str()).bad()) throw InputError(source, "not a readable DICOM file");
+  if (load_dicom(ff, source_bytes ? *source_bytes : detail::read_file_bytes(source)).bad())
+    throw InputError(source, "not a readable DICOM file");
   auto rt = std::make_unique<DRTStructureSetIOD>();
   if (rt->read(*ff.getDataset()).bad()) throw InputError(source, "not a valid RT Structure Set");
   std::map<Sint32, const RtRoiContours*> keep;
@@ -604,14 +683,19 @@ void write_rtstruct(const std::string& path, const std::string& source, const st
     }
   }
   DcmFileFormat outf;
-  if (rt->write(*outf.getDataset()).bad()) throw InputError(path, "cannot build the RT Structure Set (DCMTK)");
+  OFCondition built;
+  const std::string why = dcmrt_log([&] { built = rt->write(*outf.getDataset()); });
+  if (built.bad())
+    throw InputError(path, "cannot build the RT Structure Set from " + source + " (" + (why.empty() ? built.text() : why) + ")");
   outf.getDataset()->putAndInsertString(DCM_PositionReferenceIndicator, "", OFFalse);
   outf.getDataset()->putAndInsertString(DCM_OperatorsName, "", OFFalse);
   AtomicFile f(path);
   // Implicit VR Little Endian, as planning systems write: every element keeps
   // its VR (Explicit VR's 16-bit length would turn a DS over 65,534 bytes,
   // a long contour's data, into UN).
-  if (outf.saveFile(f.temp_path().c_str(), EXS_LittleEndianImplicit).bad()) throw InputError(path, "cannot write file");
+  errno = 0;
+  if (const OFCondition st = outf.saveFile(f.temp_path().c_str(), EXS_LittleEndianImplicit); st.bad())
+    throw InputError(path, std::string("cannot write file (") + (errno ? std::strerror(errno) : st.text()) + ")");
   f.commit();
 }
 

@@ -37,6 +37,7 @@ struct RtRoi {
   /// Another ROI has the same number: contours referring to it cannot be
   /// told apart, so none is assigned (selecting this ROI is an error).
   bool number_shared = false;
+  std::string frame_of_reference;  ///< ReferencedFrameOfReferenceUID ("" if none)
   [[nodiscard]] int closed_contours() const;
 };
 
@@ -46,6 +47,9 @@ struct RtStructureSet {
   /// ROI numbers that ROIContourSequence items refer to but the
   /// StructureSetROISequence does not list, with their contour counts (not read).
   std::map<int, int> unlisted_contours;
+  /// The file's bytes as read: write_rtstruct() derives from them, so the
+  /// file is read once (a file changed meanwhile never mixes into the output).
+  std::vector<unsigned char> bytes;
   /// The ROI named `name` (exact, then ignoring case), or nullptr (the first of duplicates).
   [[nodiscard]] const RtRoi* find(const std::string& name) const;
   /// ROIs by name (exact, then ignoring case) or number, in the order asked.
@@ -139,9 +143,10 @@ struct RtRoiContours {
 /// set lacks are added (FrameOfReferenceUID from the referenced frame,
 /// empty PositionReferenceIndicator, empty OperatorsName). Written to a temp
 /// file and renamed.
-/// \throw InputError naming `source` (unreadable) or `path` (not writable).
+/// `source_bytes`: the source as read (RtStructureSet::bytes), else it is read from `source`.
+/// \throw InputError naming `source` (unreadable) or `path` (not writable, with the errno text).
 void write_rtstruct(const std::string& path, const std::string& source, const std::vector<RtRoiContours>& rois,
-                    const std::string& label);
+                    const std::string& label, const std::vector<unsigned char>* source_bytes = nullptr);
 
 /// The input contour planes (patient z, mm) of a stack from roi_stack(): its
 /// slices with contours, the two slices of a one-plane ROI as their middle.

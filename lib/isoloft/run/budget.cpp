@@ -1,6 +1,7 @@
 #include "isoloft/run/budget.h"
 
 #include <tbb/task_arena.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -43,7 +44,8 @@ double parse_size(const std::string& text, const std::string& option) {
 
 std::string size_text(double bytes) {
   char buf[64];
-  if (bytes >= 1024.0 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.3g GiB", bytes / (1024.0 * 1024 * 1024));
+  if (bytes >= 1024.0 * 1024 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.3g TiB", bytes / (1024.0 * 1024 * 1024 * 1024));
+  else if (bytes >= 1024.0 * 1024 * 1024) std::snprintf(buf, sizeof buf, "%.3g GiB", bytes / (1024.0 * 1024 * 1024));
   else std::snprintf(buf, sizeof buf, "%.3g MiB", bytes / (1024.0 * 1024));
   return buf;
 }
@@ -52,6 +54,19 @@ void check_budget(const std::string& option, const std::string& what, double nee
   if (limit > 0 && need > limit)
     throw ParamError(option + ": " + what + " needs about " + size_text(need) + ", over the budget of " +
                      size_text(limit) + " (raise " + option + ", or 0 for no limit)");
+}
+
+double physical_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? double(pages) * double(page) : 0.0;
+}
+
+void check_held_memory(const std::string& option, const std::string& what, double need, double limit) {
+  if (limit > 0) return check_budget(option, what, need, limit);
+  const double machine = physical_memory_bytes();
+  if (machine > 0 && need > machine)
+    throw ParamError(what + " needs about " + size_text(need) + ", more than this machine's memory (" +
+                     size_text(machine) + "), even with " + option + " 0 (no limit)");
 }
 
 double stack_bytes(const SliceStack& st) {

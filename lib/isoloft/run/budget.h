@@ -53,6 +53,20 @@ double stack_bytes(const SliceStack& stack);
 /// volume input's voxels.
 double input_bytes(const Inputs& in);
 
+/// Bytes a label map holds per voxel of its grid when it is written: its
+/// float volume (4) and the encoded copy the writer makes (int32 at most, 4),
+/// plus the objects' inside bits (a byte per voxel, one object's worth).
+inline constexpr double kLabelmapBytesPerVoxel = 9;
+
+/// This machine's physical memory in bytes (0 if unknown).
+double physical_memory_bytes();
+
+/// check_budget(), and with no limit (0) the machine's physical memory is the
+/// limit: for what a run must hold whatever its objects (a label map on a
+/// 65535 x 65535 x 100 grid), an error before the work instead of running
+/// out of memory at its end. \throw ParamError naming `option`.
+void check_held_memory(const std::string& option, const std::string& what, double need, double limit);
+
 /// Bytes per triangle of a mesh file: binary STL (50, the largest binary
 /// format) and ASCII STL (~250, the largest text one), upper bounds for PLY,
 /// OBJ and OFF.

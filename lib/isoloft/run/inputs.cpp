@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <utility>
@@ -13,6 +14,7 @@
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/io/slice_images.h"
+#include "isoloft/io/text.h"
 #include "isoloft/run/budget.h"
 
 namespace fs = std::filesystem;
@@ -90,6 +92,9 @@ VolumeSlicing volume_slicing(const InputRequest& r) {
 // A volume read or given, sliced along its annotated axis; `path` names it in
 // messages. `sliced`: the stack already read from the file's samples (then
 // `volume` holds the geometry alone).
+// 2^24: the first integer after which float32 skips integers.
+constexpr float kFloatLabelLimit = 16777216.0f;
+
 Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& r,
                     std::optional<VolumeStack> sliced = std::nullopt) {
   Inputs in;
@@ -102,6 +107,17 @@ Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& 
     if (!whole)
       throw InputError(path, "a float volume with non-integer values is not a label map: give " +
                                  option_given("--input", "masks") + " to take every non-zero voxel as inside");
+  }
+  // Labels stored as floats: from 2^24 on a float32 steps by 2 or more
+  // (16777217 is stored as 16777216), so labels there may already have merged.
+  if (r.kind != "masks" && !in.volume->integer && in.volume->value_table.empty()) {
+    const auto big = std::find_if(in.volume->data.begin(), in.volume->data.end(),
+                                  [](float v) { return std::abs(v) >= kFloatLabelLimit; });
+    if (big != in.volume->data.end())
+      throw InputError(path, "float voxels hold label " + detail::shortest_text(*big) +
+                                 ", at or above 2^24 where float32 cannot tell neighbouring integers apart (16777217 is "
+                                 "stored as 16777216): store the labels as integers (int32), or give " +
+                                 option_given("--input", "masks"));
   }
   in.slicing = std::make_unique<VolumeStack>(sliced ? std::move(*sliced) : volume_stack(*in.volume, slicing, path));
   for (auto& w : in.slicing->warnings) in.warnings.push_back(w);
@@ -198,6 +214,26 @@ std::pair<double, double> largest_loop_size(const RtRoi& roi) {
   return {thickness, extent};
 }
 
+// ROIs on different frames of reference are in different patient spaces,
+// and a structure set holds no registration between them: one mesh file, one
+// label map or one RT output would put them in one space, silently wrong. An
+// error (not a warning) naming each frame's ROIs; --roi picks one frame's.
+void check_one_frame(const std::vector<const RtRoi*>& rois, const std::string& path) {
+  std::map<std::string, std::vector<std::string>> by_frame;  // ROIs without a frame take the others'
+  for (const RtRoi* roi : rois)
+    if (!roi->frame_of_reference.empty()) by_frame[roi->frame_of_reference].push_back("'" + roi->name + "'");
+  if (by_frame.size() < 2) return;
+  std::string list;
+  for (const auto& [frame, names] : by_frame) {
+    list += list.empty() ? "" : "; ";
+    for (std::size_t i = 0; i < names.size(); ++i) list += (i ? ", " : "") + names[i];
+    list += " on " + frame;
+  }
+  throw InputError(path, "the ROIs are on different frames of reference (" + list +
+                             "): their coordinates are in different patient spaces and the file holds no registration "
+                             "between them; select the ROIs of one frame with " + option_name("--roi"));
+}
+
 Inputs read_rtstruct_input(const InputRequest& r) {
   Inputs in;
   const std::string& path = r.paths[0];
@@ -213,6 +249,8 @@ Inputs read_rtstruct_input(const InputRequest& r) {
   if (r.voxel_size) grid.voxel_size = *r.voxel_size;
   grid.plane_spacing = typical_plane_spacing(set);
   const std::vector<const RtRoi*> chosen = r.rois.empty() ? set.with_contours(path, in.warnings) : set.select(r.rois, path);
+  check_one_frame(chosen, path);
+  std::vector<std::string> skipped;  // each ROI not reconstructed and why
   for (const RtRoi* roi : chosen) {
     std::vector<std::string> warnings;
     RoiGrid g = grid;
@@ -230,7 +268,7 @@ Inputs read_rtstruct_input(const InputRequest& r) {
           std::ostringstream o;
           o << path << ": ROI '" << roi->name << "': working grid " << g.voxel_size << " mm instead of "
             << grid.voxel_size << " mm, so that its mesh stays within " << long(kRtMeshBudget)
-            << " triangles (about " << long(triangles) << " at " << grid.voxel_size << " mm; "
+            << " triangles (about " << detail::shortest_text(std::round(triangles)) << " at " << grid.voxel_size << " mm; "
             << option_name("--voxel-size") << " sets the grid; the report's contour_vertex_distance is its error)";
           in.warnings.push_back(o.str());
         }
@@ -248,10 +286,15 @@ Inputs read_rtstruct_input(const InputRequest& r) {
     } catch (const InputError& e) {
       if (!r.rois.empty()) throw;  // asked for by name: its problem is the run's
       in.warnings.push_back(std::string(e.what()) + ": skipped");
+      skipped.push_back(e.problem);  // names the ROI
     }
     for (auto& w : warnings) in.warnings.push_back(std::move(w));
   }
-  if (in.jobs.empty()) throw InputError(path, "no ROI could be reconstructed");
+  if (in.jobs.empty()) {
+    std::string why;
+    for (const std::string& s : skipped) why += (why.empty() ? "" : "; ") + s;
+    throw InputError(path, "no ROI could be reconstructed" + (why.empty() ? std::string() : " (" + why + ")"));
+  }
   return in;
 }
 

@@ -1,12 +1,19 @@
 #include "isoloft/run/outputs.h"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <Eigen/Dense>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <map>
+#include <optional>
 #include <filesystem>
 #include <sstream>
 
@@ -103,6 +110,97 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
     write_mesh(combined_path, combined, co);
   };
   tbb::parallel_invoke(write_objects, write_combined);
+}
+
+// ---------------------------------------------------------------- output paths
+
+namespace {
+
+// One file on disk: device and inode (what hard and symbolic links share).
+using FileId = std::pair<dev_t, ino_t>;
+
+std::optional<FileId> file_id(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  return FileId{st.st_dev, st.st_ino};
+}
+
+// A file the run reads, as the message names it ("the input file a.dcm").
+struct ReadEntry {
+  std::string text, key;
+  std::optional<FileId> id;
+};
+
+void add_read(std::vector<ReadEntry>& out, const std::string& text, const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {  // a folder of slices or a DICOM series: every file in it
+    for (const auto& e : fs::directory_iterator(path, ec))
+      if (std::error_code rc; e.is_regular_file(rc)) add_read(out, text + " (" + path + ")", e.path().string());
+    return;
+  }
+  out.push_back({text + " " + path, output_key(path), file_id(path)});
+}
+
+// Why a file cannot be written at `path` before any work, or "": the
+// nearest existing folder above it must be writable (rename needs it too).
+std::string unwritable(const std::string& path) {
+  fs::path dir = fs::absolute(path).parent_path();
+  std::error_code ec;
+  while (!fs::exists(dir, ec) && dir.has_parent_path() && dir != dir.parent_path()) dir = dir.parent_path();
+  if (!fs::is_directory(dir, ec)) return dir.string() + " is not a folder";
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) return "cannot write in " + dir.string() + " (" + std::strerror(errno) + ")";
+  return {};
+}
+
+}  // namespace
+
+void check_output_paths(const Inputs& in, const std::vector<ReadFile>& reads, const std::vector<PlannedFile>& files,
+                        const std::vector<PlannedFile>& dirs) {
+  std::vector<ReadEntry> read;
+  for (const std::string& f : in.files) add_read(read, "the input", f);
+  for (const ReadFile& r : reads)
+    if (!r.path.empty()) add_read(read, "the " + option_name(r.option) + " file", r.path);
+  auto refuse = [](const PlannedFile& f, const std::string& why) {
+    return ParamError(option_name(f.option) + " " + f.path + ": " + why);
+  };
+  auto check_not_read = [&](const PlannedFile& f, const std::string& key, const std::optional<FileId>& id) {
+    for (const ReadEntry& r : read)
+      if (key == r.key || (id && id == r.id))
+        throw refuse(f, "is " + r.text + "; an output never replaces a file the run reads: give another path");
+  };
+  for (const PlannedFile& d : dirs) {
+    const OutputNode node = output_node(d.path);
+    if (node != OutputNode::Missing && node != OutputNode::Directory)
+      throw refuse(d, "is " + node_kind(d.path) + ", not a folder; give a folder path");
+    if (node == OutputNode::Missing)
+      if (const std::string why = unwritable(d.path + "/x"); !why.empty()) throw refuse(d, why);
+  }
+  std::map<std::string, const PlannedFile*> by_key;
+  std::map<FileId, const PlannedFile*> by_id;
+  for (const PlannedFile& f : files) {
+    const OutputNode node = output_node(f.path);
+    if (node == OutputNode::Directory || node == OutputNode::Other)
+      throw refuse(f, "is " + node_kind(f.path) +
+                          ", not a regular file; give a file path (a character device or FIFO, such as /dev/null, is "
+                          "written in place)");
+    const std::string key = output_key(f.path);
+    const std::optional<FileId> id = node == OutputNode::Missing ? std::nullopt : file_id(f.path);
+    check_not_read(f, key, id);
+    const auto [it, fresh] = by_key.emplace(key, &f);
+    const PlannedFile* other = !fresh ? it->second : nullptr;
+    if (id && !other) {
+      const auto [jt, new_id] = by_id.emplace(*id, &f);
+      if (!new_id) other = jt->second;
+    }
+    if (other)
+      throw ParamError(f.path + ": " + other->what + " and " + f.what +
+                       " would both be written to this file; give them different names");
+    if (node == OutputNode::Stream) {
+      if (::access(f.path.c_str(), W_OK) != 0) throw refuse(f, std::string("cannot write (") + std::strerror(errno) + ")");
+    } else if (const std::string why = unwritable(f.path); !why.empty()) {
+      throw refuse(f, why);
+    }
+  }
 }
 
 // ---------------------------------------------------------------- hooks
@@ -246,9 +344,14 @@ void LabelmapOutput::start_job(const RunContext& ctx, std::size_t, JobHooks& hoo
   });
 }
 
-double LabelmapOutput::file_bytes(const Inputs& in, const WorkEstimate&) const {
+double LabelmapOutput::fixed_file_bytes(const Inputs& in) const {
   const Volume& v = *in.volume;  // its voxels may not be held (read as stored)
   return double(v.nx) * double(v.ny) * double(v.nz) * 4;
+}
+
+double LabelmapOutput::memory_bytes(const Inputs& in) const {
+  const Volume& v = *in.volume;
+  return double(v.nx) * double(v.ny) * double(v.nz) * kLabelmapBytesPerVoxel;
 }
 
 void LabelmapOutput::finish(const RunContext& ctx, RunResult&) {

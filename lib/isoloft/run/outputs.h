@@ -60,10 +60,32 @@ struct PlannedObject {
 /// "label 3", "ROI 'Heart'" or "the object": how messages name it.
 std::string object_text(const Inputs& in, const PlannedObject& o);
 
-/// A file a run will write and what writes it ("the mesh of label 3").
+/// A file a run will write and what writes it ("the mesh of label 3");
+/// `option`: the flag that asks for it (the run fills it in).
 struct PlannedFile {
   std::string path, what;
+  std::string option = {};
 };
+
+/// A file a run reads besides its input (the --params file, a --reference):
+/// the flag that names it and its path (a folder: every file in it).
+struct ReadFile {
+  std::string option, path;
+};
+
+/// Every output of a run resolved before any work, in one place, for every
+/// front end. Refuses with a ParamError naming the flag and the path:
+///  - an output that is a file the run reads: the input (or a file of an
+///    input folder) or one of `reads`, compared by device and inode (hard and
+///    symbolic links) and by resolved path;
+///  - two outputs on one file (resolved path, or device and inode);
+///  - a directory, block device or socket where a file goes (a character
+///    device or FIFO, e.g. /dev/null or /dev/stdout, is written in place);
+///  - a file in a folder the run cannot write (the errno text: "Read-only
+///    file system", "Permission denied"), or under a path that is a file.
+/// `dirs`: output folders (--dump-stages): each must be a folder or missing.
+void check_output_paths(const Inputs& in, const std::vector<ReadFile>& reads, const std::vector<PlannedFile>& files,
+                        const std::vector<PlannedFile>& dirs);
 
 /// How the run's meshes are written: patient mm with the space named, or
 /// pixels times the stack's pixel size.
@@ -135,14 +157,23 @@ class RunOutput {
   virtual void check(const Inputs&, const ReconstructParams&) const {}
   /// Before job `job`'s reconstruct(): its hooks.
   virtual void start_job(const RunContext&, std::size_t /*job*/, JobHooks&) {}
-  /// Bytes this output writes for one object (the --max-output check).
+  /// Bytes this output writes for one object (the --max-output check; the
+  /// run adds them up over the objects).
   [[nodiscard]] virtual double file_bytes(const Inputs&, const WorkEstimate&) const { return 0; }
+  /// Bytes it writes once, whatever the objects (a label map): checked before any work.
+  [[nodiscard]] virtual double fixed_file_bytes(const Inputs&) const { return 0; }
+  /// Bytes it holds at its end, however small the objects (a label map's
+  /// volume and its encoded copy): checked before any work against
+  /// --max-memory, and without a limit against the machine's memory.
+  [[nodiscard]] virtual double memory_bytes(const Inputs&) const { return 0; }
   /// The files it will write for these objects, before any work (the
   /// --max-files count; no two outputs may share a file). Per-slice dumps
   /// are not listed.
   [[nodiscard]] virtual std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const {
     return {};
   }
+  /// A folder it writes into (--dump-stages), "" if none: checked like the files.
+  [[nodiscard]] virtual std::string output_directory() const { return {}; }
   /// Said after the object in a --max-output error (" with --volume").
   [[nodiscard]] virtual std::string budget_note() const { return {}; }
   /// After every job, the surfaces checked: writes what it holds (staged).
@@ -205,7 +236,8 @@ class LabelmapOutput final : public RunOutput {
   [[nodiscard]] std::string target() const override { return path_; }
   void check_format(InputFormat format) const override;
   void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
-  [[nodiscard]] double file_bytes(const Inputs& in, const WorkEstimate&) const override;
+  [[nodiscard]] double fixed_file_bytes(const Inputs& in) const override;
+  [[nodiscard]] double memory_bytes(const Inputs& in) const override;
   [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const override {
     return {{path_, option()}};
   }
@@ -227,6 +259,7 @@ class StageDumpOutput final : public RunOutput {
   explicit StageDumpOutput(std::string dir) : dir_(std::move(dir)) {}
   [[nodiscard]] std::string option() const override { return "--dump-stages"; }
   [[nodiscard]] std::string target() const override { return dir_; }
+  [[nodiscard]] std::string output_directory() const override { return dir_; }
   void check(const Inputs&, const ReconstructParams& params) const override;
   void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
   [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;

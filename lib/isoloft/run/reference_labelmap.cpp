@@ -1,5 +1,7 @@
 #include "isoloft/run/reference_labelmap.h"
 
+#include "isoloft/run/budget.h"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -15,6 +17,7 @@
 #include "isoloft/io/file_util.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/run.h"
+#include "isoloft/run/budget.h"
 
 namespace fs = std::filesystem;
 
@@ -89,7 +92,7 @@ JobMap job_map(const PatientFrame& f, const Volume& g) {
 
 // ---------------------------------------------------------------- the grid
 
-ReferenceGrid read_reference(const std::string& path) {
+ReferenceGrid read_reference(const std::string& path, double max_memory) {
   ReferenceGrid r;
   r.path = path;
   std::error_code ec;
@@ -105,7 +108,13 @@ ReferenceGrid read_reference(const std::string& path) {
     throw InputError(path, "not a reference grid: give a DICOM image series (a folder, or one of its files) or a volume "
                            "(.nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd)");
   detail::check_regular_file(path);
-  r.grid = read_volume(path);
+  VolumeReadOptions options;
+  options.on_header = [&](const VolumeHeader& h) {
+    check_budget(option_name("--max-memory"), "reading the reference grid " + path,
+                 double(h.nx) * double(h.ny) * double(h.nz) * double(h.sample_bytes), max_memory);
+  };
+  options.take_samples = [](const Volume&, const VolumeSamples&) { return true; };  // the geometry alone
+  r.grid = read_volume(path, options);
   r.grid.data.clear();
   r.grid.data.shrink_to_fit();
   r.grid.value_table.clear();
@@ -260,9 +269,14 @@ void ReferenceLabelmapOutput::start_job(const RunContext& ctx, std::size_t job, 
   });
 }
 
-double ReferenceLabelmapOutput::file_bytes(const Inputs&, const WorkEstimate&) const {
+double ReferenceLabelmapOutput::fixed_file_bytes(const Inputs&) const {
   const Volume& g = ref_->grid;
   return double(g.nx) * double(g.ny) * double(g.nz) * 4;
+}
+
+double ReferenceLabelmapOutput::memory_bytes(const Inputs&) const {
+  const Volume& g = ref_->grid;
+  return double(g.nx) * double(g.ny) * double(g.nz) * kLabelmapBytesPerVoxel;
 }
 
 void ReferenceLabelmapOutput::finish(const RunContext& ctx, RunResult& r) {

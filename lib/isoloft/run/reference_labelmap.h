@@ -52,8 +52,11 @@ struct ReferenceGrid {
 /// Reads the grid of `path`: a DICOM image series (a folder, or one of its
 /// files) or a volume (.nii .nii.gz .nrrd .nhdr .mha .mhd; its voxels are
 /// read and dropped).
-/// \throw InputError naming the path (io/dicom_series.h, io/volume.h).
-ReferenceGrid read_reference(const std::string& path);
+/// A volume's voxels are not decoded; their bytes as stored are checked
+/// against `max_memory` (bytes, 0 = no limit) from its header first.
+/// \throw InputError naming the path (io/dicom_series.h, io/volume.h);
+///        ParamError naming --max-memory.
+ReferenceGrid read_reference(const std::string& path, double max_memory = 0);
 
 /// A reference slice may leave the plane of constant working z by this much
 /// (mm) across its extent (direction cosines are rounded decimals; a tilt
@@ -77,7 +80,8 @@ class ReferenceLabelmapOutput final : public RunOutput {
   ///        map would overwrite the reference.
   void check(const Inputs& in, const ReconstructParams& params) const override;
   void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
-  [[nodiscard]] double file_bytes(const Inputs& in, const WorkEstimate&) const override;
+  [[nodiscard]] double fixed_file_bytes(const Inputs& in) const override;
+  [[nodiscard]] double memory_bytes(const Inputs& in) const override;
   [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const override {
     return {{path_, option()}};
   }

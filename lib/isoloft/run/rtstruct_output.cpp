@@ -258,7 +258,7 @@ RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunR
     report.rois.push_back(sum);
     rois.push_back(std::move(out));
   }
-  write_rtstruct(path, in.files.front(), rois, "isoloft");
+  write_rtstruct(path, in.files.front(), rois, "isoloft", &in.rtstruct->bytes);  // the input as read, not read again
   return report;
 }
 
