@@ -8,6 +8,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/core/sanitize.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/run.h"
@@ -85,7 +86,7 @@ std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_m
     << (patient_mm ? "volume (cc)" : "volume") << std::setw(12) << (patient_mm ? "slab (cc)" : "slab") << std::setw(16)
     << (patient_mm ? "area (cm^2)" : "area") << std::setw(8) << "planes" << std::setw(8) << "closed" << "\n";
   for (const VolumeRow& r : rows) {
-    o << std::left << std::setw(24) << ("'" + r.name + "'") << std::right << std::setw(7) << r.number << std::fixed
+    o << std::left << std::setw(24) << ("'" + terminal_text(r.name) + "'") << std::right << std::setw(7) << r.number << std::fixed
       << std::setprecision(3) << std::setw(14) << r.volume / v << std::setw(12);
     if (r.slab > 0) o << r.slab / v;
     else o << "-";
@@ -99,13 +100,7 @@ std::string volume_table_csv(const std::vector<VolumeRow>& rows) {
   std::ostringstream o;
   o << "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed\n" << std::setprecision(10);
   for (const VolumeRow& r : rows) {
-    std::string name = r.name;
-    if (name.find_first_of(",\"\n") != std::string::npos) {
-      std::string q = "\"";
-      for (char c : name) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-      name = q + "\"";
-    }
-    o << name << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
+    o << csv_cell(r.name) << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
       << (r.closed ? "true" : "false") << "\n";
   }
   return o.str();
