@@ -179,8 +179,9 @@ int Commands::run() {
 }
 
 // `isoloft batch ARGS` is `python3 -m isoloft.cohort --cli THIS ARGS` (Dask
-// lives in Python): this build's package first on the path, the interpreter
-// it was built for unless ISOLOFT_PYTHON names another.
+// lives in Python): the build's package first on the path when this is the
+// build tree's binary, the interpreter it was built for unless ISOLOFT_PYTHON
+// names another.
 int Commands::batch() {
 #ifdef ISOLOFT_PYTHON_EXE
   const std::string built = ISOLOFT_PYTHON_EXE, package_dir = ISOLOFT_PYTHON_PACKAGE_DIR;
@@ -189,13 +190,17 @@ int Commands::batch() {
 #endif
   const char* env = std::getenv("ISOLOFT_PYTHON");
   const std::string python = env && *env ? env : built;
-  if (!package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py")) {
+  std::error_code ec;
+  const std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  // The build tree's package goes first only for the binary beside it (build/isoloft,
+  // build/python/isoloft): an installed copy uses the user's path as it is.
+  if (!ec && !package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py") &&
+      fs::equivalent(fs::path(self).parent_path(), fs::path(package_dir).parent_path(), ec)) {
     const char* old = std::getenv("PYTHONPATH");
     const std::string path = package_dir + (old && *old ? ":" + std::string(old) : "");
     setenv("PYTHONPATH", path.c_str(), 1);
   }
-  std::error_code ec;
-  const std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  ec.clear();
   std::vector<std::string> args{python, "-m", "isoloft.cohort"};
   if (!ec) args.insert(args.end(), {"--cli", self});
   for (const auto& a : batch_->remaining()) args.push_back(a);
