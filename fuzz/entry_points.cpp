@@ -8,12 +8,14 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/sanitize.h"
+#include "isoloft/io/label_names.h"
 #include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/run/outputs.h"
 
 namespace isoloft::fuzz {
 
@@ -123,12 +125,24 @@ void roi_names(const std::uint8_t* d, std::size_t n) {
   (void)nlohmann::json(name).dump();  // throws (a finding) on bytes that are not UTF-8
 }
 
+// Label tables: every name read is UTF-8 (JSON-safe) and its file name part
+// holds only [A-Za-z0-9_-].
+void label_names(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".txt", d, n), [](const std::string& p) {
+    for (const auto& [label, name] : read_label_names(p).names) {
+      for (const char c : file_safe(name))
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) std::abort();
+      (void)nlohmann::json(name).dump();  // throws (a finding) on bytes that are not UTF-8
+    }
+  });
+}
+
 }  // namespace
 
 const std::vector<Target>& targets() {
   static const std::vector<Target> t{{"png", png},   {"polylines", polylines}, {"params", params},    {"nifti", nifti},
                                      {"nrrd", nrrd}, {"metaimage", metaimage}, {"rtstruct", rtstruct},
-                                     {"roi_names", roi_names}};
+                                     {"roi_names", roi_names}, {"label_names", label_names}};
   return t;
 }
 
