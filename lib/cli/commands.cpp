@@ -54,6 +54,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--rtstruct", r_.rtstruct, "RT Structure Sets: write the surfaces back as an RT Structure Set (.dcm), cut at the input's contour planes, the input's patient, study, frame of reference and ROI numbers, names and colours kept (also -o OUT.dcm)");
   R->add_option("--volumes", r_.volumes, "Write the volume table (per object: name, number, volume, slab volume = contour area x spacing, area, planes, closed) as .csv or .json; RT Structure Sets also print it on stdout");
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
+  R->add_option("--label-names", r_.label_names, "Label volumes: the table naming the labels (AAL .nii.txt, FreeSurfer LUT, 3D Slicer .ctbl, ITK-SNAP label descriptions); default: such a table beside the volume (aal.nii.txt for aal.nii.gz)");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
   R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON with its unit, range and doc, and exit");
   R->add_option("--report", r_.report, "Write a JSON report: per-stage wall times, counts, parameters, version");

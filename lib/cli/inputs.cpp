@@ -46,6 +46,7 @@ InputRequest input_request(const ReconstructArgs& a) {
   if (a.voxel_size_opt->count()) r.voxel_size = a.voxel_size;
   r.space = a.space;
   r.allow_external_data = a.allow_external_data;
+  r.label_names = a.label_names;
   return r;
 }
 

@@ -29,13 +29,6 @@ std::size_t raw_control(const std::string& s) {
   return std::string::npos;
 }
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 }  // namespace
 
 TEST_F(Cli, RoiNamesWithEscapeSequencesReachNoTerminalRaw) {
@@ -63,7 +56,7 @@ TEST_F(Cli, FormulaRoiNamesAreTextInTheVolumesCsv) {
                                   {{"Scar", "=HYPERLINK(\"http://evil\",\"x\")"}, {"Tumor Bed", "@SUM(1+1)"}});
   const CliRun r = run("reconstruct " + rt + " --roi 8 --roi 9 --method levin -q -o " + p("rt.ply") + " --volumes " + p("v.csv"));
   ASSERT_EQ(r.code, 0) << r.err;
-  const std::string csv = slurp(p("v.csv"));
+  const std::string csv = isoloft::test::read_text(p("v.csv"));
   EXPECT_NE(csv.find("\n\"'=HYPERLINK(\"\"http://evil\"\",\"\"x\"\")\","), std::string::npos) << csv;
   EXPECT_NE(csv.find("\n\"'@SUM(1+1)\","), std::string::npos) << csv;
   std::istringstream lines(csv);
@@ -77,9 +70,9 @@ TEST_F(Cli, Latin1RoiNamesAreDecodedIntoTheReportAndNulIsRefused) {
   const CliRun r = run("reconstruct " + rt + " --roi R\xC3\xBC" "ckenmark --method levin -q -o " + p("rt.ply") + " --report " +
                        p("r.json") + " --volumes " + p("v.json"));
   ASSERT_EQ(r.code, 0) << r.err;
-  const auto rep = nlohmann::json::parse(slurp(p("r.json")));
+  const auto rep = nlohmann::json::parse(isoloft::test::read_text(p("r.json")));
   EXPECT_EQ(rep["objects"][0]["roi"], "R\xC3\xBC" "ckenmark");
-  EXPECT_EQ(nlohmann::json::parse(slurp(p("v.json")))[0]["name"], "R\xC3\xBC" "ckenmark");
+  EXPECT_EQ(nlohmann::json::parse(isoloft::test::read_text(p("v.json")))[0]["name"], "R\xC3\xBC" "ckenmark");
   const std::string nul = p("nul.dcm");
   isoloft::test::write_rtss_names(nul, "ISO_IR 100", {{"Scar", std::string("AB\0CD", 5)}});
   const CliRun n = run("reconstruct " + nul + " -q -o " + p("n.ply") + " --report " + p("n.json"));
