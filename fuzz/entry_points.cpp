@@ -7,12 +7,15 @@
 #include <nlohmann/json.hpp>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/sanitize.h"
+#include "isoloft/io/label_names.h"
 #include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/run/outputs.h"
 
 namespace isoloft::fuzz {
 
@@ -100,11 +103,46 @@ void rtstruct(const std::uint8_t* d, std::size_t n) {
   });
 }
 
+// ROI names: the first byte picks a Specific Character Set, the rest is the
+// ROIName's bytes. A name that is read must be UTF-8 without NUL, shown on
+// a terminal without a control byte, never a formula cell, and JSON-safe.
+void roi_names(const std::uint8_t* d, std::size_t n) {
+  static const char* const kCharsets[] = {"",           "ISO_IR 100",        "ISO_IR 192", "\\ISO 2022 IR 87",
+                                          "ISO_IR 144", "ISO 2022 IR 6\\ISO 2022 IR 149", "GB18030", "ISO_IR 13\\ISO 2022 IR 87"};
+  if (n == 0) return;
+  const std::string charset = kCharsets[d[0] % (sizeof kCharsets / sizeof *kCharsets)];
+  std::string name;
+  try {
+    name = detail::decode_roi_name(std::string(reinterpret_cast<const char*>(d + 1), n - 1), charset, 1, "fuzz.dcm");
+  } catch (const Error&) {
+    return;
+  }
+  if (!is_utf8(name) || name.find('\0') != std::string::npos) std::abort();
+  for (const char c : terminal_text(name))
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) std::abort();
+  const std::string cell = csv_cell(name);
+  if (!cell.empty() && std::string("=+-@\t\r").find(cell.front()) != std::string::npos) std::abort();
+  (void)nlohmann::json(name).dump();  // throws (a finding) on bytes that are not UTF-8
+}
+
+// Label tables: every name read is UTF-8 (JSON-safe) and its file name part
+// holds only [A-Za-z0-9_-].
+void label_names(const std::uint8_t* d, std::size_t n) {
+  guarded(scratch(".txt", d, n), [](const std::string& p) {
+    for (const auto& [label, name] : read_label_names(p).names) {
+      for (const char c : file_safe(name))
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) std::abort();
+      (void)nlohmann::json(name).dump();  // throws (a finding) on bytes that are not UTF-8
+    }
+  });
+}
+
 }  // namespace
 
 const std::vector<Target>& targets() {
   static const std::vector<Target> t{{"png", png},   {"polylines", polylines}, {"params", params},    {"nifti", nifti},
-                                     {"nrrd", nrrd}, {"metaimage", metaimage}, {"rtstruct", rtstruct}};
+                                     {"nrrd", nrrd}, {"metaimage", metaimage}, {"rtstruct", rtstruct},
+                                     {"roi_names", roi_names}, {"label_names", label_names}};
   return t;
 }
 

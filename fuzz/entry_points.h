@@ -20,7 +20,7 @@ struct Target {
   EntryPoint run;
 };
 
-/// png, polylines, params, nifti, nrrd, metaimage, rtstruct.
+/// png, polylines, params, nifti, nrrd, metaimage, rtstruct, roi_names, label_names.
 const std::vector<Target>& targets();
 
 /// The target named `name`, or nullptr.

@@ -59,6 +59,7 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--rt-contours", r_.rt_contours, "RT Structure Set out: write the per-contour report as .csv (each drawn contour: plane, areas drawn and written, distances, lost/merged/shrunk; sections nobody drew)");
   R->add_option("--volumes", r_.volumes, "Write the volume table (per object: name, number, volume, slab volume = contour area x spacing, area, planes, closed) as .csv or .json; RT Structure Sets also print it on stdout");
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
+  R->add_option("--label-names", r_.label_names, "Label volumes: the table naming the labels (AAL .nii.txt, FreeSurfer LUT, 3D Slicer .ctbl, ITK-SNAP label descriptions); default: such a table beside the volume (aal.nii.txt for aal.nii.gz)");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
   R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON with its unit, range and doc, and exit");
   R->add_option("--report", r_.report, "Write a JSON report: per-stage wall times, counts, parameters, version");
@@ -184,8 +185,9 @@ int Commands::run() {
 }
 
 // `isoloft batch ARGS` is `python3 -m isoloft.cohort --cli THIS ARGS` (Dask
-// lives in Python): this build's package first on the path, the interpreter
-// it was built for unless ISOLOFT_PYTHON names another.
+// lives in Python): the build's package first on the path when this is the
+// build tree's binary, the interpreter it was built for unless ISOLOFT_PYTHON
+// names another.
 int Commands::batch() {
 #ifdef ISOLOFT_PYTHON_EXE
   const std::string built = ISOLOFT_PYTHON_EXE, package_dir = ISOLOFT_PYTHON_PACKAGE_DIR;
@@ -194,13 +196,17 @@ int Commands::batch() {
 #endif
   const char* env = std::getenv("ISOLOFT_PYTHON");
   const std::string python = env && *env ? env : built;
-  if (!package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py")) {
+  std::error_code ec;
+  const std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  // The build tree's package goes first only for the binary beside it (build/isoloft,
+  // build/python/isoloft): an installed copy uses the user's path as it is.
+  if (!ec && !package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py") &&
+      fs::equivalent(fs::path(self).parent_path(), fs::path(package_dir).parent_path(), ec)) {
     const char* old = std::getenv("PYTHONPATH");
     const std::string path = package_dir + (old && *old ? ":" + std::string(old) : "");
     setenv("PYTHONPATH", path.c_str(), 1);
   }
-  std::error_code ec;
-  const std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  ec.clear();
   std::vector<std::string> args{python, "-m", "isoloft.cohort"};
   if (!ec) args.insert(args.end(), {"--cli", self});
   for (const auto& a : batch_->remaining()) args.push_back(a);

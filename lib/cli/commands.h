@@ -38,6 +38,7 @@ struct ReconstructArgs {
   long max_files = kDefaultMaxFiles;                  ///< --max-files (0 = no limit)
   bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
   bool allow_external_data = false;                  ///< --allow-external-data
+  std::string label_names;                           ///< --label-names
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
 

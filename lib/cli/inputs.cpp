@@ -8,6 +8,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/params.h"
+#include "isoloft/core/sanitize.h"
 #include "isoloft/io/rtstruct.h"
 
 namespace isoloft::cli {
@@ -45,6 +46,7 @@ InputRequest input_request(const ReconstructArgs& a) {
   if (a.voxel_size_opt->count()) r.voxel_size = a.voxel_size;
   r.space = a.space;
   r.allow_external_data = a.allow_external_data;
+  r.label_names = a.label_names;
   return r;
 }
 
@@ -64,7 +66,7 @@ void list_rois(const std::string& path, std::ostream& out) {
     else range << std::fixed << std::setprecision(1) << lo << " .. " << hi;
     for (std::size_t i = 0; i < types.size(); ++i) kinds << (i ? "," : "") << types[i];
     const auto same_name = std::count_if(set.rois.begin(), set.rois.end(), [&](const RtRoi& q) { return q.name == r.name; });
-    out << std::left << std::setw(24) << ("'" + r.name + "'") << std::right << std::setw(7) << r.number << std::setw(10)
+    out << std::left << std::setw(24) << ("'" + terminal_text(r.name) + "'") << std::right << std::setw(7) << r.number << std::setw(10)
         << r.contours.size() << std::setw(24) << range.str() << "  " << kinds.str()
         << (r.number_shared ? "  (number shared: contours ambiguous)" : "") << (same_name > 1 ? "  (name shared)" : "")
         << "\n";

@@ -26,6 +26,7 @@
 
 #include "cli/commands.h"
 #include "isoloft/core/error.h"
+#include "isoloft/core/sanitize.h"
 #include "isoloft/io/atomic_file.h"
 
 namespace {
@@ -101,13 +102,13 @@ int main(int argc, char** argv) {
               << " (within the --max-memory estimate, but more than this machine could give)\n";
     return 1;
   } catch (const isoloft::Error& e) {
-    std::cerr << "isoloft: error: " << e.what() << "\n";
+    std::cerr << "isoloft: error: " << isoloft::terminal_text(e.what()) << "\n";
     return 1;
   } catch (const nlohmann::json::exception& e) {
-    std::cerr << "isoloft: error: " << e.what() << "\n";
+    std::cerr << "isoloft: error: " << isoloft::terminal_text(e.what()) << "\n";
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "isoloft: error: " << e.what() << "\n";
+    std::cerr << "isoloft: error: " << isoloft::terminal_text(e.what()) << "\n";
     return 1;
   }
 }

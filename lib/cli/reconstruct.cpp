@@ -21,6 +21,7 @@
 #include "cli/inputs.h"
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/core/sanitize.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/methods/method.h"
@@ -67,7 +68,8 @@ class Progress {
       std::fprintf(stderr, "\r\033[K");
       job_ = p.job;
     }
-    const std::string_view object = p.roi, stage = p.stage;
+    const std::string object = terminal_text(p.roi);
+    const std::string_view stage = p.stage;
     const long done = p.done, total = p.total;
     const auto now = Clock::now();
     if (done < total && now - last_ < std::chrono::milliseconds(100)) return;
@@ -210,7 +212,7 @@ int Commands::reconstruct() {
   run.progress = [&](const RunProgress& p) { progress(p); };
   run.warn = [&](const std::string& w) {
     progress.finish();
-    if (!o.quiet) std::cerr << "isoloft: warning: " << w << "\n";
+    if (!o.quiet) std::cerr << "isoloft: warning: " << terminal_text(w) << "\n";
   };
   run.activity = [&](const std::string& what) { activity_ = what; };
   run.git = ISOLOFT_GIT;
@@ -225,13 +227,13 @@ int Commands::reconstruct() {
     if (!rtstruct_out.empty()) std::cerr << "isoloft: wrote " << rtstruct_out << " (RT Structure Set)\n";
     for (const auto& ob : result.objects)
       if (!dcm_output)
-        std::cerr << "isoloft: wrote " << ob.file << " (" << ob.object.mesh.triangles.size() << " triangles"
+        std::cerr << "isoloft: wrote " << terminal_text(ob.file) << " (" << ob.object.mesh.triangles.size() << " triangles"
                   << (ob.object.check.closed && ob.object.check.manifold ? ", closed manifold" : ", NOT closed manifold")
                   << ")\n";
     if (!dcm_output && several_outputs(in, result)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";
     if (labelmap) std::cerr << "isoloft: wrote " << o.labelmap << " (dense label map)\n";
     if (reference_labelmap) {
-      for (const auto& note : reference_labelmap->notes()) std::cerr << "isoloft: " << note << "\n";
+      for (const auto& note : reference_labelmap->notes()) std::cerr << "isoloft: " << terminal_text(note) << "\n";
       std::cerr << "isoloft: wrote " << o.labelmap << " (label map on the grid of " << o.reference << ")\n";
     }
   }

@@ -415,6 +415,7 @@ nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method metho
     const double s = job.stack.pixel_size;
     nlohmann::json j = {{"label", ob.label}, {"file", o.file}};
     if (!job.name.empty()) j["roi"] = job.name;
+    if (ob.label && !in.label_name(ob.label).empty()) j["name"] = in.label_name(ob.label);
     j["vertices"] = ob.mesh.vertices.size();
     j["triangles"] = ob.mesh.triangles.size();
     j["triangles_before_decimation"] = ob.triangles_before_decimation;

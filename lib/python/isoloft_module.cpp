@@ -297,21 +297,46 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
 }
 
 // An image object's voxels (float, x fastest) and geometry (LPS) as a volume input.
-PyInput from_volume(const py::array_t<float, py::array::c_style | py::array::forcecast>& data,
-                    const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
+PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
                     const py::array_t<double, py::array::c_style | py::array::forcecast>& direction, bool integer,
                     const std::string& name, const std::string& kind, const std::string& axis, const std::string& space) {
   if (data.ndim() != 3) throw InputError(name, "expected a 3D image, got " + std::to_string(data.ndim()) + " dimensions");
   if (direction.ndim() != 2 || direction.shape(0) != 3 || direction.shape(1) != 3)
     throw InputError(name, "the direction must be 3 x 3");
   Volume v;
+  for (int a = 0; a < 3; ++a)
+    if (data.shape(a) > std::numeric_limits<int>::max())
+      throw InputError(name, "axis " + std::to_string(a) + " has " + std::to_string(data.shape(a)) + " voxels (at most 2^31 - 1)");
   v.nz = int(data.shape(0)), v.ny = int(data.shape(1)), v.nx = int(data.shape(2));
   v.spacing = spacing;
   v.origin = origin;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) v.direction(r, c) = direction.at(r, c);
+  detail::check_geometry(v, name);  // the checks the volume files pass
   v.integer = integer;
-  v.data.assign(data.data(), data.data() + data.size());
+  if (integer) {
+    // As the volume readers decode 32-bit integers: labels beyond a float's
+    // exact 2^24 through a value table, never merged.
+    const char k = data.dtype().kind();
+    if (k == 'i' || (k == 'u' && data.itemsize() > 4)) {
+      const auto lo = py::int_(data.attr("min")()), hi = py::int_(data.attr("max")());
+      if (lo < py::int_(std::numeric_limits<std::int32_t>::min()) || hi > py::int_(std::numeric_limits<std::uint32_t>::max()))
+        throw InputError(name, "value " + py::repr(lo < py::int_(0) ? lo : hi).cast<std::string>() +
+                                   " is beyond 32-bit integers (labels are 0 .. 2^32 - 1)");
+    }
+    const bool is_signed = k == 'i' && py::int_(data.attr("min")()) < py::int_(0);
+    v.data.resize(std::size_t(data.size()));
+    if (is_signed) {
+      const auto a = py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>::ensure(data);
+      detail::decode_volume(reinterpret_cast<const unsigned char*>(a.data()), detail::ScalarType::I32, false, v, name);
+    } else {
+      const auto a = py::array_t<std::uint32_t, py::array::c_style | py::array::forcecast>::ensure(data);
+      detail::decode_volume(reinterpret_cast<const unsigned char*>(a.data()), detail::ScalarType::U32, false, v, name);
+    }
+  } else {
+    const auto f = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(data);
+    v.data.assign(f.data(), f.data() + f.size());
+  }
   InputRequest r;
   r.kind = kind;
   r.axis = axis;

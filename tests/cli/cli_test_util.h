@@ -20,6 +20,14 @@ namespace isoloft::test {
 
 namespace fs = std::filesystem;
 
+/// The whole file as bytes ("" if it cannot be read).
+inline std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 struct CliRun {
   int code;
   std::string err, out;

@@ -158,3 +158,93 @@ def test_every_read_option_works_on_a_path(tmp_path, data_dir):
         isoloft.reconstruct(np.zeros((2, 8, 8), bool), axis="k")
     with pytest.raises(isoloft.ParamError, match="roi/voxel_size: only with a DICOM RT Structure Set"):
         isoloft.reconstruct(vol, roi="Heart")
+
+
+# ---------------------------------------------------------------- hostile arguments (issue 39)
+
+def _sparse_voxels(tmp_path):
+    mha = tmp_path / "labels.mha"
+    write_sparse_label_volume(mha)
+    raw = mha.read_bytes()
+    return np.frombuffer(raw[raw.index(b"LOCAL\n") + 6:], np.uint8).reshape(11, 36, 40)
+
+
+@pytest.mark.parametrize("direction, origin, message", [
+    ((1, 0, 0, 1), (0, 0, 0), r"GetDirection\(\) gives 4 values, expected 9"),
+    ((1, 0, 0, 0, 1, 0, 0, 0, 1), ("a", "b", "c"), r"GetOrigin\(\) is not numbers"),
+    ((1, 0, 0, 0, 1, 0, 0, 0, 1), (0, 0, float("nan")), r"the origin is not finite"),
+    ((1, 1, 0, 0, 0, 0, 0, 0, 1), (0, 0, 0), r"voxel axes i and j are not orthogonal"),
+    ((2, 0, 0, 0, 1, 0, 0, 0, 1), (0, 0, 0), r"the direction of voxel axis i is not a finite unit vector"),
+])
+def test_a_bad_image_geometry_is_an_input_error_naming_it(tmp_path, direction, origin, message):
+    image = DuckImage(_sparse_voxels(tmp_path), origin, (1.0, 1.0, 2.0), direction)
+    with pytest.raises(isoloft.InputError, match=message):
+        isoloft.reconstruct(image)
+
+
+@pytest.mark.parametrize("affine, message", [
+    (np.diag([1.0, 1.0, 0.0, 1.0]), r"singular or not finite \(voxel axis k has length 0"),
+    (np.array([[1.0, 1, 0, 0], [0, 0, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]]), r"voxel axes i and j are not orthogonal"),
+    (np.diag([1.0, float("nan"), 2.0, 1.0]), r"singular or not finite \(voxel axis j has length nan"),
+    (np.array([[1.0, 0, 0, float("nan")], [0, 1, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]]), r"the origin is not finite"),
+])
+def test_a_nibabel_image_with_a_singular_or_nan_affine_is_refused(tmp_path, affine, message):
+    nib = pytest.importorskip("nibabel")
+    labels = _sparse_voxels(tmp_path).transpose(2, 1, 0)
+    image = nib.Nifti1Image(labels, np.eye(4))
+    image._affine = affine  # what nibabel gives for a file whose sform is singular or NaN
+    with pytest.raises(isoloft.InputError, match=message):
+        isoloft.reconstruct(image)
+
+
+def test_int32_labels_2_24_and_2_24_plus_1_stay_apart():
+    v = np.zeros((5, 24, 24), np.int32)
+    v[1:4, 4:10, 4:10] = 2 ** 24
+    v[1:4, 14:20, 14:20] = 2 ** 24 + 1
+    res = isoloft.reconstruct(DuckImage(v, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1, 0, 0, 0, 1, 0, 0, 0, 1)))
+    assert sorted(o.label for o in res.objects) == [2 ** 24, 2 ** 24 + 1]
+    with pytest.raises(isoloft.InputError, match=r"value 4294967552 is beyond 32-bit integers"):
+        isoloft.reconstruct(DuckImage(v.astype(np.int64) * 256, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0),
+                                      (1, 0, 0, 0, 1, 0, 0, 0, 1)))
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"threads": 2 ** 40}, r"threads: 1099511627776 is out of range \(1 \.\. 2147483647\)"),
+    ({"threads": "4"}, r"threads: expected an integer, got '4'"),
+    ({"labels": [-1]}, r"labels: -1 is out of range \(1 \.\. 4294967295\)"),
+    ({"labels": [2 ** 40]}, r"labels: 1099511627776 is out of range"),
+    ({"labels": 3}, r"labels: expected a list of integer labels, got 3"),
+    ({"max_files": 2 ** 70}, r"max_files: 1180591620717411303424 is out of range"),
+    ({"progress": 5}, r"progress: expected a callable \(called with a Progress\), got 5"),
+    ({"report": 5}, r"report: expected a path"),
+    ({"volume": "a\0b.nrrd"}, r"volume: the path holds a NUL byte"),
+    ({"z_spacing": "8"}, r"z_spacing: expected a number, got '8'"),
+    ({"z_spacing": float("inf")}, r"z_spacing: must be finite"),
+    ({"slice_z": 3}, r"slice_z: expected a list of numbers"),
+    ({"method": 3}, r"method: expected a string, got 3"),
+])
+def test_every_argument_is_checked_before_the_work_naming_it(tmp_path, kwargs, message):
+    called = []
+    with pytest.raises(isoloft.ParamError, match=message):
+        isoloft.reconstruct(ball_masks(), **{"z_spacing": BALL_Z_SPACING, "report": tmp_path / "r.json",
+                                             "progress": called.append, **kwargs})
+    assert not called, "the work started"
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_image_shape_is_checked_naming_it():
+    square = [[np.array([[2.0, 2], [6, 2], [6, 6], [2, 6]])]] * 3
+    for shape, message in [((2 ** 40, 8), r"image_shape: 1099511627776 is out of range \(1 \.\. 1048576\)"),
+                           ((8,), r"image_shape: expected \(height, width\), got \(8,\)"),
+                           ((8.5, 8), r"image_shape: expected an integer, got 8.5")]:
+        with pytest.raises(isoloft.ParamError, match=message):
+            isoloft.reconstruct(square, input="polylines", image_shape=shape)
+
+
+def test_read_checks_its_arguments_naming_them(tmp_path):
+    with pytest.raises(isoloft.ParamError, match=r"path: expected a path, a list of paths or an image, got int"):
+        isoloft.read(5)
+    with pytest.raises(isoloft.ParamError, match=r"voxel_size: expected a number, got 'x'"):
+        isoloft.read(tmp_path / "x.dcm", voxel_size="x")
+    with pytest.raises(isoloft.ParamError, match=r"axis: expected a string, got 1"):
+        isoloft.read(tmp_path / "x.nii", axis=1)

@@ -5,11 +5,14 @@
 #include "dcmtk/dcmdata/dcdeftag.h"
 #include "dcmtk/dcmdata/dcfilefo.h"
 #include "dcmtk/dcmdata/dcistrmb.h"
+#include "dcmtk/dcmdata/dcspchrs.h"
 #include "dcmtk/dcmdata/dcuid.h"
 #include "dcmtk/dcmrt/drtstrct.h"
 #include "dcmtk/oflog/appender.h"
 #include "dcmtk/oflog/spi/logevent.h"
 #include "dcmtk/oflog/oflog.h"
+
+#include <iconv.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -28,6 +31,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/core/sanitize.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/file_util.h"
 #include "isoloft/io/text.h"
@@ -191,6 +195,83 @@ double typical_plane_spacing(const RtStructureSet& set) {
   return own_spacing(z);
 }
 
+namespace {
+
+// Bytes in iconv encoding `from` as UTF-8; nullopt if iconv cannot.
+std::optional<std::string> iconv_utf8(const std::string& in, const char* from) {
+  const iconv_t cd = iconv_open("UTF-8", from);
+  if (cd == iconv_t(-1)) return std::nullopt;
+  std::string out(in.size() * 4 + 16, '\0');
+  char* src = const_cast<char*>(in.data());
+  char* dst = out.data();
+  std::size_t left = in.size(), room = out.size();
+  const bool ok = iconv(cd, &src, &left, &dst, &room) != std::size_t(-1) && iconv(cd, nullptr, nullptr, &dst, &room) != std::size_t(-1);
+  iconv_close(cd);
+  if (!ok) return std::nullopt;
+  out.resize(out.size() - room);
+  return out;
+}
+
+// Japanese by code extensions (first value ISO 2022 IR 6 or empty, then
+// IR 87 / IR 159): glibc's iconv has no JIS X 0208 table on its own
+// (DCMTK's "ISO-IR-87" fails to open), but these escapes are ISO-2022-JP-2's.
+bool iso2022_japanese(const std::string& charset) {
+  std::stringstream ss(charset);
+  std::string v;
+  bool japanese = false;
+  while (std::getline(ss, v, '\\')) {
+    while (!v.empty() && v.back() == ' ') v.pop_back();
+    while (!v.empty() && v.front() == ' ') v.erase(0, 1);
+    if (v == "ISO 2022 IR 87" || v == "ISO 2022 IR 159") japanese = true;
+    else if (!v.empty() && v != "ISO 2022 IR 6") return false;
+  }
+  return japanese;
+}
+
+}  // namespace
+
+namespace detail {
+
+std::string decode_roi_name(const std::string& raw, std::string charset, int number, const std::string& path) {
+  charset = rtrim(charset);
+  while (!charset.empty() && charset.front() == ' ') charset.erase(0, 1);
+  const std::string name = rtrim(raw);
+  const std::string which = "ROI number " + std::to_string(number);
+  if (name.find('\0') != std::string::npos)
+    throw InputError(path, which + ": its name ('" + terminal_text(name) + "') holds a NUL byte");
+  const bool ascii = std::all_of(name.begin(), name.end(), [](unsigned char c) { return c < 0x80 && c != 0x1B; });
+  if (ascii) return name;
+  // No character set declared (the default repertoire is ASCII): UTF-8, as
+  // many systems write without saying, is taken; other bytes cannot be read.
+  if (charset.empty() || charset == "ISO_IR 6" || charset == "ISO_IR 192") {
+    if (is_utf8(name)) return name;
+    throw InputError(path, which + ": its name ('" + terminal_text(name) + "') is not " +
+                               (charset == "ISO_IR 192" ? std::string("UTF-8, its declared Specific Character Set (ISO_IR 192)")
+                                                        : "ASCII and the file declares no Specific Character Set (0008,0005) to read it by"));
+  }
+  if (iso2022_japanese(charset)) {
+    const std::optional<std::string> out = iconv_utf8(name, "ISO-2022-JP-2");
+    if (!out || !is_utf8(*out) || out->find('\0') != std::string::npos)
+      throw InputError(path, which + ": its name ('" + terminal_text(name) + "') is not valid in its Specific Character Set '" +
+                                 terminal_text(charset) + "'");
+    return *out;
+  }
+  DcmSpecificCharacterSet converter;
+  OFCondition st = converter.selectCharacterSet(charset.c_str());
+  if (st.bad())
+    throw InputError(path, which + ": its name cannot be decoded: Specific Character Set '" + terminal_text(charset) +
+                               "' (0008,0005) is unknown or not convertible (" + st.text() + ")");
+  OFString utf8;
+  st = converter.convertString(name.data(), name.size(), utf8, "\\");
+  const std::string out(utf8.c_str(), utf8.length());
+  if (st.bad() || !is_utf8(out) || out.find('\0') != std::string::npos)
+    throw InputError(path, which + ": its name ('" + terminal_text(name) + "') is not valid in its Specific Character Set '" +
+                               terminal_text(charset) + "'" + (st.bad() ? std::string(" (") + st.text() + ")" : ""));
+  return out;
+}
+
+}  // namespace detail
+
 bool is_dicom_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   char buf[132];
@@ -264,6 +345,8 @@ RtStructureSet read_rtstruct(const std::string& path) {
   RtStructureSet out;
   out.bytes = std::move(bytes);
   std::map<Sint32, std::size_t> by_number;
+  OFString charset;  // Specific Character Set (0008,0005): the names are decoded by it
+  ff.getDataset()->findAndGetOFStringArray(DCM_SpecificCharacterSet, charset);
   // Sequences are read by index: DCMTK's gotoNextItem() loops visit one empty item too many.
   DRTStructureSetROISequence& rois = rt->getStructureSetROISequence();
   for (std::size_t i = 0; i < rois.getNumberOfItems(); ++i) {
@@ -276,7 +359,13 @@ RtStructureSet read_rtstruct(const std::string& path) {
     rois.getItem(i).getReferencedFrameOfReferenceUID(frame);
     if (out.frame_of_reference.empty()) out.frame_of_reference = frame.c_str();
     const auto [it, added] = by_number.try_emplace(number, out.rois.size());
-    out.rois.push_back({int(number), rtrim(name.c_str()), std::nullopt, {}});
+    // The name's bytes whole (NULs, backslashes), from the dataset's item i.
+    DcmItem* item = nullptr;
+    OFString raw;
+    if (ff.getDataset()->findAndGetSequenceItem(DCM_StructureSetROISequence, item, int(i)).good() && item)
+      item->findAndGetOFStringArray(DCM_ROIName, raw);
+    else raw = name;
+    out.rois.push_back({int(number), detail::decode_roi_name(std::string(raw.c_str(), raw.length()), charset.c_str(), int(number), path), std::nullopt, {}});
     out.rois.back().frame_of_reference = rtrim(frame.c_str());
     if (!added) out.rois[it->second].number_shared = out.rois.back().number_shared = true;
   }

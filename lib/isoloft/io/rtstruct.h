@@ -154,6 +154,15 @@ std::vector<double> rt_planes(const SliceStack& stack);
 
 namespace detail {
 
+/// A ROIName's bytes (`raw`, embedded NULs kept) as UTF-8, decoded once by the
+/// file's Specific Character Set `charset` (0008,0005's value: "" or
+/// ISO_IR 6 ASCII, ISO_IR 100 Latin-1, ISO_IR 192 UTF-8, "\\ISO 2022 IR 87"
+/// Japanese, ...; DCMTK's converter on iconv); trailing blanks removed.
+/// Without a declared set, bytes that are UTF-8 are taken as UTF-8.
+/// \throw InputError naming `path` and the ROI number: a NUL in the name;
+///        bytes not valid in the set; a set DCMTK cannot convert.
+std::string decode_roi_name(const std::string& raw, std::string charset, int number, const std::string& path);
+
 /// Splits keyhole cuts: a closed polygon that runs along an edge and later
 /// back along the same edge (within `tol`) becomes two loops, the cut
 /// dropped, until none is left. Loops of fewer than 3 points are dropped.

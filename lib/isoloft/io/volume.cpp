@@ -40,13 +40,15 @@ VolumeFormat volume_format(const std::string& path) {
 bool is_volume_path(const std::string& path) { return volume_format(path) != VolumeFormat::None; }
 
 Volume read_volume(const std::string& path, const VolumeReadOptions& options) {
+  Volume v;
   switch (volume_format(path)) {
-    case VolumeFormat::Nifti: return read_nifti(path, options);
-    case VolumeFormat::Nrrd: return read_nrrd(path, options);
-    case VolumeFormat::MetaImage: return read_metaimage(path, options);
-    case VolumeFormat::None: break;
+    case VolumeFormat::Nifti: v = read_nifti(path, options); break;
+    case VolumeFormat::Nrrd: v = read_nrrd(path, options); break;
+    case VolumeFormat::MetaImage: v = read_metaimage(path, options); break;
+    case VolumeFormat::None: throw InputError(path, "not a volume file name (.nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd)");
   }
-  throw InputError(path, "not a volume file name (.nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd)");
+  detail::check_geometry(v, path);
+  return v;
 }
 
 void write_volume(const std::string& path, const Volume& v) {
@@ -99,6 +101,27 @@ std::vector<unsigned char> encode_scalars(const Volume& v, ScalarType t) {
     }
   }
   return out;
+}
+
+void check_geometry(const Volume& v, const std::string& file) {
+  const char* const axis = "ijk";
+  for (int a = 0; a < 3; ++a) {
+    const double s = v.spacing[std::size_t(a)];
+    if (!(std::isfinite(s) && s > 0))
+      throw InputError(file, std::string("the voxel-to-patient matrix is singular or not finite (voxel axis ") + axis[a] +
+                                 " has length " + std::to_string(s) + ")");
+    const Eigen::Vector3d d = v.direction.col(a);
+    if (!d.allFinite() || std::abs(d.norm() - 1) > kOrthogonalityTolerance)
+      throw InputError(file, std::string("the direction of voxel axis ") + axis[a] + " is not a finite unit vector");
+  }
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b)
+      if (std::abs(v.direction.col(a).dot(v.direction.col(b))) > kOrthogonalityTolerance)
+        throw InputError(file, std::string("voxel axes ") + axis[a] + " and " + axis[b] +
+                                   " are not orthogonal (a singular or sheared voxel-to-patient matrix): not supported");
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(v.origin[std::size_t(a)]))
+      throw InputError(file, "the origin is not finite (" + std::to_string(v.origin[std::size_t(a)]) + ")");
 }
 
 void check_finite_voxels(const Volume& v, const std::string& file) {

@@ -110,6 +110,13 @@ inline constexpr double kOrthogonalityTolerance = 1e-4;
 /// \throw InputError naming `file` and the first voxel that is NaN or infinite.
 void check_finite_voxels(const Volume& v, const std::string& file);
 
+/// The voxel-to-patient geometry every reader and the Python image objects
+/// pass: spacing finite and > 0, direction finite with orthogonal unit
+/// columns (kOrthogonalityTolerance; a singular or sheared affine is
+/// refused), origin finite.
+/// \throw InputError naming `file`, the axis and the value.
+void check_geometry(const Volume& v, const std::string& file);
+
 /// How a volume's samples are written: uint8, uint16, int32 or uint32 for an
 /// integer volume (the smallest that holds its range), else float32.
 ScalarType storage_type(const Volume& v);

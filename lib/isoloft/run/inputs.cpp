@@ -147,7 +147,13 @@ Inputs read_volume_input(const InputRequest& r) {
     return true;
   };
   Volume v = read_volume(path, ro);
-  return slice_volume(std::move(v), path, r, std::move(sliced));
+  Inputs in = slice_volume(std::move(v), path, r, std::move(sliced));
+  // The labels' names: the table given, else the one beside the volume.
+  const std::optional<std::string> table = !r.label_names.empty() ? std::optional(r.label_names) : label_names_beside(path);
+  if (table && in.labels()) in.label_names = read_label_names(*table);
+  else if (!r.label_names.empty())
+    throw ParamError(option_name("--label-names") + ": only with label input (" + option_given("--input", "labels") + ")");
+  return in;
 }
 
 // RT working grid (docs/decisions.md: RT grid): a ROI's largest loop spans at
@@ -301,6 +307,7 @@ Inputs read_rtstruct_input(const InputRequest& r) {
 // The options the format cannot use, and the space's name.
 void check_request(InputFormat format, const InputRequest& r) {
   if (format != InputFormat::Volume) reject(!r.axis.empty(), "--axis", kVolumeInputOnly);
+  if (format != InputFormat::Volume) reject(!r.label_names.empty(), "--label-names", kVolumeInputOnly);
   if (format != InputFormat::RtStruct)
     reject(r.voxel_size || !r.rois.empty(), "--roi/--voxel-size", "only with a DICOM RT Structure Set input");
   if ((format == InputFormat::Images || format == InputFormat::Polylines) && !r.space.empty())
@@ -401,6 +408,7 @@ nlohmann::json input_report(const Inputs& in) {
     input["axis"] = std::string(1, "ijk"[in.slicing->axis]);
     input["annotated_slices"] = in.slicing->annotated;
   }
+  if (!in.label_names.file.empty()) input["label_names"] = in.label_names.file;
   if (in.format == InputFormat::RtStruct) {
     nlohmann::json rois = nlohmann::json::array();
     for (const auto& job : in.jobs)

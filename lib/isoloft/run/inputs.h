@@ -16,6 +16,7 @@
 
 #include "isoloft/core/params.h"
 #include "isoloft/core/slice_stack.h"
+#include "isoloft/io/label_names.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
@@ -54,6 +55,9 @@ struct InputRequest {
   double max_memory = 0;             ///< bytes (--max-memory), 0 = no limit: checked before decoding
   /// Volumes: data files named by a header may lie outside its folder (--allow-external-data).
   bool allow_external_data = false;
+  /// Label volumes: the table naming the labels (--label-names); "" = the
+  /// table beside the volume if there is one (label_names_beside()).
+  std::string label_names;
 };
 
 struct Inputs {
@@ -67,6 +71,11 @@ struct Inputs {
   std::unique_ptr<VolumeStack> slicing;
   /// RT Structure Set input: the set as read (ROI numbers, names, colours).
   std::unique_ptr<RtStructureSet> rtstruct;
+  /// Label volumes: the labels' names (io/label_names.h; empty if no table).
+  LabelNames label_names;
+
+  /// Label `label`'s name from the table, or "".
+  [[nodiscard]] std::string label_name(std::uint32_t label) const { return label_names.name(label); }
 
   [[nodiscard]] const SliceStack& first() const { return jobs.front().stack; }
   /// One object per label value (InputKind::Labels).

@@ -30,6 +30,10 @@ namespace isoloft {
 
 // ---------------------------------------------------------------- naming and meshes
 
+// A label's name in its file name: at most this many bytes (names are for
+// people; the label number before it keeps files apart).
+constexpr std::size_t kMaxLabelFilePart = 64;
+
 std::string file_safe(const std::string& name) {
   std::string s;
   for (unsigned char c : name) s += std::isalnum(c) || c == '-' || c == '_' ? char(c) : '_';
@@ -50,12 +54,16 @@ std::string roi_file_tag(const Inputs& in, std::size_t job) {
 }
 
 std::string object_suffix(const Inputs& in, std::size_t job, std::uint32_t label) {
-  if (in.labels()) return std::string("_label") + std::to_string(label);
+  if (in.labels()) {
+    const std::string name = in.label_name(label);  // "_label5_Precentral_L" (the number keeps names apart)
+    return std::string("_label") + std::to_string(label) + (name.empty() ? "" : "_" + file_safe(name).substr(0, kMaxLabelFilePart));
+  }
   return in.jobs.size() > 1 ? "_" + roi_file_tag(in, job) : "";
 }
 
 std::string object_text(const Inputs& in, const PlannedObject& o) {
-  if (in.labels()) return "label " + std::to_string(o.label);
+  if (in.labels())
+    return "label " + std::to_string(o.label) + (in.label_name(o.label).empty() ? "" : " ('" + in.label_name(o.label) + "')");
   return in.jobs[o.job].name.empty() ? "the object" : "ROI '" + in.jobs[o.job].name + "'";
 }
 

@@ -9,6 +9,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/core/sanitize.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/mesh/plane_cut.h"
@@ -64,7 +65,9 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
     const SliceStack& st = job.stack;
     const double s = st.pixel_size;
     VolumeRow row;
-    row.name = !job.name.empty() ? job.name : o.object.label ? "label " + std::to_string(o.object.label) : "object";
+    const std::string label_name = o.object.label ? in.label_name(o.object.label) : "";
+    row.name = !job.name.empty() ? job.name : !label_name.empty() ? label_name
+               : o.object.label ? "label " + std::to_string(o.object.label) : "object";
     row.number = job.roi ? job.roi->number : int(o.object.label);
     row.volume = o.object.check.volume * s * s * s;
     row.area = o.object.check.area * s * s;
@@ -108,7 +111,7 @@ std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_m
     << (patient_mm ? "area (cm^2)" : "area") << std::setw(8) << "planes" << std::setw(14)
     << (patient_mm ? "spacing (mm)" : "spacing") << std::setw(8) << "caps" << std::setw(8) << "closed" << "\n";
   for (const VolumeRow& r : rows) {
-    o << std::left << std::setw(24) << ("'" + r.name + "'") << std::right << std::setw(7) << r.number << std::fixed
+    o << std::left << std::setw(24) << ("'" + terminal_text(r.name) + "'") << std::right << std::setw(7) << r.number << std::fixed
       << std::setprecision(3) << std::setw(14) << r.volume / v << std::setw(12);
     if (r.slab > 0) o << r.slab / v;
     else o << "-";
@@ -129,17 +132,11 @@ std::string volume_table_csv(const std::vector<VolumeRow>& rows) {
   std::ostringstream o;
   o << "name,number,volume_mm3,slab_volume_mm3,area_mm2,planes,closed,spacing,cap_share,warning\n"
     << std::setprecision(10);
-  auto quote = [](std::string text) {
-    if (text.find_first_of(",\"\n") == std::string::npos) return text;
-    std::string q = "\"";
-    for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-    return q + "\"";
-  };
   for (const VolumeRow& r : rows) {
-    o << quote(r.name) << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
+    o << csv_cell(r.name) << "," << r.number << "," << r.volume << "," << r.slab << "," << r.area << "," << r.planes << ","
       << (r.closed ? "true" : "false") << "," << r.spacing << ",";
     if (!std::isnan(r.cap_share)) o << r.cap_share;
-    o << "," << quote(r.warning) << "\n";
+    o << "," << csv_cell(r.warning) << "\n";
   }
   return o.str();
 }

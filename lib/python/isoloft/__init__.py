@@ -33,6 +33,87 @@ _BUDGET = "4G"  # the CLI's --max-memory and --max-output default
 _MAX_FILES = _isoloft._DEFAULT_MAX_FILES  # the CLI's --max-files default
 
 
+# Argument checks: every argument refused before the work with isoloft's own
+# error naming it (not a TypeError or OverflowError from inside the package).
+_MAX_LABEL = 2 ** 32 - 1      # labels are uint32 (0 is the background)
+_MAX_COUNT = 2 ** 63 - 1      # max_files: the library's long
+_MAX_THREADS = 2 ** 31 - 1    # threads: the library's int (TBB caps it at its arena anyway)
+_MAX_GRID = 1 << 20           # image_shape sides: the polyline file reader's largest 'size'
+
+
+def _integer(name, value, lo, hi):
+    import numbers
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ParamError(f"{name}: expected an integer, got {value!r}")
+    value = int(value)
+    if not lo <= value <= hi:
+        raise ParamError(f"{name}: {value} is out of range ({lo} .. {hi})")
+    return value
+
+
+def _number(name, value):
+    """A finite real number (None passes through)."""
+    import numbers
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParamError(f"{name}: expected a number, got {value!r}")
+    value = float(value)
+    if not _np.isfinite(value):
+        raise ParamError(f"{name}: must be finite, got {value}")
+    return value
+
+
+def _text(name, value):
+    """An option spelled as text (None passes through as "")."""
+    if value is None:
+        return ""
+    if not isinstance(value, str):
+        raise ParamError(f"{name}: expected a string, got {value!r}")
+    return value
+
+
+def _check_path(name, value):
+    if value is None:
+        return ""
+    if not _is_path(value):
+        raise ParamError(f"{name}: expected a path (str or os.PathLike), got {value!r}")
+    path = _os.fsdecode(value)
+    if "\0" in path:
+        raise ParamError(f"{name}: the path holds a NUL byte")
+    return path
+
+
+def _labels(labels):
+    if labels is None:
+        return []
+    if _is_path(labels) or not hasattr(labels, "__iter__"):
+        raise ParamError(f"labels: expected a list of integer labels, got {labels!r}")
+    return [_integer("labels", l, 1, _MAX_LABEL) for l in labels]
+
+
+def _image_shape(shape):
+    if shape is None:
+        return None
+    try:
+        h, w = shape
+    except (TypeError, ValueError):
+        raise ParamError(f"image_shape: expected (height, width), got {shape!r}") from None
+    return (_integer("image_shape", h, 1, _MAX_GRID), _integer("image_shape", w, 1, _MAX_GRID))
+
+
+def _vector(img, method, size):
+    """img.method() as `size` floats, or InputError naming the image and the method."""
+    where = f"slices ({type(img).__name__})"
+    try:
+        v = _np.asarray(getattr(img, method)(), dtype=float).ravel()
+    except (TypeError, ValueError) as e:
+        raise InputError(f"{where}: {method}() is not numbers ({e})") from None
+    if v.size != size:
+        raise InputError(f"{where}: {method}() gives {v.size} values, expected {size}")
+    return v
+
+
 def _is_path(x):
     return isinstance(x, (str, bytes, _os.PathLike))
 
@@ -41,10 +122,6 @@ def _paths(path):
     if _is_path(path):
         return [_os.fsdecode(path)]
     return [_os.fsdecode(p) for p in path]
-
-
-def _path_or_empty(path):
-    return "" if path is None else _os.fsdecode(path)
 
 
 def _rois(roi):
@@ -68,11 +145,16 @@ def _image_volume(img):
             data = data[..., 0]
         if data.ndim != 3:
             raise InputError(f"slices ({type(img).__name__}): expected a 3D image, got {data.ndim} dimensions")
-        lps = _np.diag([-1.0, -1.0, 1.0]) @ _np.asarray(img.affine, dtype=float)[:3]
+        try:
+            affine = _np.asarray(img.affine, dtype=float)
+        except (TypeError, ValueError) as e:
+            raise InputError(f"slices ({type(img).__name__}): the affine is not numbers ({e})") from None
+        if affine.shape != (4, 4):
+            raise InputError(f"slices ({type(img).__name__}): the affine is {affine.shape}, expected 4 x 4")
+        lps = _np.diag([-1.0, -1.0, 1.0]) @ affine[:3]
         spacing = _np.linalg.norm(lps[:, :3], axis=0)
-        if not _np.all(spacing > 0):
-            raise InputError(f"slices ({type(img).__name__}): the affine has a zero-length axis")
-        return data.transpose(2, 1, 0), spacing, lps[:, 3], lps[:, :3] / spacing
+        with _np.errstate(all="ignore"):  # a zero or NaN axis: refused by the library's geometry check, named
+            return data.transpose(2, 1, 0), spacing, lps[:, 3], lps[:, :3] / spacing
     # SimpleITK: origin, spacing and direction (row-major, columns the axes) in LPS; array (k, j, i)
     data = None
     module = type(img).__module__.split(".")[0]
@@ -83,8 +165,8 @@ def _image_volume(img):
         data = _np.asarray(img)
     if data.ndim != 3:
         raise InputError(f"slices ({type(img).__name__}): expected a 3D image, got {data.ndim} dimensions")
-    direction = _np.asarray(img.GetDirection(), dtype=float).reshape(3, 3)
-    return data, _np.asarray(img.GetSpacing(), dtype=float), _np.asarray(img.GetOrigin(), dtype=float), direction
+    direction = _vector(img, "GetDirection", 9).reshape(3, 3)
+    return data, _vector(img, "GetSpacing", 3), _vector(img, "GetOrigin", 3), direction
 
 
 def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
@@ -109,12 +191,18 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
             raise ParamError(f"{given[0]}: an image carries its own voxel geometry")
         data, spacing, origin, direction = _image_volume(path)
         integer = data.dtype.kind in "biu"
-        return _isoloft._from_volume(_np.ascontiguousarray(data, dtype=_np.float32), list(map(float, spacing)),
+        # Integers as they are (labels beyond 2^24 stay apart), others as float32.
+        return _isoloft._from_volume(_np.ascontiguousarray(data) if integer else
+                                     _np.ascontiguousarray(data, dtype=_np.float32), list(map(float, spacing)),
                                      list(map(float, origin)), _np.ascontiguousarray(direction, dtype=float),
-                                     integer, f"slices ({type(path).__name__})", input or "", axis or "",
-                                     space or "")
-    return _isoloft._read(_paths(path), input or "", z_spacing, None if slice_z is None else list(slice_z),
-                          pixel_size, axis or "", _rois(roi), voxel_size, space or "", str(max_memory),
+                                     integer, f"slices ({type(path).__name__})", _text("input", input),
+                                     _text("axis", axis), _text("space", space))
+    if not _is_path(path) and not (hasattr(path, "__iter__") and all(_is_path(p) for p in path)):
+        raise ParamError(f"path: expected a path, a list of paths or an image, got {type(path).__name__}")
+    return _isoloft._read(_paths(path), _text("input", input), _number("z_spacing", z_spacing),
+                          None if slice_z is None else [_number("slice_z", z) for z in slice_z],
+                          _number("pixel_size", pixel_size), _text("axis", axis), _rois(roi),
+                          _number("voxel_size", voxel_size), _text("space", space), str(max_memory),
                           bool(allow_external_data))
 
 
@@ -168,6 +256,26 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     writes (0 = no limit). allow_external_data: as for read(). **params: reconstruction
     parameters by their --print-params names.
     """
+    # Every argument checked before any work, named in the error.
+    labels = _labels(labels)
+    if threads is not None:
+        threads = _integer("threads", threads, 1, _MAX_THREADS)
+    if progress is not None and not callable(progress):
+        raise ParamError(f"progress: expected a callable (called with a Progress), got {progress!r}")
+    max_files = _integer("max_files", max_files, 0, _MAX_COUNT)
+    image_shape = _image_shape(image_shape)
+    outputs = {n: _check_path(n, v) for n, v in (("volume", volume), ("labelmap", labelmap), ("reference", reference),
+                                                  ("dump_stages", dump_stages), ("rtstruct", rtstruct),
+                                                  ("rt_contours", rt_contours), ("volumes", volumes), ("report", report))}
+    rt_point_spacing, rt_min_area = _number("rt_point_spacing", rt_point_spacing), _number("rt_min_area", rt_min_area)
+    z_spacing, pixel_size, voxel_size = (_number("z_spacing", z_spacing), _number("pixel_size", pixel_size),
+                                         _number("voxel_size", voxel_size))
+    if slice_z is not None:
+        if _is_path(slice_z) or not hasattr(slice_z, "__iter__"):
+            raise ParamError(f"slice_z: expected a list of numbers, got {slice_z!r}")
+        slice_z = [_number("slice_z", z) for z in slice_z]
+    for n, v in (("input", input), ("axis", axis), ("space", space), ("method", method)):
+        _text(n, v)
     if method is not None:
         params["method"] = method
     read_options = {"input": input, "z_spacing": z_spacing, "slice_z": slice_z, "pixel_size": pixel_size,
@@ -191,15 +299,12 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
         stack = _isoloft._from_arrays(slices, input or "", z_spacing,
                                       None if slice_z is None else [float(z) for z in slice_z],
                                       1.0 if pixel_size is None else pixel_size,
-                                      None if image_shape is None else tuple(int(n) for n in image_shape),
-                                      bool(params.get("binarize", False)))
-    if labels is not None:
-        labels = [int(l) for l in labels]
-    return _isoloft._reconstruct(stack, params, labels or [], threads, progress, bool(allow_empty),
-                                 _path_or_empty(volume), _path_or_empty(labelmap), _path_or_empty(dump_stages),
-                                 _path_or_empty(rtstruct), float(rt_point_spacing), float(rt_min_area),
-                                 _path_or_empty(rt_contours), _path_or_empty(volumes), _path_or_empty(report),
-                                 str(max_memory), str(max_output), int(max_files), _path_or_empty(reference))
+                                      image_shape, bool(params.get("binarize", False)))
+    return _isoloft._reconstruct(stack, params, labels, threads, progress, bool(allow_empty),
+                                 outputs["volume"], outputs["labelmap"], outputs["dump_stages"], outputs["rtstruct"],
+                                 rt_point_spacing, rt_min_area, outputs["rt_contours"],
+                                 outputs["volumes"], outputs["report"], str(max_memory), str(max_output), max_files,
+                                 outputs["reference"])
 
 
 def evaluate(mesh, truth, *, pixel_size=1.0):

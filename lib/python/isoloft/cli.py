@@ -2,20 +2,11 @@
 runner (isoloft.cohort), anything else the CLI built with this package."""
 
 import os
-import pathlib
 import sys
 
+from ._exe import cli_path
 
-def cli_path():
-    """The isoloft executable of this package: bundled by pip (isoloft/bin/),
-    else the one built beside the module (a build tree)."""
-    bundled = pathlib.Path(__file__).resolve().parent / "bin" / "isoloft"
-    if bundled.is_file():
-        return str(bundled)
-    from . import _isoloft
-    if os.path.isfile(_isoloft.cli_path):
-        return _isoloft.cli_path
-    raise FileNotFoundError("no isoloft CLI next to the isoloft package (reinstall it, or build target isoloft)")
+__all__ = ["cli_path", "main"]
 
 
 def main(argv=None):

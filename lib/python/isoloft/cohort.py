@@ -15,55 +15,161 @@ a one-by-one run. A case whose report DIR/NAME/NAME.json exists is done (the
 CLI writes a case's files all together or none) and is skipped on a rerun;
 a failed case is recorded and the batch goes on. DIR/summary.csv lists every
 case: name, input, status (ok, failed, skipped), exit code, seconds, error.
+
+Rows are checked before any case runs: a row whose name is not a plain
+folder name (a NUL, a slash, longer than a file name may be, a dot first,
+or the batch's own summary.csv), whose input is missing or whose options do
+not parse or write outside DIR/NAME (an absolute path or `..` given to an
+output flag) is recorded as failed, and the other rows run. A case is done
+when its report exists and was written by the same command (so a rerun with
+another --format runs it again). A SIGTERM, SIGINT or SIGHUP stops the
+running CLI processes (they remove their temp files) before the batch ends.
+Dask's local work space is DIR/.dask.
 """
 
 import argparse
 import csv
+import json
 import os
 import pathlib
 import shlex
+import signal
+import stat
 import subprocess
 import sys
+import threading
 import time
 
+from ._exe import cli_path
+
 SUMMARY_FIELDS = ["name", "input", "status", "exit_code", "seconds", "error"]
+MESH_FORMATS = ("ply", "obj", "stl", "off", "vtp", "vtk")
 # The local cluster's Dask settings: its workers only wait for CLI processes.
 LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
                         "distributed.admin.system-monitor.interval": "5s"}
 
 
+# Flags of `isoloft reconstruct` that name a file or folder it writes: only
+# relative paths inside the case's folder. -o and --report are the batch's own.
+OUTPUT_FLAGS = ("--volume", "--volumes", "--labelmap", "--rtstruct", "--dump-stages")
+BATCH_FLAGS = ("-o", "--output", "--report", "--threads", "-q", "--quiet")
+# Names the batch keeps for itself in DIR (and dot-files: its temp files, Dask's space).
+RESERVED_NAMES = ("summary.csv",)
+DASK_DIR = ".dask"
+# A case's files are NAME.json and NAME.<format> (at most 4 more bytes than ".json");
+# NAME_MAX is 255 bytes on Linux file systems.
+MAX_NAME_BYTES = 255 - len(".json") - 4
+
+
 def default_cli():
     """The isoloft CLI this package belongs to."""
-    from .cli import cli_path
     return cli_path()
+
+
+def _open_manifest(path):
+    """The manifest's rows as dicts; ValueError for a file that is not a
+    regular file (a FIFO would block), or a quote left open."""
+    try:
+        st = os.stat(path)
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read the manifest ({e.strerror})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError(f"{path}: the manifest is not a regular file")
+    # utf-8-sig: a byte order mark (as Excel writes) is not part of the first header name.
+    with open(path, newline="", encoding="utf-8-sig") as f:
+        reader = csv.DictReader(f, strict=True)
+        rows = []
+        try:
+            for row in reader:
+                # A field running over a line end: a quote opened and closed rows later (rows merged).
+                for key, value in row.items():
+                    for v in (value if isinstance(value, list) else [value]):
+                        if isinstance(v, str) and ("\n" in v or "\r" in v):
+                            raise ValueError(f"{path}: line {reader.line_num}: a field spans several lines "
+                                             f"(an unbalanced quote?)")
+                rows.append(row)
+        except csv.Error as e:
+            raise ValueError(f"{path}: line {reader.line_num}: {e} (an unbalanced quote?)") from None
+        except UnicodeDecodeError as e:
+            raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    return rows
+
+
+def _name_problem(name):
+    """Why `name` cannot be a case's folder and file stem, or None."""
+    if "\0" in name:
+        return "holds a NUL byte"
+    if "/" in name or name in (".", ".."):
+        return "is not a folder name"
+    if name.startswith("."):
+        return "starts with a dot (the batch's own files)"
+    if name in RESERVED_NAMES:
+        return f"is reserved for the batch's {name}"
+    if len(os.fsencode(name)) > MAX_NAME_BYTES:
+        return f"is longer than {MAX_NAME_BYTES} bytes (file names)"
+    return None
+
+
+def _options_problem(options):
+    """Why a case's options cannot run in its folder, or None."""
+    for i, opt in enumerate(options):
+        if "\0" in opt:
+            return "an option holds a NUL byte"
+        flag, eq, value = opt.partition("=")
+        if flag in BATCH_FLAGS or (not eq and opt in BATCH_FLAGS):
+            return f"{flag} is set by the batch"
+        if flag not in OUTPUT_FLAGS:
+            continue
+        if not eq:
+            if i + 1 >= len(options):
+                return f"{flag} needs a value"
+            value = options[i + 1]
+        p = pathlib.PurePosixPath(value)
+        if p.is_absolute() or ".." in p.parts:
+            return f"{flag} {value}: outputs stay in the case's folder (a relative path without '..')"
+    return None
 
 
 def read_manifest(manifest):
     """The cases of a manifest (a CSV path, or rows as dicts): dicts with
-    input (absolute), name and options (a list of flags)."""
+    input (absolute), name, options (a list of flags) and, for a row that
+    cannot run, error (the case is recorded as failed, not run).
+    ValueError for a manifest that cannot be read as rows at all, or a name
+    used twice."""
     if isinstance(manifest, (str, os.PathLike)):
         path = pathlib.Path(manifest)
         base = path.resolve().parent
-        with open(path, newline="") as f:
-            rows = list(csv.DictReader(f))
+        rows = _open_manifest(path)
         where = str(path)
     else:
         base, rows, where = pathlib.Path.cwd(), [dict(r) for r in manifest], "manifest"
     cases, names = [], set()
     for i, row in enumerate(rows, start=2 if where != "manifest" else 0):
-        if not row.get("input"):
-            raise ValueError(f"{where}: row {i}: no 'input'")
-        src = pathlib.Path(row["input"])
+        error = None
+        given = row.get("input") or ""
+        src = pathlib.Path(given.replace("\0", "")) if given else pathlib.Path("")
         src = src if src.is_absolute() else base / src
-        name = (row.get("name") or "").strip() or src.name.split(".")[0]
+        name = (row.get("name") or "").strip() or (src.name.split(".")[0] if given else f"row{i}")
+        options = row.get("options") or ""
+        try:
+            options = shlex.split(options) if isinstance(options, str) else [str(o) for o in options]
+        except ValueError as e:
+            options, error = [], f"options: {e}"
+        if not given:
+            error = "no 'input'"
+        elif "\0" in given:
+            error = "the input holds a NUL byte"
+        problem = _name_problem(name)
+        if problem:
+            error = f"the name {name!r} {problem}"
+        error = error or _options_problem(options)
         if name in names:
             raise ValueError(f"{where}: row {i}: the name '{name}' is used twice")
-        if "/" in name or name in (".", ".."):
-            raise ValueError(f"{where}: row {i}: the name '{name}' is not a folder name")
         names.add(name)
-        options = row.get("options") or ""
-        cases.append({"input": str(src), "name": name,
-                      "options": shlex.split(options) if isinstance(options, str) else list(options)})
+        case = {"input": str(src), "name": name, "options": options}
+        if error:
+            case["error"] = f"{where}: row {i}: {error}"
+        cases.append(case)
     return cases
 
 
@@ -74,27 +180,106 @@ def case_command(case, cli, threads=1, fmt="ply"):
             f"{name}.json", "--threads", str(threads), "-q"]
 
 
+# The CLI processes running now, stopped when the batch is stopped.
+_children = set()
+_children_lock = threading.Lock()
+
+
 def run_case(case, out, cli, threads=1, fmt="ply"):
     """Runs one case (a Dask task): its summary row."""
     folder = pathlib.Path(out) / case["name"]
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
-    r = subprocess.run(case_command(case, cli, threads, fmt), cwd=folder, capture_output=True, text=True)
-    errors = [line for line in r.stderr.splitlines() if line.startswith("isoloft: error:")]
-    error = errors[-1][len("isoloft: error: "):] if errors else (r.stderr.strip().splitlines() or [""])[-1]
-    return {"name": case["name"], "input": case["input"], "status": "ok" if r.returncode == 0 else "failed",
-            "exit_code": r.returncode, "seconds": round(time.monotonic() - t0, 3),
-            "error": "" if r.returncode == 0 else error}
+    with subprocess.Popen(case_command(case, cli, threads, fmt), cwd=folder, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True) as p:
+        with _children_lock:
+            _children.add(p)
+        try:
+            _, stderr = p.communicate()
+        finally:
+            with _children_lock:
+                _children.discard(p)
+    errors = [line for line in stderr.splitlines() if line.startswith("isoloft: error:")]
+    error = errors[-1][len("isoloft: error: "):] if errors else (stderr.strip().splitlines() or [""])[-1]
+    return {"name": case["name"], "input": case["input"], "status": "ok" if p.returncode == 0 else "failed",
+            "exit_code": p.returncode, "seconds": round(time.monotonic() - t0, 3),
+            "error": "" if p.returncode == 0 else error}
+
+
+def _is_done(case, out, cli, threads, fmt):
+    """The case's report exists and was written by this case's command
+    (same options and format; --threads aside)."""
+    report = out / case["name"] / f"{case['name']}.json"
+    try:
+        with open(report) as f:
+            done = json.load(f).get("command", "")
+    except (OSError, ValueError, AttributeError):
+        return False
+    return _comparable(done.split(" ")) == _comparable(case_command(case, cli, threads, fmt))
+
+
+def _comparable(argv):
+    """A command as the report records it (argv joined by spaces), without
+    the executable and --threads (which changes no byte)."""
+    words = " ".join(argv[1:]).split(" ")
+    return [w for k, w in enumerate(words) if w != "--threads" and (k == 0 or words[k - 1] != "--threads")]
+
+
+def csv_cell(value):
+    """A summary cell a spreadsheet shows as text: a leading =, +, -, @, tab or
+    CR (a formula) gets a single quote first (OWASP's CSV-injection advice;
+    the C++ tables use isoloft/core/sanitize.h's csv_cell, the same rule).
+    The csv writer quotes what needs quoting."""
+    text = str(value)
+    return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
 def _write_summary(out, rows):
     path = pathlib.Path(out) / "summary.csv"
     tmp = path.with_name(f".summary.csv.tmp{os.getpid()}")
     with open(tmp, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=SUMMARY_FIELDS)
+        w = csv.DictWriter(f, fieldnames=SUMMARY_FIELDS, quoting=csv.QUOTE_MINIMAL)
         w.writeheader()
-        w.writerows(rows)
+        for row in rows:
+            # Names and errors are text; the numbers (exit code, seconds) stay numbers.
+            w.writerow({k: csv_cell(v.replace("\0", "\\x00")) if isinstance(v, str) else v for k, v in row.items()})
     os.replace(tmp, path)
+
+
+class _StopChildren:
+    """While a batch runs (in the main thread): SIGTERM, SIGINT and SIGHUP
+    stop the running CLI processes (each removes its temp files on SIGTERM),
+    then the batch dies of the same signal."""
+
+    SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+
+    def __enter__(self):
+        self.old = {}
+        if threading.current_thread() is threading.main_thread():
+            for s in self.SIGNALS:
+                self.old[s] = signal.signal(s, self._stop)
+        return self
+
+    def __exit__(self, *exc):
+        for s, h in self.old.items():
+            signal.signal(s, h)
+
+    def _stop(self, signum, frame):
+        with _children_lock:
+            running = list(_children)
+        for p in running:
+            try:
+                p.terminate()
+            except OSError:
+                pass
+        for p in running:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        self.__exit__()
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
 
 
 def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply", force=False, cli=None,
@@ -111,13 +296,20 @@ def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply
     if workers is not None and scheduler is not None:
         raise ValueError("give either workers or scheduler, not both")
     cli = cli or default_cli()
+    if format not in MESH_FORMATS:
+        raise ValueError(f"format: unknown mesh format {format!r} (expected {', '.join(MESH_FORMATS)})")
+    cases = read_manifest(manifest)  # before anything is written
     out = pathlib.Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
-    cases = read_manifest(manifest)
     rows = {}
     todo = []
     for case in cases:
-        if not force and (out / case["name"] / f"{case['name']}.json").exists():
+        if "error" in case:
+            rows[case["name"]] = {"name": case["name"], "input": case["input"], "status": "failed",
+                                  "exit_code": "", "seconds": 0.0, "error": case["error"]}
+            if on_case:
+                on_case(rows[case["name"]])
+        elif not force and _is_done(case, out, cli, threads, format):
             rows[case["name"]] = {"name": case["name"], "input": case["input"], "status": "skipped",
                                   "exit_code": 0, "seconds": 0.0, "error": ""}
         else:
@@ -130,12 +322,14 @@ def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply
             # (docs/decisions.md, cohorts).
             # No statistical profiler (it samples every worker thread each 10 ms), slower watchdog ticks and
             # system monitor: 3.1 -> 1.8-2.2 s of CPU for 8 tasks of 3 s (docs/decisions.md, cohorts).
-            with dask.config.set(LOCAL_CLUSTER_CONFIG):
-                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=False, dashboard_address=None)
+            # Dask's work space under --out, not in /tmp.
+            with dask.config.set({**LOCAL_CLUSTER_CONFIG, "temporary-directory": str(out / DASK_DIR)}):
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=False, dashboard_address=None,
+                                       local_directory=str(out / DASK_DIR))
         else:
             cluster = None
         try:
-            with Client(cluster if cluster is not None else scheduler) as client:
+            with _StopChildren(), Client(cluster if cluster is not None else scheduler) as client:
                 futures = client.map(run_case, todo, out=str(out), cli=cli, threads=threads, fmt=format,
                                      pure=False, key=[f"isoloft-{c['name']}" for c in todo])
                 for future in as_completed(futures):
@@ -160,7 +354,7 @@ def main(argv=None):
     where.add_argument("--workers", type=int, help="a local Dask cluster of N worker processes (default: cores)")
     where.add_argument("--scheduler", help="a running Dask scheduler's address (tcp://host:8786)")
     parser.add_argument("--threads", type=int, default=1, help="--threads of each case (default 1)")
-    parser.add_argument("--format", default="ply", choices=["ply", "obj", "stl", "off", "vtp", "vtk"],
+    parser.add_argument("--format", default="ply", choices=MESH_FORMATS,
                         help="mesh format of each case (default ply)")
     parser.add_argument("--force", action="store_true", help="rerun cases already done")
     parser.add_argument("--cli", help="the isoloft CLI to run (default: this package's)")
