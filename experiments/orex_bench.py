@@ -70,8 +70,8 @@ def fetch_inputs(orex, shape, work):
 def run(cmd, log):
     """Runs cmd under GNU time; (returncode, wall seconds, peak resident MiB of cmd and
     its children). Not os.wait4 on our own child: Linux keeps the forking
-    process's high-water mark across exec, so that read this script's own
-    160-230 MB into every method's peak."""
+    process's high-water mark across exec, so a small method showed this
+    script's own size (a `cp` read 161 MiB)."""
     peak_file = log + ".peak"
     t0 = time.perf_counter()
     with open(log, "w") as f:
