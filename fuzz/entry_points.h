@@ -20,7 +20,7 @@ struct Target {
   EntryPoint run;
 };
 
-/// png, polylines, params, nifti, nrrd, metaimage, rtstruct.
+/// png, polylines, params, nifti, nrrd, metaimage, rtstruct, csl.
 const std::vector<Target>& targets();
 
 /// The target named `name`, or nullptr.
