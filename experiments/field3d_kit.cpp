@@ -13,7 +13,7 @@
 // With --csl FILE --ref MESH (the CSL reader, io/csl.h): the same against a reference mesh.
 //
 // usage: field3d_kit [--out FILE.csv] [--threads N] [--resolution R] [--smoothness S] [--contour-weight W]
-//                    [--band B] [--csl FILE --ref MESH --name NAME]
+//                    [--band B] [--csl FILE --ref MESH --name NAME [--allow-self-intersections]]
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -21,6 +21,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -28,11 +29,7 @@
 #include "isoloft/field3d/field3d.h"
 #include "isoloft/io/mesh_io.h"
 #include "isoloft/synth/sections.h"
-#if __has_include("isoloft/io/csl.h")
 #include "isoloft/io/csl.h"
-#define ISOLOFT_HAVE_CSL 1
-#endif
-#include "isoloft/core/error.h"
 
 using namespace isoloft;
 
@@ -97,49 +94,6 @@ void row(std::ostream& os, const std::string& shape, const std::string& set, std
   os.flush();
 }
 
-#ifndef ISOLOFT_HAVE_CSL
-/// Stand-in until io/csl.h lands (branch sections35): OReX's CSL, trusted
-/// (no checks beyond the stream's), label-1 components only, holes as even-odd loops.
-std::vector<Section> read_csl(const std::string& path) {
-  std::ifstream in(path);
-  std::string magic;
-  int planes = 0, labels = 0;
-  if (!(in >> magic >> planes >> labels) || magic != "CSLC") throw InputError(path, "not a CSL file");
-  std::vector<Section> out;
-  for (int p = 0; p < planes; ++p) {
-    int id = 0, nv = 0, nc = 0;
-    Vec3d n;
-    double d = 0;
-    if (!(in >> id >> nv >> nc >> n.x() >> n.y() >> n.z() >> d)) throw InputError(path, "truncated plane header");
-    Section sec;
-    sec.pose = pose_from_normal(-d * n / n.squaredNorm(), n);
-    sec.source = path + ", plane " + std::to_string(id);
-    std::vector<Vec2d> verts(static_cast<std::size_t>(nv));
-    for (auto& v : verts) {
-      Vec3d w;
-      if (!(in >> w.x() >> w.y() >> w.z())) throw InputError(path, "truncated vertices");
-      v = sec.pose.to_plane(w);
-    }
-    for (int c = 0; c < nc; ++c) {
-      int count = 0;
-      std::string label;
-      if (!(in >> count >> label)) throw InputError(path, "truncated component");
-      SectionContour con;
-      for (int k = 0; k < count; ++k) {
-        int idx = 0;
-        if (!(in >> idx)) throw InputError(path, "truncated component");
-        con.points.push_back(verts.at(std::size_t(idx)));
-      }
-      con.label = 1;
-      con.hole = label.find('h') != std::string::npos;
-      sec.contours.push_back(std::move(con));
-    }
-    out.push_back(std::move(sec));
-  }
-  return out;
-}
-#define ISOLOFT_HAVE_CSL 1
-#endif
 
 }  // namespace
 
@@ -147,6 +101,7 @@ int main(int argc, char** argv) {
   std::string out = "field3d_kit.csv", csl, ref, name;
   int threads = 2;
   Field3dParams params;
+  CslParams csl_params;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto next = [&]() -> std::string {
@@ -162,6 +117,7 @@ int main(int argc, char** argv) {
     else if (a == "--csl") csl = next();
     else if (a == "--ref") ref = next();
     else if (a == "--name") name = next();
+    else if (a == "--allow-self-intersections") csl_params.refuse_self_intersections = false;
     else {
       std::cerr << "unknown argument " << a << "\n";
       return 2;
@@ -172,23 +128,21 @@ int main(int argc, char** argv) {
   header(os);
   header(std::cout);
   if (!csl.empty()) {
-#ifdef ISOLOFT_HAVE_CSL
-    const std::vector<Section> sections = read_csl(csl);
-    const TriMesh reference = read_mesh(ref);
+    const std::vector<Section> sections = read_csl(csl, csl_params).sections;
+    const Field3dResult r = reconstruct_sections(sections, 1, params);
+    // Without a reference (armadillo: none stored) only the run's own figures; shares of the mesh's diagonal.
+    const TriMesh reference = ref.empty() ? r.mesh : read_mesh(ref);
     Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
     for (const Vec3f& v : reference.vertices) lo = lo.cwiseMin(v.cast<double>()), hi = hi.cwiseMax(v.cast<double>());
     const double diag = (hi - lo).norm();
-    const Field3dResult r = reconstruct_sections(sections, 1, params);
-    const Score s = score(point_mesh_distances(reference, mesh_samples(r.mesh, kSamples, 1)),
-                          point_mesh_distances(r.mesh, mesh_samples(reference, kSamples, 2)), diag);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const Score s = ref.empty() ? Score{nan, nan}
+                                : score(point_mesh_distances(reference, mesh_samples(r.mesh, kSamples, 1)),
+                                        point_mesh_distances(r.mesh, mesh_samples(reference, kSamples, 2)), diag);
     for (std::ostream* o : {static_cast<std::ostream*>(&os), static_cast<std::ostream*>(&std::cout)})
       row(*o, name.empty() ? csl : name, "csl", sections.size(), s, r, diag);
     for (const auto& w : r.warnings) std::cerr << "warning: " << w << "\n";
     return 0;
-#else
-    std::cerr << "this build has no CSL reader (io/csl.h)\n";
-    return 2;
-#endif
   }
   const std::vector<std::pair<std::string, nlohmann::json>> shapes{
       {"sphere", {{"type", "sphere"}, {"center", {0, 0, 0}}, {"radius", 30}}},
