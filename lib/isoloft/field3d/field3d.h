@@ -45,7 +45,7 @@ namespace isoloft {
 struct Field3dParams {
   int resolution = 96;
   double margin = 0.1;
-  double band = 3.0;
+  double band = 8.0;
   double smoothness = 1.0;
   double contour_weight = 10.0;
   double plane_weight = 1.0;
@@ -72,7 +72,8 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "outermost contours)",
             at_least(0)),
       field("band", &Field3dParams::band, "cells",
-            "in-plane signed distances clamped to +-band (crossing planes disagree away from contours by at most this)",
+            "in-plane distances clamped to +-band: crossing planes disagree by at most this; 8 beat 3 on the OReX "
+            "tuning sets (eight_15 Chamfer 0.20 -> 0.11 %, balloondog 2 -> 1 component)",
             above(0)),
       field("smoothness", &Field3dParams::smoothness, "",
             "weight of the bi-Laplacian energy against the plane samples (tuned on eight_15, eight_20, balloondog)",

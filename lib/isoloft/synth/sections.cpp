@@ -65,7 +65,10 @@ std::vector<Section> analytic_sections(const Shape& shape, const std::vector<Pla
       pmin = pmin.cwiseMin(q);
       pmax = pmax.cwiseMax(q);
     }
-    pmin.array() -= 2 * pixel;
+    // A margin of 2 pixels, offset by an irrational share so no sample of a
+    // centred plane lands exactly on the surface (a zero sample makes a
+    // zero-length segment that breaks the loop).
+    pmin.array() -= (2 + 1 / std::sqrt(2.0)) * pixel;
     pmax.array() += 2 * pixel;
     const int w = int(std::ceil((pmax.x() - pmin.x()) / pixel)) + 1, h = int(std::ceil((pmax.y() - pmin.y()) / pixel)) + 1;
     const auto to_plane = [&](const Vec2d& px) { return Vec2d(pmin + px * pixel); };
