@@ -79,7 +79,8 @@ void check_reconstruction(const Shape& shape, const std::vector<PlanePose>& pose
 /// default 96 cells. Least squares balances the contour samples against the
 /// bi-Laplacian, so the zero set sits off the drawn contour where the contour
 /// bends hardest: measured up to 0.31 % on the torus (tube radius 12 mm, ~9
-/// cells; plane 8 of TorusTenRandomPlanes), 0.07-0.13 % on the spheres. The
+/// cells; plane 8 of TorusTenRandomPlanes), 0.07-0.13 % on the spheres (both
+/// at contour_weight 10; the default 100 passes too). The
 /// issue's target, 0.1 %, is NOT met yet (docs/decisions.md: the field3d method).
 constexpr double kPlaneTol = 4e-3;
 /// To the analytic surface: what the planes leave undetermined between them
