@@ -9,6 +9,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/core/sanitize.h"
 #include "isoloft/io/label_names.h"
+#include "isoloft/io/csl.h"
 #include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
@@ -137,12 +138,27 @@ void label_names(const std::uint8_t* d, std::size_t n) {
   });
 }
 
+// The text as it is (no scratch file: read_csl maps the file and parses the
+// same bytes), once as refused by default and once with self-intersecting
+// contours let through, so the sections are built for those too.
+void csl(const std::uint8_t* d, std::size_t n) {
+  const std::string_view text(reinterpret_cast<const char*>(d), n);
+  for (const bool refuse : {true, false}) {
+    CslParams params;
+    params.refuse_self_intersections = refuse;
+    try {
+      (void)parse_csl(text, "fuzz.csl", params);
+    } catch (const Error&) {
+    }
+  }
+}
+
 }  // namespace
 
 const std::vector<Target>& targets() {
   static const std::vector<Target> t{{"png", png},   {"polylines", polylines}, {"params", params},    {"nifti", nifti},
                                      {"nrrd", nrrd}, {"metaimage", metaimage}, {"rtstruct", rtstruct},
-                                     {"roi_names", roi_names}, {"label_names", label_names}};
+                                     {"roi_names", roi_names}, {"label_names", label_names}, {"csl", csl}};
   return t;
 }
 

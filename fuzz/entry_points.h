@@ -20,7 +20,7 @@ struct Target {
   EntryPoint run;
 };
 
-/// png, polylines, params, nifti, nrrd, metaimage, rtstruct, roi_names, label_names.
+/// png, polylines, params, nifti, nrrd, metaimage, rtstruct, roi_names, label_names, csl.
 const std::vector<Target>& targets();
 
 /// The target named `name`, or nullptr.

@@ -1,0 +1,156 @@
+// @file field3d/field3d.h
+// @brief One smooth 3D implicit field constrained by every drawn section, in
+// any orientation (issue 35 item 2), and its surface.
+// Formulation (docs/decisions.md: the field3d method): the unknown f lives on a
+// regular grid over the contours' bounding box plus a margin; it minimises
+//   smoothness * sum_interior (Lap_h f)^2 h^3
+//   + sum_samples w_s (f(p_s) - d_s)^2 + boundary_weight * sum_faces (f + band)^2 h^2
+// with f(p) trilinear. The samples cover every section plane inside the box:
+// d_s is the in-plane signed distance to the plane's contours of the label
+// (positive inside, even-odd nesting) clamped to +-band, so the whole plane's
+// inside and outside is constrained while crossing planes, whose in-plane
+// distances differ away from the contours, fight at most by the band; samples
+// on the contours themselves (d = 0) weigh contour_weight per length. The
+// normal equations are SPD; they are solved by Jacobi-preconditioned conjugate
+// gradients warm-started coarse to fine (the grid halved `levels - 1` times),
+// matrix-free; a direct SimplicialLDLT on the assembled matrix is the twin
+// (Field3dParams::direct, small grids only). The zero set is meshed by Marching
+// Cubes (mesh/marching_cubes.h) on the grid padded with outside samples, so the
+// mesh is closed and oriented.
+// Crossing sections: where two planes meet, each one's contours cut their
+// common line into inside intervals; where those disagree by more than
+// conflict_tolerance a Conflict (its length) is reported. Rule: least squares
+// averages the two planes' samples there (equal weights), so the surface
+// passes between the two drawn crossings.
+// Units: world millimetres in and out; band, tolerances and spacings in grid cells.
+// @warning A surface that would leave the padded box is cut by the boundary
+// term (f pulled to -band on the box faces), so margin bounds how far the
+// surface may bulge beyond the outermost contours.
+// @warning Label-image sections (Section::is_image()) are refused (InputError);
+// contours only.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "isoloft/core/mesh.h"
+#include "isoloft/core/params.h"
+#include "isoloft/core/section.h"
+#include "isoloft/mesh/mesh_check.h"
+
+namespace isoloft {
+
+struct Field3dParams {
+  int resolution = 96;
+  double margin = 0.1;
+  double band = 8.0;
+  double smoothness = 1.0;
+  double contour_weight = 100.0;
+  double plane_weight = 1.0;
+  double boundary_weight = 1.0;
+  double sample_spacing = 1.0;
+  int levels = 3;
+  double tolerance = 1e-5;
+  int max_iterations = 4000;
+  double conflict_tolerance = 0.5;
+  bool direct = false;
+};
+
+/// Largest grid (nodes) the direct twin accepts: its LDLT fill grows as n^(5/3).
+inline constexpr std::size_t kMaxDirectNodes = 40000;
+
+template <>
+inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
+  static const ParamTable<Field3dParams> t({
+      field("resolution", &Field3dParams::resolution, "cells",
+            "grid cells along the box's longest side (96: armadillo's 26 planes within 5 s on 2 threads)",
+            between(4, 1024)),
+      field("margin", &Field3dParams::margin, "",
+            "box margin around the contours, share of their bounding-box diagonal (room for caps beyond the "
+            "outermost contours)",
+            at_least(0)),
+      field("band", &Field3dParams::band, "cells",
+            "in-plane distances clamped to +-band: crossing planes disagree by at most this; 8 beat 3 on the OReX "
+            "tuning sets (eight_15 Chamfer 0.20 -> 0.11 %, balloondog 2 -> 1 component)",
+            above(0)),
+      field("smoothness", &Field3dParams::smoothness, "",
+            "weight of the bi-Laplacian energy against the plane samples (tuned on eight_15, eight_20, balloondog)",
+            above(0)),
+      field("contour_weight", &Field3dParams::contour_weight, "per cell",
+            "weight per cell of contour length of the f = 0 samples on drawn contours; 100 beat 10 on the OReX tuning "
+            "sets (balloondog largest per-plane distance 34 -> 0.62 % of the diagonal: thin parts kept)",
+            at_least(0)),
+      field("plane_weight", &Field3dParams::plane_weight, "per cell^2",
+            "weight per cell^2 of the clamped in-plane distance samples (inside/outside over the whole plane)",
+            above(0)),
+      field("boundary_weight", &Field3dParams::boundary_weight, "per cell^2",
+            "weight per cell^2 pulling f to -band on the box faces (outside there; makes the system definite)",
+            above(0)),
+      field("sample_spacing", &Field3dParams::sample_spacing, "cells",
+            "spacing of the samples on planes and along contours (1: about one per crossed cell)", above(0)),
+      field("levels", &Field3dParams::levels, "levels",
+            "grids of the coarse-to-fine warm start, spacing doubled per level (3: N/4, N/2, N)", between(1, 6)),
+      field("tolerance", &Field3dParams::tolerance, "",
+            "conjugate gradients stop at this relative residual |r| / |b| on every level", above(0)),
+      field("max_iterations", &Field3dParams::max_iterations, "iterations",
+            "conjugate-gradient iterations per level at most (a safety net)", at_least(1)),
+      field("conflict_tolerance", &Field3dParams::conflict_tolerance, "cells",
+            "crossing planes whose inside intervals on their common line disagree by more than this are reported",
+            at_least(0)),
+      field("direct", &Field3dParams::direct, "",
+            "solve by SimplicialLDLT on the assembled system (the twin; small grids only)"),
+  });
+  return t;
+}
+
+/// Where two sections' contours disagree on their common line.
+struct Field3dConflict {
+  std::size_t a = 0, b = 0;  ///< indices of the two sections
+  double size = 0;           ///< length of the interval inside for one and outside for the other, mm
+  Vec3d where = Vec3d::Zero();  ///< its midpoint, world mm
+};
+
+/// How far the mesh's section on one input plane lies from the drawn contours.
+struct Field3dPlaneResidual {
+  std::size_t section = 0;
+  double mesh_to_drawn = 0;  ///< largest distance of the mesh's section from the drawn contours, mm
+  double drawn_to_mesh = 0;  ///< largest distance of the drawn contours from the mesh's section, mm
+  [[nodiscard]] double max() const { return mesh_to_drawn > drawn_to_mesh ? mesh_to_drawn : drawn_to_mesh; }
+};
+
+struct Field3dResult {
+  TriMesh mesh;  ///< world mm, closed, counter-clockwise seen from outside
+  MeshCheck check;
+  Vec3d origin = Vec3d::Zero();  ///< world position of grid node (0, 0, 0), mm
+  double spacing = 0;            ///< finest grid spacing, mm
+  int nx = 0, ny = 0, nz = 0;    ///< finest grid nodes per axis
+  std::vector<double> field;     ///< f at the finest nodes, x fastest (cells; positive inside)
+  std::size_t samples = 0;       ///< data samples (plane and contour)
+  int iterations = 0;            ///< conjugate-gradient iterations over all levels (0 for direct)
+  int finest_iterations = 0;     ///< of which on the finest grid
+  double residual = 0;           ///< final relative residual |A f - b| / |b| on the finest grid
+  std::vector<Field3dPlaneResidual> planes;  ///< one per section
+  std::vector<Field3dConflict> conflicts;    ///< larger than conflict_tolerance
+  std::vector<std::string> warnings;         ///< one per conflict, naming both sections and the size
+  double seconds = 0;                        ///< wall time of the whole call
+};
+
+/// The surface of `label` from every section: one field over all planes.
+/// \throw ParamError for params out of range, or direct with a grid above kMaxDirectNodes;
+///        InputError naming the section (Section::source) for a non-orthonormal pose,
+///        a label image, a contour of < 3 points or a non-finite coordinate, and
+///        when no section holds a contour of `label`.
+Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
+                                   const Field3dParams& params = {});
+
+namespace detail {
+/// Largest distances between the section of `mesh` by `pose`'s plane and the
+/// closed polylines `drawn` (in-plane mm): {mesh -> drawn, drawn -> mesh}; +inf
+/// for a side when the other is empty, 0 when both are.
+Field3dPlaneResidual plane_section_distance(const TriMesh& mesh, const PlanePose& pose,
+                                            const std::vector<std::vector<Vec2d>>& drawn);
+}  // namespace detail
+
+}  // namespace isoloft

@@ -1,0 +1,202 @@
+// @file tests/field3d/test_field3d.cpp
+// @brief The field3d stage on analytic shapes cut by planes in any
+// orientation: a closed oriented surface of the right topology whose section
+// on every input plane follows the drawn contour, near the analytic surface;
+// the fast solver against its direct twin; conflicts at crossings; bad input.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "isoloft/core/error.h"
+#include "isoloft/eval/point_mesh.h"
+#include "isoloft/field3d/field3d.h"
+#include "isoloft/synth/sections.h"
+
+namespace isoloft {
+namespace {
+
+/// Polygonisation of the drawn sections, mm: chord error r (1 - cos(pi s / 2 pi r))
+/// ~ s^2 / 8r = 1e-4 mm for s = 0.1 mm and r >= 12 mm, far below every tolerance.
+constexpr double kSectionPixel = 0.1;
+
+std::unique_ptr<Shape> sphere() {
+  return shape_from_json({{"type", "sphere"}, {"center", {0, 0, 0}}, {"radius", 30}});
+}
+std::unique_ptr<Shape> torus() {
+  return shape_from_json(
+      {{"type", "torus"}, {"center", {0, 0, 0}}, {"major_radius", 30}, {"minor_radius", 12}, {"tilt_deg", 30}});
+}
+
+double bbox_diagonal(const Shape& s) {
+  const auto [lo, hi] = s.bounds();
+  return (hi - lo).norm();
+}
+
+/// Two-sided Hausdorff distance between the mesh and the analytic surface:
+/// vertices' exact distances one way, surface points' distances to the mesh the other.
+double hausdorff_to_shape(const TriMesh& mesh, const Shape& shape) {
+  double d = 0;
+  for (const Vec3f& v : mesh.vertices) d = std::max(d, std::abs(shape.value(v.cast<double>())));
+  const auto [lo, hi] = shape.bounds();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Vec3d> pts;
+  for (int i = 0; i < 3000; ++i)
+    pts.push_back(shape.closest_point(lo + (hi - lo).cwiseProduct(Vec3d(u(rng), u(rng), u(rng)))));
+  for (double x : point_mesh_distances(mesh, pts)) d = std::max(d, x);
+  return d;
+}
+
+struct Expect {
+  long genus = 0;
+  /// Largest per-plane distance between the mesh's section and the drawn contour, share of the diagonal.
+  double plane_tol = 0;
+  /// Largest two-sided distance to the analytic surface, share of the diagonal.
+  double hausdorff_tol = 0;
+};
+
+void check_reconstruction(const Shape& shape, const std::vector<PlanePose>& poses, const Expect& e) {
+  const std::vector<Section> sections = analytic_sections(shape, poses, kSectionPixel);
+  const Field3dResult r = reconstruct_sections(sections, 1);
+  const double diag = bbox_diagonal(shape);
+  EXPECT_TRUE(r.check.closed);
+  EXPECT_TRUE(r.check.oriented);
+  EXPECT_TRUE(r.check.manifold);
+  EXPECT_EQ(r.check.components, 1);
+  EXPECT_EQ((2 - r.check.euler) / 2, e.genus);
+  EXPECT_GT(r.check.volume, 0);
+  for (std::size_t i = 0; i < r.planes.size(); ++i)
+    EXPECT_LE(r.planes[i].max(), e.plane_tol * diag) << "plane " << i;
+  EXPECT_LE(hausdorff_to_shape(r.mesh, shape), e.hausdorff_tol * diag);
+  EXPECT_LE(r.residual, Field3dParams{}.tolerance);
+}
+
+// Tolerances, shares of the bounding-box diagonal (docs/decisions.md: the
+// field3d method).
+/// On the input planes: 0.4 % of the diagonal, a third of a grid cell at the
+/// default 96 cells. Least squares balances the contour samples against the
+/// bi-Laplacian, so the zero set sits off the drawn contour where the contour
+/// bends hardest: measured up to 0.31 % on the torus (tube radius 12 mm, ~9
+/// cells; plane 8 of TorusTenRandomPlanes), 0.07-0.13 % on the spheres (both
+/// at contour_weight 10; the default 100 passes too). The
+/// issue's target, 0.1 %, is NOT met yet (docs/decisions.md: the field3d method).
+constexpr double kPlaneTol = 4e-3;
+/// To the analytic surface: what the planes leave undetermined between them
+/// (a cap no plane cuts is extrapolated); measured 2.7 % with 5 random planes
+/// on the sphere, 1.2 % with 10.
+constexpr double kShapeTol = 0.05;
+
+TEST(Field3d, SphereEightRandomPlanes) {
+  const auto s = sphere();
+  check_reconstruction(*s, random_poses(*s, 8, 11), {0, kPlaneTol, kShapeTol});
+}
+
+TEST(Field3d, TorusTenRandomPlanes) {
+  const auto s = torus();
+  check_reconstruction(*s, random_poses(*s, 10, 12), {1, kPlaneTol, kShapeTol});
+}
+
+TEST(Field3d, OrthogonalTriple) {
+  const auto s = sphere();
+  check_reconstruction(*s, orthogonal_poses(*s), {0, kPlaneTol, kShapeTol});
+}
+
+TEST(Field3d, ParallelControl) {
+  const auto s = torus();
+  check_reconstruction(*s, parallel_poses(*s, 8), {1, kPlaneTol, kShapeTol});
+}
+
+/// A circle of `radius` about the pose's origin, 720 vertices (one on each axis).
+Section circle_section(const PlanePose& pose, double radius) {
+  Section s;
+  s.pose = pose;
+  SectionContour c;
+  for (int k = 0; k < 720; ++k) {
+    const double a = 2 * M_PI * k / 720;
+    c.points.emplace_back(radius * std::cos(a), radius * std::sin(a));
+  }
+  s.contours.push_back(c);
+  return s;
+}
+
+PlanePose axis_pose(const Vec3d& u, const Vec3d& v) {
+  PlanePose p;
+  p.u = u;
+  p.v = v;
+  return p;
+}
+
+/// The matrix-free coarse-to-fine conjugate gradients against the direct
+/// LDLT twin on one small system (the same operator assembled).
+TEST(Field3d, ConjugateGradientsMatchDirectTwin) {
+  const auto s = sphere();
+  const std::vector<Section> sections = analytic_sections(*s, random_poses(*s, 6, 5), kSectionPixel);
+  Field3dParams p;
+  p.resolution = 16;
+  p.levels = 2;
+  p.tolerance = 1e-12;
+  const Field3dResult cg = reconstruct_sections(sections, 1, p);
+  p.direct = true;
+  const Field3dResult direct = reconstruct_sections(sections, 1, p);
+  ASSERT_EQ(cg.field.size(), direct.field.size());
+  ASSERT_LE(direct.residual, 1e-9);
+  /// Both solve one SPD system; CG stopped at 1e-12 relative residual, so
+  /// the fields agree far below a grid cell (the field's unit).
+  constexpr double kTwinTol = 1e-6;
+  for (std::size_t i = 0; i < cg.field.size(); ++i) ASSERT_NEAR(cg.field[i], direct.field[i], kTwinTol) << "node " << i;
+  EXPECT_GT(cg.iterations, 0);
+}
+
+/// Two orthogonal circles through the z axis disagreeing by 3 mm at both
+/// ends of their common line: two conflicts of 3 mm, named in warnings.
+TEST(Field3d, ConflictsAtCrossingsReported) {
+  std::vector<Section> sections{circle_section(axis_pose(Vec3d::UnitY(), Vec3d::UnitZ()), 30),
+                                circle_section(axis_pose(Vec3d::UnitX(), Vec3d::UnitZ()), 33)};
+  sections[0].source = "a.csl, plane 1";
+  sections[1].source = "a.csl, plane 2";
+  const Field3dResult r = reconstruct_sections(sections, 1);
+  ASSERT_EQ(r.conflicts.size(), 2u);
+  ASSERT_EQ(r.warnings.size(), 2u);
+  /// Crossings fall on polygon vertices (one on each axis): exact to rounding.
+  constexpr double kConflictTol = 1e-9;
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_NEAR(r.conflicts[i].size, 3.0, kConflictTol) << "conflict " << i;
+    EXPECT_NEAR(std::abs(r.conflicts[i].where.z()), 31.5, kConflictTol) << "conflict " << i;
+    EXPECT_NE(r.warnings[i].find("a.csl, plane 1"), std::string::npos) << "warning " << i;
+  }
+  // Least squares averages: the surface on the common line lies between 30 and 33.
+  EXPECT_TRUE(r.check.closed);
+  EXPECT_EQ(r.check.components, 1);
+}
+
+TEST(Field3d, BadInputNamesTheSection) {
+  const auto s = sphere();
+  const std::vector<Section> good = analytic_sections(*s, orthogonal_poses(*s), kSectionPixel);
+  auto expect_input_error = [](const std::vector<Section>& secs, std::uint32_t label, const std::string& what) {
+    try {
+      (void)reconstruct_sections(secs, label);
+      ADD_FAILURE() << "no error for " << what;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  auto skewed = good;
+  skewed[1].pose.v = Vec3d(1, 1, 0);
+  expect_input_error(skewed, 1, "analytic plane 1");
+  auto few = good;
+  few[2].contours[0].points.resize(2);
+  expect_input_error(few, 1, "analytic plane 2");
+  auto image = good;
+  image[0].labels = Grid2u32(4, 4, 1);
+  image[0].pixel_size = 1;
+  expect_input_error(image, 1, "analytic plane 0");
+  expect_input_error(good, 7, "label 7");
+  Field3dParams p;
+  p.direct = true;  // the default 96 cells: far above the twin's limit
+  EXPECT_THROW((void)reconstruct_sections(good, 1, p), ParamError);
+}
+
+}  // namespace
+}  // namespace isoloft
