@@ -30,6 +30,7 @@
 #include "isoloft/field/filter.h"
 #include "isoloft/field/marching.h"
 #include "isoloft/field/narrow_band.h"
+#include "isoloft/field3d/field3d.h"
 #include "isoloft/fit/mpu.h"
 #include "isoloft/core/mesh.h"
 #include "isoloft/core/slice_stack.h"
@@ -55,6 +56,7 @@ class Method {
   static const Method Isoloft;     ///< the default: marker2006 with the departures its spec names (each measured)
   static const Method Marker2006;  ///< the paper: MPU curve, distance extension, filter, Hyman's monotone z spline
   static const Method Levin;       ///< baseline: exact EDT of the pixel contours (Levin 1986 style), no filter
+  static const Method Field3d;     ///< one 3D field from every section, any orientation (field3d/field3d.h)
 
  private:
   std::string name_ = "isoloft";
@@ -107,6 +109,7 @@ struct ReconstructParams {
   TrackParams track;            ///< interp/track.h: the track z scheme
   MarchingCubesParams mc;       ///< mesh/: paper 2.5
   DecimateParams decimate;      ///< mesh/: paper 2.5
+  Field3dParams field3d;        ///< field3d/: the field3d method (sections in any orientation)
 };
 
 /// Least non-zero ReconstructParams::mpu_band, px: the fitted curve lies within

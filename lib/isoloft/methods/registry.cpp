@@ -11,6 +11,7 @@ namespace isoloft {
 MethodSpec isoloft_method();
 MethodSpec marker2006_method();
 MethodSpec levin_method();
+MethodSpec field3d_method();
 ZSchemeSpec columns_z_scheme();
 ZSchemeSpec track_z_scheme();
 
@@ -19,6 +20,7 @@ const std::vector<MethodSpec>& methods() {
       isoloft_method(),
       marker2006_method(),
       levin_method(),
+      field3d_method(),
   };
   return all;
 }

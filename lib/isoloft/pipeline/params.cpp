@@ -27,6 +27,7 @@ std::string z_scheme_doc() { return registry_doc(z_schemes(), "how the slice fie
 const Method Method::Isoloft{"isoloft"};
 const Method Method::Marker2006{"marker2006"};
 const Method Method::Levin{"levin"};
+const Method Method::Field3d{"field3d"};
 
 template <>
 const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
@@ -103,6 +104,7 @@ const ParamTable<ReconstructParams>& params_table<ReconstructParams>() {
     ParamTable<P>::nest(rows, checks, "track", &P::track, params_table<TrackParams>());
     ParamTable<P>::nest(rows, checks, "mc", &P::mc, params_table<MarchingCubesParams>());
     ParamTable<P>::nest(rows, checks, "decimate", &P::decimate, params_table<DecimateParams>());
+    ParamTable<P>::nest(rows, checks, "field3d", &P::field3d, params_table<Field3dParams>());
     return ParamTable<P>(std::move(rows), std::move(checks));
   }();
   return table;

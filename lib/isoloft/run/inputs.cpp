@@ -10,6 +10,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/io/csl.h"
 #include "isoloft/io/file_util.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
@@ -67,6 +68,31 @@ Inputs read_polyline_file(const InputRequest& r) {
   SliceStack st = read_polylines(r.paths[0]);
   if (r.pixel_size) st.pixel_size = *r.pixel_size;
   in.jobs.push_back({std::move(st), "", std::nullopt});
+  return in;
+}
+
+// A CSL file: its sections, one job per label drawn on some plane (a job's
+// stack stays empty: the field3d method reads the sections).
+Inputs read_csl_input(const InputRequest& r) {
+  Inputs in;
+  reject(r.z_spacing || r.slice_z, "--z-spacing/--slice-z", kCslInputOnly);
+  reject(bool(r.pixel_size), "--pixel-size", kCslInputOnly);
+  reject(!r.kind.empty(), "--input", "a CSL file holds polygons, not images");
+  CslFile csl = read_csl(r.paths[0]);
+  std::vector<std::uint32_t> labels;
+  for (const Section& s : csl.sections)
+    for (const SectionContour& c : s.contours) labels.push_back(c.label);
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  if (labels.empty()) throw InputError(r.paths[0], "no plane has a contour: nothing to reconstruct");
+  for (const std::uint32_t l : labels) {
+    Job job;
+    job.stack.kind = InputKind::Polylines;
+    job.name = labels.size() > 1 ? "label" + std::to_string(l) : "";
+    job.sections = csl.sections;
+    job.section_label = l;
+    in.jobs.push_back(std::move(job));
+  }
   return in;
 }
 
@@ -310,7 +336,7 @@ void check_request(InputFormat format, const InputRequest& r) {
   if (format != InputFormat::Volume) reject(!r.label_names.empty(), "--label-names", kVolumeInputOnly);
   if (format != InputFormat::RtStruct)
     reject(r.voxel_size || !r.rois.empty(), "--roi/--voxel-size", "only with a DICOM RT Structure Set input");
-  if ((format == InputFormat::Images || format == InputFormat::Polylines) && !r.space.empty())
+  if ((format == InputFormat::Images || format == InputFormat::Polylines || format == InputFormat::Csl) && !r.space.empty())
     throw ParamError(option_name("--space") + ": the input has no patient space (only volumes and RT Structure Sets do)");
   if (!r.space.empty() && r.space != "lps" && r.space != "ras")
     throw ParamError(option_name("--space") + ": unknown value '" + r.space + "' (expected lps or ras)");
@@ -359,6 +385,7 @@ InputFormat detect_input(const std::vector<std::string>& paths) {
   const std::string& p = paths[0];
   const std::string ext = lower_extension(p);
   if (ext == ".txt" || ext == ".poly" || ext == ".polylines") return InputFormat::Polylines;
+  if (ext == ".csl") return InputFormat::Csl;
   if (is_volume_path(p)) return InputFormat::Volume;
   if (ext == ".dcm" || is_dicom_file(p)) return InputFormat::RtStruct;
   return InputFormat::Images;
@@ -376,6 +403,7 @@ Inputs read_inputs(const InputRequest& r) {
     case InputFormat::Polylines: in = read_polyline_file(r); break;
     case InputFormat::Volume: in = read_volume_input(r); break;
     case InputFormat::RtStruct: in = read_rtstruct_input(r); break;
+    case InputFormat::Csl: in = read_csl_input(r); break;
     case InputFormat::Arrays: break;
   }
   in.format = format;
@@ -409,6 +437,12 @@ nlohmann::json input_report(const Inputs& in) {
     input["annotated_slices"] = in.slicing->annotated;
   }
   if (!in.label_names.file.empty()) input["label_names"] = in.label_names.file;
+  if (in.format == InputFormat::Csl) {
+    input["planes"] = in.jobs.front().sections.size();
+    nlohmann::json labels = nlohmann::json::array();
+    for (const auto& job : in.jobs) labels.push_back(job.section_label);
+    input["labels"] = labels;
+  }
   if (in.format == InputFormat::RtStruct) {
     nlohmann::json rois = nlohmann::json::array();
     for (const auto& job : in.jobs)

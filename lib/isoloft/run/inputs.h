@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "isoloft/core/params.h"
+#include "isoloft/core/section.h"
 #include "isoloft/core/slice_stack.h"
 #include "isoloft/io/label_names.h"
 #include "isoloft/io/rtstruct.h"
@@ -23,14 +24,15 @@
 
 namespace isoloft {
 
-enum class InputFormat { Images, Polylines, Volume, RtStruct, Arrays };
+enum class InputFormat { Images, Polylines, Volume, RtStruct, Arrays, Csl };
 
 /// Names as in the report's "input.format".
-inline constexpr std::array<EnumName<InputFormat>, 5> kInputFormatNames{{{InputFormat::Images, "png"},
+inline constexpr std::array<EnumName<InputFormat>, 6> kInputFormatNames{{{InputFormat::Images, "png"},
                                                                          {InputFormat::Polylines, "polylines"},
                                                                          {InputFormat::Volume, "volume"},
                                                                          {InputFormat::RtStruct, "rtstruct"},
-                                                                         {InputFormat::Arrays, "arrays"}}};
+                                                                         {InputFormat::Arrays, "arrays"},
+                                                                         {InputFormat::Csl, "csl"}}};
 constexpr std::span<const EnumName<InputFormat>> enum_names(InputFormat) { return kInputFormatNames; }
 
 /// One reconstruct() call.
@@ -39,7 +41,14 @@ struct Job {
   std::string name;          ///< "" (one object), or the ROI name (RT Structure Set)
   std::optional<Rgb> color;  ///< the ROI's display colour, if any
   const RtRoi* roi = nullptr;  ///< RT Structure Sets: the ROI (in Inputs::rtstruct)
+  /// CSL input: every section in world space (any orientation), read by the
+  /// field3d method instead of `stack` (which stays empty).
+  std::vector<Section> sections{};
+  std::uint32_t section_label = 0;  ///< the label of `sections` this job reconstructs
 };
+
+/// A CSL file (planes at any angle, io/csl.h): one job per label that has a contour.
+inline constexpr const char* kCslInputOnly = "not with a CSL input (its planes carry their own poses, in its own units)";
 
 /// What to read and the input options given (std::nullopt / "" = not given).
 struct InputRequest {
