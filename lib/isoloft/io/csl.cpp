@@ -13,6 +13,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/file_util.h"
+#include "isoloft/io/plane_fit.h"
 #include "isoloft/io/text.h"
 
 namespace isoloft {
@@ -105,20 +106,6 @@ bool to_double(std::string_view s, double& v) { return detail::parse_number(s, v
 bool to_count(std::string_view s, long long& v) { return detail::parse_number(s, v) && v >= 0; }
 
 std::string num(double v) { return detail::shortest_text(v); }
-
-// Pose of A x + B y + C z + D = 0 (header: how u, v and the origin are chosen).
-PlanePose pose_of(const Vec3d& abc, double d, double scale) {
-  const Vec3d n = abc / scale;
-  int axis = 0;
-  for (int k = 1; k < 3; ++k)
-    if (std::abs(n[k]) < std::abs(n[axis])) axis = k;
-  const Vec3d e = Vec3d::Unit(axis);
-  PlanePose pose;
-  pose.u = (e - e.dot(n) * n).normalized();
-  pose.v = n.cross(pose.u);
-  pose.origin = -(d / scale) * n;
-  return pose;
-}
 
 }  // namespace
 
@@ -267,7 +254,7 @@ CslFile parse_csl(std::string_view text, const std::string& name, const CslParam
     const long long id = static_cast<long long>(pi + 1);
     const double scale = plane.abc.stableNorm();
     Section section;
-    section.pose = pose_of(plane.abc, plane.d, scale);
+    section.pose = plane_pose(plane.abc / scale, -plane.d / scale);
     if (!section.pose.origin.allFinite() || !section.pose.orthonormal(1e-12))
       throw fail(where(id, plane.line) + "the plane's A B C D give no usable pose (D / |(A, B, C)| overflows)");
     section.source = source + ", plane " + std::to_string(id);
