@@ -135,7 +135,7 @@ CslFile parse_csl(std::string_view text, const std::string& name, const CslParam
   if (tok.size() != 2 || !to_count(tok[0], n_planes) || !to_count(tok[1], n_labels))
     throw fail("line " + std::to_string(line_no) + ": expected the plane count and the label count");
   if (n_planes == 0) throw fail("line " + std::to_string(line_no) + ": the file declares no planes");
-  if (n_labels < 2 || n_labels > (1LL << 32))
+  if (n_labels < 2 || n_labels > 0xFFFFFFFFLL)
     throw fail("line " + std::to_string(line_no) + ": label count " + std::to_string(n_labels) +
                " (must be at least 2, outside and one object, and fit 32 bits)");
 
