@@ -13,6 +13,7 @@
 #include "isoloft/io/png.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
+#include "isoloft/io/rtstruct_sections.h"
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
 #include "isoloft/pipeline.h"
@@ -99,6 +100,10 @@ void rtstruct(const std::uint8_t* d, std::size_t n) {
       try {
         (void)roi_stack(roi, RoiGrid{}, p, warnings);
       } catch (const Error&) {  // one ROI rejected, as the CLI skips it
+      }
+      try {  // the same ROI on planes of any orientation
+        (void)roi_sections(roi, p, warnings);
+      } catch (const Error&) {
       }
     }
   });

@@ -143,6 +143,8 @@ TEST(Csl, RefusesWhatIsNotCsl) {
   expect_error("CSLC\n1\n", "line 2: expected the plane count and the label count");
   expect_error("CSLC\n0 2\n", "line 2: the file declares no planes");
   expect_error("CSLC\n1 1\n1 0 0 0 0 1 0\n", "line 2: label count 1 (must be at least 2");
+  expect_error("CSLC\n1 4294967296\n1 0 0 0 0 1 0\n", "line 2: label count 4294967296 (must be at least 2");
+  EXPECT_EQ(parse_csl("CSLC\n1 4294967295\n1 0 0 0 0 1 0\n", "t.csl").label_count, 4294967295u);
 }
 
 TEST(Csl, RefusesBadPlanes) {

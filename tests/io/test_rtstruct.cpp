@@ -22,6 +22,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/rtstruct.h"
+#include "isoloft/io/rtstruct_sections.h"
 #include "io/io_test_util.h"
 #include "isoloft/mesh/mesh_check.h"
 #include "isoloft/mesh/plane_cut.h"
@@ -690,4 +691,32 @@ TEST(RtStructWrite, EveryElementKeepsItsVrAndEveryContourItsCount) {
   OFString frame_uid;
   rt.getFrameOfReferenceUID(frame_uid);
   EXPECT_EQ(frame_uid, frame_in);
+
+// Heart's contours replaced by squares on planes tilted 20 degrees about x,
+// written to DICOM and read back: roi_sections (io/rtstruct_sections.h)
+// gives one section per tilted plane where roi_stack refuses the oblique ROI.
+TEST(RtStruct, TiltedContoursOnDiskBecomeTiltedSections) {
+  isoloft::test::TempDir dir;
+  const std::string path = dir.file("tilted.dcm");
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(20 * M_PI / 180, Vec3d::UnitX()).toRotationMatrix();
+  std::vector<Contour> contours;
+  for (int k = 0; k < 4; ++k) {
+    Contour c = square(5, -3, 30 - 4 * k, -100 + 5 * k);
+    for (Vec3d& p : c) p = tilt * p;
+    contours.push_back(c);
+  }
+  write_heart_as(path, contours);
+  const RtStructureSet set = read_rtstruct(path);
+  std::vector<std::string> warnings;
+  EXPECT_THROW((void)roi_stack(*set.find("Heart"), RoiGrid{}, path, warnings), InputError);
+  const std::vector<Section> sections = roi_sections(*set.find("Heart"), path, warnings);
+  ASSERT_EQ(sections.size(), 4u);
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_LT((sections[k].pose.normal() - tilt * Vec3d::UnitZ()).norm(), 1e-6) << "section " << k;
+    EXPECT_NEAR(sections[k].pose.height(tilt * Vec3d(0, 0, -100 + 5.0 * double(k))), 0, 1e-5) << "section " << k;
+    ASSERT_EQ(sections[k].contours.size(), 1u) << "section " << k;
+    for (std::size_t i = 0; i < 4; ++i)  // std::to_string's 6 decimals
+      EXPECT_LT((sections[k].pose.to_world(sections[k].contours[0].points[i]) - contours[k][i]).norm(), 1e-5)
+          << "section " << k << " point " << i;
+  }
 }

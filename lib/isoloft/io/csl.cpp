@@ -13,6 +13,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/io/file_util.h"
+#include "isoloft/io/plane_fit.h"
 #include "isoloft/io/text.h"
 
 namespace isoloft {
@@ -106,20 +107,6 @@ bool to_count(std::string_view s, long long& v) { return detail::parse_number(s,
 
 std::string num(double v) { return detail::shortest_text(v); }
 
-// Pose of A x + B y + C z + D = 0 (header: how u, v and the origin are chosen).
-PlanePose pose_of(const Vec3d& abc, double d, double scale) {
-  const Vec3d n = abc / scale;
-  int axis = 0;
-  for (int k = 1; k < 3; ++k)
-    if (std::abs(n[k]) < std::abs(n[axis])) axis = k;
-  const Vec3d e = Vec3d::Unit(axis);
-  PlanePose pose;
-  pose.u = (e - e.dot(n) * n).normalized();
-  pose.v = n.cross(pose.u);
-  pose.origin = -(d / scale) * n;
-  return pose;
-}
-
 }  // namespace
 
 CslFile parse_csl(std::string_view text, const std::string& name, const CslParams& params) {
@@ -148,7 +135,7 @@ CslFile parse_csl(std::string_view text, const std::string& name, const CslParam
   if (tok.size() != 2 || !to_count(tok[0], n_planes) || !to_count(tok[1], n_labels))
     throw fail("line " + std::to_string(line_no) + ": expected the plane count and the label count");
   if (n_planes == 0) throw fail("line " + std::to_string(line_no) + ": the file declares no planes");
-  if (n_labels < 2 || n_labels > (1LL << 32))
+  if (n_labels < 2 || n_labels > 0xFFFFFFFFLL)
     throw fail("line " + std::to_string(line_no) + ": label count " + std::to_string(n_labels) +
                " (must be at least 2, outside and one object, and fit 32 bits)");
 
@@ -267,7 +254,7 @@ CslFile parse_csl(std::string_view text, const std::string& name, const CslParam
     const long long id = static_cast<long long>(pi + 1);
     const double scale = plane.abc.stableNorm();
     Section section;
-    section.pose = pose_of(plane.abc, plane.d, scale);
+    section.pose = plane_pose(plane.abc / scale, -plane.d / scale);
     if (!section.pose.origin.allFinite() || !section.pose.orthonormal(1e-12))
       throw fail(where(id, plane.line) + "the plane's A B C D give no usable pose (D / |(A, B, C)| overflows)");
     section.source = source + ", plane " + std::to_string(id);

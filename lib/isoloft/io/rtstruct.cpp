@@ -40,9 +40,6 @@ namespace isoloft {
 
 namespace {
 
-// Keyhole cut ends closer than this (mm) are the same point (a cut is written
-// twice with the same decimal strings).
-constexpr double kKeyholeTolerance = 1e-3;
 // A step between contour planes longer than this many typical steps is a gap
 // with no contour, not a coarser sampling.
 constexpr double kGapFactor = 1.5;

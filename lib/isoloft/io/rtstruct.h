@@ -83,6 +83,10 @@ inline constexpr double kPlaneGroupFraction = 0.2;
 /// tolerance) mm are not on one axial plane.
 inline constexpr double kPlanarToleranceMm = 0.01;
 
+/// Keyhole cut ends closer than this (mm) are the same point (a cut is written
+/// twice with the same decimal strings).
+inline constexpr double kKeyholeTolerance = 1e-3;
+
 /// The file starts like a DICOM Part 10 file ("DICM" after the 128-byte preamble).
 [[nodiscard]] bool is_dicom_file(const std::string& path);
 
