@@ -691,6 +691,7 @@ TEST(RtStructWrite, EveryElementKeepsItsVrAndEveryContourItsCount) {
   OFString frame_uid;
   rt.getFrameOfReferenceUID(frame_uid);
   EXPECT_EQ(frame_uid, frame_in);
+}
 
 // Heart's contours replaced by squares on planes tilted 20 degrees about x,
 // written to DICOM and read back: roi_sections (io/rtstruct_sections.h)
