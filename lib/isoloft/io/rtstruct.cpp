@@ -13,6 +13,8 @@
 #include "dcmtk/oflog/oflog.h"
 
 #include <iconv.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -311,13 +313,27 @@ std::string dcmrt_log(F&& build) {
 }
 
 // A DICOM file parsed from its bytes (read once, never again from disk).
+// Parsed as a file, not from a buffer stream: DCMTK checks an element's
+// length against what a file holds, but from a buffer it allocates what a
+// lying length asks first (the rtstruct fuzzer's 4 GiB value). The bytes go
+// to an anonymous in-memory file (memfd), read through its /proc path.
 OFCondition load_dicom(DcmFileFormat& ff, const std::vector<unsigned char>& bytes) {
-  DcmInputBufferStream in;
-  in.setBuffer(bytes.data(), offile_off_t(bytes.size()));
-  in.setEos();
-  ff.transferInit();
-  const OFCondition st = ff.read(in);
-  ff.transferEnd();
+  const int fd = ::memfd_create("isoloft-dicom", MFD_CLOEXEC);
+  if (fd < 0) return makeOFCondition(OFM_dcmdata, 1, OF_error, std::strerror(errno));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const OFCondition st = makeOFCondition(OFM_dcmdata, 1, OF_error, std::strerror(errno));
+      ::close(fd);
+      return st;
+    }
+    done += std::size_t(n);
+  }
+  OFCondition st = ff.loadFile(("/proc/self/fd/" + std::to_string(fd)).c_str());
+  if (st.good()) st = ff.loadAllDataIntoMemory();  // long values are loaded lazily, from the file about to close
+  ::close(fd);
   return st;
 }
 
