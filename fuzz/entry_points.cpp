@@ -17,6 +17,7 @@
 #include "isoloft/io/volume.h"
 #include "isoloft/io/volume_slices.h"
 #include "isoloft/pipeline.h"
+#include "isoloft/run/manifest.h"
 #include "isoloft/run/outputs.h"
 
 namespace isoloft::fuzz {
@@ -158,12 +159,52 @@ void csl(const std::uint8_t* d, std::size_t n) {
   }
 }
 
+// A batch manifest's text: every case that runs has a plain folder name and
+// outputs inside it; every message is terminal-safe UTF-8.
+void manifest(const std::uint8_t* d, std::size_t n) {
+  std::vector<ManifestCase> cases;
+  try {
+    std::vector<ManifestRow> rows;
+    for (const ManifestRecord& r : parse_manifest_csv(std::string_view(reinterpret_cast<const char*>(d), n), "fuzz.csv"))
+      rows.push_back(manifest_row(r));
+    cases = check_manifest_rows(rows, "/base", "fuzz.csv");
+  } catch (const Error& e) {
+    for (const char c : std::string(e.what()))
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) std::abort();
+    return;
+  }
+  for (const ManifestCase& c : cases) {
+    if (c.input.empty() || c.input.front() != '/') std::abort();
+    if (!c.error.empty()) {
+      for (const char ch : c.error)
+        if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7F) std::abort();
+      (void)nlohmann::json(c.error).dump();  // throws (a finding) on bytes that are not UTF-8
+      continue;
+    }
+    if (c.name.empty() || c.name.size() > kMaxCaseNameBytes || c.name.front() == '.' ||
+        c.name.find_first_of(std::string("/\0", 2)) != std::string::npos || c.name == "summary.csv")
+      std::abort();
+    for (std::size_t i = 0; i < c.options.size(); ++i) {
+      const std::string& o = c.options[i];
+      if (o == "-o" || o == "--output" || o == "--report" || o.rfind("-o", 0) == 0 || o.rfind("--report=", 0) == 0)
+        std::abort();
+      if (o == "--volume" || o == "--labelmap" || o == "--rtstruct" || o == "--volumes" || o == "--rt-contours" ||
+          o == "--dump-stages") {
+        const std::string v = i + 1 < c.options.size() ? c.options[i + 1] : "";
+        if (!v.empty() && (v.front() == '/' || detail::pure_path(v) == ".." || detail::pure_path(v).rfind("../", 0) == 0))
+          std::abort();
+      }
+    }
+  }
+}
+
 }  // namespace
 
 const std::vector<Target>& targets() {
   static const std::vector<Target> t{{"png", png},   {"polylines", polylines}, {"params", params},    {"nifti", nifti},
                                      {"nrrd", nrrd}, {"metaimage", metaimage}, {"rtstruct", rtstruct},
-                                     {"roi_names", roi_names}, {"label_names", label_names}, {"csl", csl}};
+                                     {"roi_names", roi_names}, {"label_names", label_names}, {"csl", csl},
+                                     {"manifest", manifest}};
   return t;
 }
 

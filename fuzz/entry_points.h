@@ -20,7 +20,7 @@ struct Target {
   EntryPoint run;
 };
 
-/// png, polylines, params, nifti, nrrd, metaimage, rtstruct, roi_names, label_names, csl.
+/// png, polylines, params, nifti, nrrd, metaimage, rtstruct, roi_names, label_names, csl, manifest.
 const std::vector<Target>& targets();
 
 /// The target named `name`, or nullptr.

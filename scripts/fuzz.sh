@@ -4,12 +4,12 @@
 # (fuzz/corpus/<target>/, read only; new inputs go to build-asan/corpus/).
 # Crashes are left as build-asan/crash-*: add each to fuzz/corpus/<target>/
 # once fixed, and the replay test (fuzz_corpus_replay) keeps it fixed.
-#   fuzz.sh [SECONDS] [TARGET...]   targets: png polylines params nifti nrrd metaimage rtstruct roi_names label_names csl
+#   fuzz.sh [SECONDS] [TARGET...]   targets: png polylines params nifti nrrd metaimage rtstruct roi_names label_names csl manifest
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SECS="${1:-60}"; shift || true
 TARGETS=("$@")
-((${#TARGETS[@]})) || TARGETS=(png polylines params nifti nrrd metaimage rtstruct roi_names label_names csl)
+((${#TARGETS[@]})) || TARGETS=(png polylines params nifti nrrd metaimage rtstruct roi_names label_names csl manifest)
 for p in clang-14 libclang-rt-14-dev; do  # as setup.sh --full installs them
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" ||
     { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$p"; }

@@ -180,7 +180,7 @@ int Commands::reconstruct() {
   if (!o.labelmap.empty() && !o.reference.empty()) {
     // The reference's headers (its voxels dropped), before the input is read.
     auto out = std::make_unique<ReferenceLabelmapOutput>(o.labelmap,
-                                                        std::make_shared<const ReferenceGrid>(read_reference(o.reference, run.budget.max_memory)));
+                                                        std::make_shared<const ReferenceGrid>(read_reference(o.reference)));
     reference_labelmap = out.get();
     run.outputs.push_back(std::move(out));
   } else if (!o.labelmap.empty()) {

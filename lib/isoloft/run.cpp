@@ -78,7 +78,10 @@ void check_planned_files(const Inputs& in, const RunOptions& o) {
                      " files (" + std::to_string(objects.size()) + (in.labels() ? " labels" : " objects") +
                      "), over the limit of " + std::to_string(o.budget.max_files) + "; select labels with " +
                      option_name("--labels") + " or raise " + option_name("--max-files") + " (0 = no limit)");
-  check_output_paths(in, o.read_files, files, dirs);
+  std::vector<ReadFile> reads = o.read_files;
+  for (const auto& out : o.outputs)
+    for (ReadFile& r : out->read_files()) reads.push_back(std::move(r));
+  check_output_paths(in, reads, files, dirs);
 }
 
 // Before any work: sections at any angle need the method that reads them,

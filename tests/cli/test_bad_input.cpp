@@ -623,6 +623,31 @@ TEST_F(BadInput, AnOutputNeverReplacesAFileTheRunReads) {
   EXPECT_EQ(slurp(p("a.json")), "{}");
 }
 
+// The samples beside a header (a .mhd's ElementDataFile, a detached .nhdr's
+// data file, a --reference's) are read with it: no output replaces them.
+TEST_F(BadInput, AnOutputNeverReplacesTheDataFileOfAVolumeHeader) {
+  const Volume v = small_labels();
+  text("v.raw", uchar_bytes(v));
+  text("v.mhd", mhd_header(v, "v.raw"));
+  text("n.raw", uchar_bytes(v));
+  text("n.nhdr", nrrd_header(v.nx, v.ny, v.nz, "raw", "data file: n.raw\n"));
+  const std::string raw = slurp(p("v.raw"));
+  const std::string m = " --method levin --input masks -o " + p("m.ply");
+  expect_error("reconstruct " + p("v.mhd") + m + " --report " + p("v.raw"), 1,
+               "--report " + p("v.raw") + ": is the input's data file " + p("v.raw") + "; an output never replaces");
+  expect_error("reconstruct " + p("n.nhdr") + m + " --volumes " + p("n.raw"), 1,
+               "--volumes " + p("n.raw") + ": is the input's data file " + p("n.raw"));
+  fs::create_symlink(p("v.raw"), p("link.json"));  // the same file by another name
+  expect_error("reconstruct " + p("v.mhd") + m + " --report " + p("link.json"), 1, "is the input's data file");
+  // A reference grid's data file, whatever the input.
+  write_volume(p("in.nrrd"), v);
+  expect_error("reconstruct " + p("in.nrrd") + m + " --labelmap " + p("lm.nii.gz") + " --reference " + p("v.mhd") +
+                   " --report " + p("v.raw"),
+               1, "--report " + p("v.raw") + ": is the --reference file's data file " + p("v.raw"));
+  EXPECT_EQ(slurp(p("v.raw")), raw) << "the data file changed";
+  EXPECT_EQ(slurp(p("n.raw")), raw) << "the data file changed";
+}
+
 // A device or FIFO output is written in place: no temp file beside it, no
 // rename over it (as root that once made /dev/null a regular file); a full
 // device is an error naming the flag, the path and the errno text.

@@ -195,3 +195,25 @@ def test_the_cli_batch_uses_the_package_beside_it_and_dask_stays_under_out(spher
                        env={**os.environ, "TMPDIR": str(tmp)}, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert list(tmp.iterdir()) == [], list(tmp.iterdir())
+
+
+def test_the_library_reads_the_manifest_for_files_and_rows(tmp_path):
+    """isoloft.cohort.read_manifest is the library's (run/manifest.h): the
+    fuzzed code reads the batch's rows, from a file or from dicts."""
+    from isoloft.cohort import read_manifest
+    manifest = _write(tmp_path / "m.csv", "input,name,options\n"
+                      "a.png,glued,-ox.ply\n"
+                      "a.png,rt,--rt-contours ../c.csv\n"
+                      "sub/./b.png,,--roi 'Tumor Bed'\n"
+                      "a.png,esc\x1b]0;x\x07/y,\n")
+    cases = read_manifest(manifest)
+    assert cases[0]["error"].endswith("row 2: -o is set by the batch")
+    assert "row 3: --rt-contours ../c.csv: outputs stay in the case's folder" in cases[1]["error"]
+    assert cases[2] == {"input": str(tmp_path.resolve() / "sub" / "b.png"), "name": "b",
+                        "options": ["--roi", "Tumor Bed"]}
+    assert "\x1b" not in cases[3]["error"] and "esc\\x1B]0;x\\x07/y" in cases[3]["error"]
+    rows = read_manifest([{"input": "/in/a.png", "name": "x", "options": ["--volume", "/abs.nrrd"]}])
+    assert rows[0]["error"] == "manifest: row 0: --volume /abs.nrrd: outputs stay in the case's folder " \
+                               "(a relative path without '..')"
+    with pytest.raises(isoloft.InputError, match=r"m2.csv: row 3: the name 'x' is used twice"):
+        read_manifest(_write(tmp_path / "m2.csv", "input,name\na,x\nb,x\n"))

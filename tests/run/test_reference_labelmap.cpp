@@ -16,6 +16,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <cstring>
+#include <fstream>
 #include <functional>
 #include <iomanip>
 #include <numbers>
@@ -615,4 +617,61 @@ TEST_F(Cli, NoRoiReconstructedNamesEachRoiAndWhy) {
   for (const char* name : {"Heart", "Scar"})
     EXPECT_NE(r.err.find(std::string("ROI '") + name + "' has contours on one plane only"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(p("m.ply")));
+}
+
+namespace {
+
+// A NIfTI-1 header alone (no voxel after it): a CT-like int16 grid scaled by
+// scl_slope 1, scl_inter -1024, LPS axes, 1 mm voxels, at `origin` (LPS).
+void write_nifti_header_only(const std::string& path, int nx, int ny, int nz, const Eigen::Vector3d& origin) {
+  std::string h(352, '\0');
+  auto put = [&](std::size_t at, auto value) { std::memcpy(&h[at], &value, sizeof value); };
+  put(0, std::int32_t(348));
+  const std::int16_t dim[8] = {3, std::int16_t(nx), std::int16_t(ny), std::int16_t(nz), 1, 1, 1, 1};
+  std::memcpy(&h[40], dim, sizeof dim);
+  put(70, std::int16_t(4)), put(72, std::int16_t(16));  // DT_INT16
+  const float pixdim[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+  std::memcpy(&h[76], pixdim, sizeof pixdim);
+  put(108, 352.0f), put(112, 1.0f), put(116, -1024.0f);
+  put(254, std::int16_t(1));  // sform_code: the rows below, RAS
+  const float srow[12] = {-1, 0, 0, float(-origin.x()), 0, -1, 0, float(-origin.y()), 0, 0, 1, float(origin.z())};
+  std::memcpy(&h[280], srow, sizeof srow);
+  std::memcpy(&h[344], "n+1\0", 4);
+  std::ofstream(path, std::ios::binary) << h;
+}
+
+}  // namespace
+
+// --max-memory on a reference grid: the reference's voxels were read (a
+// scaled CT NIfTI: its bytes and its floats, 827 MiB resident for a 512 MiB
+// budget) before the label map's estimate refused the run. The reference is
+// now read from its header alone, so the estimate is checked before any
+// voxel exists; the estimate covers what the label map allocates at its end.
+TEST_F(Cli, AReferenceGridIsReadFromItsHeaderAndTheBudgetRefusesBeforeAnyVoxel) {
+  const RtStructureSet set = read_rtstruct(kRtss);
+  const auto b = box_of(roi_named(set, "Scar"));
+  const int nx = 1000, ny = 900, nz = 300;  // 270 M voxels: ~2.3 GiB held by the label map
+  write_nifti_header_only(p("big.nii"), nx, ny, nz, Eigen::Vector3d(b[0] - 400, b[1] - 400, b[2] - 100));
+  // No voxel in the file: reading them would fail ("voxel data truncated"); the grid reads.
+  const ReferenceGrid ref = read_reference(p("big.nii"));
+  EXPECT_EQ(ref.grid.nx, nx);
+  EXPECT_EQ(ref.grid.nz, nz);
+  EXPECT_TRUE(ref.grid.data.empty());
+  // What finish() allocates at once, per voxel: the label volume (float), the
+  // writer's encoded copy (int32 at most: a value table's labels), one
+  // object's inside byte; the estimate holds all three.
+  const double voxels = double(nx) * ny * nz;
+  ReferenceLabelmapOutput out(p("lm.nii.gz"), std::make_shared<const ReferenceGrid>(ref));
+  const Inputs none;
+  EXPECT_GE(out.memory_bytes(none), voxels * (sizeof(float) + sizeof(std::int32_t) + 1));
+  EXPECT_EQ(out.fixed_file_bytes(none), voxels * sizeof(std::int32_t));
+  // The run is refused before any work, naming the budget and the estimate.
+  const std::string scar = "reconstruct " + kRtss + " --roi Scar --method levin -o " + p("s.ply") + " --labelmap " + p("lm.nii.gz");
+  CliRun r = run(scar + " --reference " + p("big.nii") + " --max-memory 512M");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--max-memory: --labelmap " + p("lm.nii.gz") + " needs about 2.2"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("GiB, over the budget of 512 MiB"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("truncated"), std::string::npos) << "a voxel of the reference was read: " << r.err;
+  EXPECT_FALSE(fs::exists(p("s.ply")));
+  EXPECT_FALSE(fs::exists(p("lm.nii.gz")));
 }

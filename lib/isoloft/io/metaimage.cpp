@@ -245,7 +245,9 @@ Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) 
     data_name = dp.string();
     detail::check_data_file(mhd, df, data_name, options.allow_external_data);
   }
-  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample});
+  if (options.on_header)
+    options.on_header({v.nx, v.ny, v.nz, sample, local ? std::vector<std::string>{} : std::vector<std::string>{data_name}});
+  if (options.geometry_only) return v;
   if (!local) {
     file = std::make_unique<detail::FileBytes>(data_name);
     bytes = file->data();

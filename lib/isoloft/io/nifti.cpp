@@ -189,7 +189,15 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
   if (!integer && dt != DT_FLOAT32 && dt != DT_FLOAT64)
     throw InputError(path, std::string("unsupported NIfTI datatype ") + nifti_datatype_string(dt) +
                                " (need a scalar 8/16/32-bit integer or float32/64)");
-  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, std::size_t(nim->nbyper)});
+  if (options.on_header) {
+    std::vector<std::string> data_files;
+    if (nim->iname && std::string(nim->iname) != path) data_files.emplace_back(nim->iname);
+    options.on_header({v.nx, v.ny, v.nz, std::size_t(nim->nbyper), data_files});
+  }
+  if (options.geometry_only) {
+    v.integer = integer;
+    return v;
+  }
   const std::size_t nbytes = count * std::size_t(nim->nbyper);
   // The voxels through zlib (plain files read as they are), so a .gz's
   // checksum can be checked and a failure named with zlib's reason.

@@ -472,7 +472,8 @@ Volume read_nrrd(const std::string& path, const VolumeReadOptions& options) {
                                     " data cannot hold the " + std::to_string(need) + " bytes the header declares (" +
                                     std::to_string(v.nx) + "x" + std::to_string(v.ny) + "x" + std::to_string(v.nz) +
                                     " samples)");
-  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample});  // the budget: for data that can exist
+  if (options.on_header) options.on_header({v.nx, v.ny, v.nz, sample, layout.files});  // the budget: for data that can exist
+  if (options.geometry_only) return v;
 
   if (nio->encoding == nrrdEncodingZRL) {
     if (layout.files.size() > 1) throw InputError(path, "ZRL data in several data files is not supported");

@@ -70,6 +70,10 @@ struct VolumeSamples {
 struct VolumeHeader {
   int nx = 0, ny = 0, nz = 0;
   std::size_t sample_bytes = 0;  ///< bytes of one sample in the file
+  /// The files holding the samples besides the header, resolved: a .mhd's
+  /// ElementDataFile, a detached .nhdr's data files, a NIfTI .hdr's .img.
+  /// A run reads them as it reads the header, so no output may replace them.
+  std::vector<std::string> data_files = {};
 };
 
 /// How to read a volume.
@@ -86,6 +90,10 @@ struct VolumeReadOptions {
   /// that needs a few planes of a large volume). Not offered samples that a
   /// NIfTI scaling (scl_slope, scl_inter) maps to other values.
   std::function<bool(const Volume& geometry, const VolumeSamples& samples)> take_samples;
+  /// The header alone (a reference grid): read_volume returns once the
+  /// header is read and checked and on_header called, the geometry with
+  /// `data` empty; no sample is read, decoded or allocated.
+  bool geometry_only = false;
 };
 
 /// The extension names a volume format this library reads.

@@ -156,7 +156,9 @@ Inputs read_volume_input(const InputRequest& r) {
   const VolumeSlicing slicing = volume_slicing(r);
   VolumeReadOptions ro;
   ro.allow_external_data = r.allow_external_data;
+  std::vector<std::string> data_files;
   ro.on_header = [&](const VolumeHeader& h) {  // before any voxel is read: the file's samples, and our floats
+    data_files = h.data_files;
     const double voxels = double(h.nx) * double(h.ny) * double(h.nz);   // unless they are sliced as stored (below)
     const bool as_stored = h.sample_bytes <= 2;                         // the 8- and 16-bit types: slices_samples
     check_budget(option_name("--max-memory"),
@@ -174,6 +176,7 @@ Inputs read_volume_input(const InputRequest& r) {
   };
   Volume v = read_volume(path, ro);
   Inputs in = slice_volume(std::move(v), path, r, std::move(sliced));
+  in.data_files = std::move(data_files);
   // The labels' names: the table given, else the one beside the volume.
   const std::optional<std::string> table = !r.label_names.empty() ? std::optional(r.label_names) : label_names_beside(path);
   if (table && in.labels()) in.label_names = read_label_names(*table);

@@ -72,6 +72,9 @@ struct InputRequest {
 struct Inputs {
   InputFormat format = InputFormat::Images;
   std::vector<std::string> files;  ///< the paths read (report "input.files")
+  /// Files a volume header names for its samples (VolumeHeader::data_files):
+  /// read with the input, so protected like it from the outputs.
+  std::vector<std::string> data_files;
   std::vector<Job> jobs;
   std::vector<std::string> warnings;
   bool ras = false;                ///< outputs in RAS instead of LPS (inputs with a patient frame)

@@ -120,6 +120,43 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
   tbb::parallel_invoke(write_objects, write_combined);
 }
 
+std::vector<std::string> save_run_meshes(const std::string& path, const std::string& option, const Inputs& in,
+                                         RunResult& r, const MeshWriteOptions& mo, const std::vector<ReadFile>& reads,
+                                         std::optional<std::size_t> object) {
+  // The path given first (an input is named as such whatever its extension), then every file.
+  check_output_paths(in, reads, {{path, "the mesh", option}}, {});
+  (void)mesh_format_from_path(path);  // an unknown extension, before anything is written
+  if (!object) {
+    std::vector<PlannedObject> objects;
+    for (const RunObject& o : r.objects) objects.push_back({o.job, o.object.label});
+    std::vector<PlannedFile> planned = MeshOutput(path).planned_files(in, objects);
+    for (PlannedFile& f : planned) f.option = option;
+    check_output_paths(in, reads, planned, {});
+  }
+  OutputSet files;
+  std::vector<std::string> written;
+  try {
+    if (object) {
+      MeshWriteOptions one = mo;
+      one.label = object_cell_label(r.objects.at(*object));
+      write_mesh(files.stage(path), r.objects[*object].mesh, one);
+      written.push_back(path);
+    } else {
+      write_run_meshes(path, in, r, mo, [&](const std::string& p) { return files.stage(p); });
+      for (const RunObject& o : r.objects) written.push_back(o.file);
+      if (several_outputs(in, r)) written.push_back(path);
+    }
+    files.commit();
+  } catch (const ParamError& e) {
+    throw ParamError(option_name(option) + " " + files.final_names(e.what()));
+  } catch (const InputError& e) {
+    throw InputError("", option_name(option) + " " + files.final_names(e.what()));
+  } catch (const Error& e) {
+    throw Error(option_name(option) + " " + files.final_names(e.what()));
+  }
+  return written;
+}
+
 // ---------------------------------------------------------------- output paths
 
 namespace {
@@ -166,8 +203,9 @@ void check_output_paths(const Inputs& in, const std::vector<ReadFile>& reads, co
                         const std::vector<PlannedFile>& dirs) {
   std::vector<ReadEntry> read;
   for (const std::string& f : in.files) add_read(read, "the input", f);
+  for (const std::string& f : in.data_files) add_read(read, "the input's data file", f);
   for (const ReadFile& r : reads)
-    if (!r.path.empty()) add_read(read, "the " + option_name(r.option) + " file", r.path);
+    if (!r.path.empty()) add_read(read, "the " + option_name(r.option) + (r.data_file ? " file's data file" : " file"), r.path);
   auto refuse = [](const PlannedFile& f, const std::string& why) {
     return ParamError(option_name(f.option) + " " + f.path + ": " + why);
   };

@@ -21,6 +21,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -71,12 +72,13 @@ struct PlannedFile {
 /// the flag that names it and its path (a folder: every file in it).
 struct ReadFile {
   std::string option, path;
+  bool data_file = false;  ///< the samples a volume header names (VolumeHeader::data_files)
 };
 
 /// Every output of a run resolved before any work, in one place, for every
 /// front end. Refuses with a ParamError naming the flag and the path:
-///  - an output that is a file the run reads: the input (or a file of an
-///    input folder) or one of `reads`, compared by device and inode (hard and
+///  - an output that is a file the run reads: the input (a file of an input
+///    folder, a volume header's data files: Inputs::data_files) or one of `reads`, compared by device and inode (hard and
 ///    symbolic links) and by resolved path;
 ///  - two outputs on one file (resolved path, or device and inode);
 ///  - a directory, block device or socket where a file goes (a character
@@ -103,6 +105,17 @@ bool several_outputs(const Inputs& in, const RunResult& r);
 /// Each file goes to stage(path) (identity if empty); sets RunObject::file.
 void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r, const MeshWriteOptions& options,
                       const std::function<std::string(const std::string&)>& stage = {});
+
+/// Writes a finished run's meshes outside run() (the Python API's save()),
+/// with run()'s checks: the files resolved by check_output_paths() (never
+/// the input, its data files or one of `reads`; a device or FIFO written in
+/// place), staged and renamed into place together. `object`: that object's
+/// mesh alone to `path`; none: every mesh as write_run_meshes() names them.
+/// Errors name `option` (the argument that gave the path) and final paths.
+/// \return The files written. \throw ParamError, InputError, Error.
+std::vector<std::string> save_run_meshes(const std::string& path, const std::string& option, const Inputs& in,
+                                         RunResult& r, const MeshWriteOptions& options,
+                                         const std::vector<ReadFile>& reads, std::optional<std::size_t> object = {});
 
 /// What every output sees during a run.
 struct RunContext {
@@ -172,6 +185,8 @@ class RunOutput {
   [[nodiscard]] virtual std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const {
     return {};
   }
+  /// Files it reads (a --reference and its data files): no output may replace them.
+  [[nodiscard]] virtual std::vector<ReadFile> read_files() const { return {}; }
   /// A folder it writes into (--dump-stages), "" if none: checked like the files.
   [[nodiscard]] virtual std::string output_directory() const { return {}; }
   /// Said after the object in a --max-output error (" with --volume").

@@ -1,7 +1,5 @@
 #include "isoloft/run/reference_labelmap.h"
 
-#include "isoloft/run/budget.h"
-
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -92,7 +90,7 @@ JobMap job_map(const PatientFrame& f, const Volume& g) {
 
 // ---------------------------------------------------------------- the grid
 
-ReferenceGrid read_reference(const std::string& path, double max_memory) {
+ReferenceGrid read_reference(const std::string& path) {
   ReferenceGrid r;
   r.path = path;
   std::error_code ec;
@@ -108,16 +106,13 @@ ReferenceGrid read_reference(const std::string& path, double max_memory) {
     throw InputError(path, "not a reference grid: give a DICOM image series (a folder, or one of its files) or a volume "
                            "(.nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd)");
   detail::check_regular_file(path);
+  // The header alone: the voxels were once read (a scaled CT NIfTI decoded
+  // to floats besides its bytes, 6+ bytes a voxel) before the label map's
+  // budget was checked (docs/decisions.md, issue 39: --max-memory on a reference).
   VolumeReadOptions options;
-  options.on_header = [&](const VolumeHeader& h) {
-    check_budget(option_name("--max-memory"), "reading the reference grid " + path,
-                 double(h.nx) * double(h.ny) * double(h.nz) * double(h.sample_bytes), max_memory);
-  };
-  options.take_samples = [](const Volume&, const VolumeSamples&) { return true; };  // the geometry alone
+  options.geometry_only = true;
+  options.on_header = [&](const VolumeHeader& h) { r.data_files = h.data_files; };
   r.grid = read_volume(path, options);
-  r.grid.data.clear();
-  r.grid.data.shrink_to_fit();
-  r.grid.value_table.clear();
   r.format = volume_extension(path);
   return r;
 }
@@ -277,6 +272,12 @@ double ReferenceLabelmapOutput::fixed_file_bytes(const Inputs&) const {
 double ReferenceLabelmapOutput::memory_bytes(const Inputs&) const {
   const Volume& g = ref_->grid;
   return double(g.nx) * double(g.ny) * double(g.nz) * kLabelmapBytesPerVoxel;
+}
+
+std::vector<ReadFile> ReferenceLabelmapOutput::read_files() const {
+  std::vector<ReadFile> out{{"--reference", ref_->path}};
+  for (const std::string& f : ref_->data_files) out.push_back({"--reference", f, true});
+  return out;
 }
 
 void ReferenceLabelmapOutput::finish(const RunContext& ctx, RunResult& r) {

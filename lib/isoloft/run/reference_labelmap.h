@@ -47,16 +47,16 @@ struct ReferenceGrid {
   std::string path;                ///< as given
   std::string format;              ///< "dicom" or the volume file's extension
   std::string frame_of_reference;  ///< DICOM FrameOfReferenceUID, "" if the format has none
+  std::vector<std::string> data_files;  ///< a volume header's data files (VolumeHeader::data_files)
 };
 
 /// Reads the grid of `path`: a DICOM image series (a folder, or one of its
-/// files) or a volume (.nii .nii.gz .nrrd .nhdr .mha .mhd; its voxels are
-/// read and dropped).
-/// A volume's voxels are not decoded; their bytes as stored are checked
-/// against `max_memory` (bytes, 0 = no limit) from its header first.
-/// \throw InputError naming the path (io/dicom_series.h, io/volume.h);
-///        ParamError naming --max-memory.
-ReferenceGrid read_reference(const std::string& path, double max_memory = 0);
+/// files: headers only) or a volume (.nii .nii.gz .nrrd .nhdr .mha .mhd:
+/// its header alone, VolumeReadOptions::geometry_only). No voxel is read,
+/// so what a label map on the grid holds (memory_bytes()) is all the
+/// budget must count, checked before any work.
+/// \throw InputError naming the path (io/dicom_series.h, io/volume.h).
+ReferenceGrid read_reference(const std::string& path);
 
 /// A reference slice may leave the plane of constant working z by this much
 /// (mm) across its extent (direction cosines are rounded decimals; a tilt
@@ -82,6 +82,8 @@ class ReferenceLabelmapOutput final : public RunOutput {
   void start_job(const RunContext& ctx, std::size_t job, JobHooks& hooks) override;
   [[nodiscard]] double fixed_file_bytes(const Inputs& in) const override;
   [[nodiscard]] double memory_bytes(const Inputs& in) const override;
+  /// The reference and its data files.
+  [[nodiscard]] std::vector<ReadFile> read_files() const override;
   [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const override {
     return {{path_, option()}};
   }

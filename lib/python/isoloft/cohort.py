@@ -20,7 +20,8 @@ Rows are checked before any case runs: a row whose name is not a plain
 folder name (a NUL, a slash, longer than a file name may be, a dot first,
 or the batch's own summary.csv), whose input is missing or whose options do
 not parse or write outside DIR/NAME (an absolute path or `..` given to an
-output flag) is recorded as failed, and the other rows run. A case is done
+output flag) is recorded as failed, and the other rows run (the library
+reads and checks the rows: isoloft/run/manifest.h). A case is done
 when its report exists and was written by the same command (so a rerun with
 another --format runs it again). A SIGTERM, SIGINT or SIGHUP stops the
 running CLI processes (they remove their temp files) before the batch ends.
@@ -32,9 +33,7 @@ import csv
 import json
 import os
 import pathlib
-import shlex
 import signal
-import stat
 import subprocess
 import sys
 import threading
@@ -47,18 +46,7 @@ MESH_FORMATS = ("ply", "obj", "stl", "off", "vtp", "vtk")
 # The local cluster's Dask settings: its workers only wait for CLI processes.
 LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
                         "distributed.admin.system-monitor.interval": "5s"}
-
-
-# Flags of `isoloft reconstruct` that name a file or folder it writes: only
-# relative paths inside the case's folder. -o and --report are the batch's own.
-OUTPUT_FLAGS = ("--volume", "--volumes", "--labelmap", "--rtstruct", "--dump-stages")
-BATCH_FLAGS = ("-o", "--output", "--report", "--threads", "-q", "--quiet")
-# Names the batch keeps for itself in DIR (and dot-files: its temp files, Dask's space).
-RESERVED_NAMES = ("summary.csv",)
 DASK_DIR = ".dask"
-# A case's files are NAME.json and NAME.<format> (at most 4 more bytes than ".json");
-# NAME_MAX is 255 bytes on Linux file systems.
-MAX_NAME_BYTES = 255 - len(".json") - 4
 
 
 def default_cli():
@@ -66,111 +54,18 @@ def default_cli():
     return cli_path()
 
 
-def _open_manifest(path):
-    """The manifest's rows as dicts; ValueError for a file that is not a
-    regular file (a FIFO would block), or a quote left open."""
-    try:
-        st = os.stat(path)
-    except OSError as e:
-        raise ValueError(f"{path}: cannot read the manifest ({e.strerror})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise ValueError(f"{path}: the manifest is not a regular file")
-    # utf-8-sig: a byte order mark (as Excel writes) is not part of the first header name.
-    with open(path, newline="", encoding="utf-8-sig") as f:
-        reader = csv.DictReader(f, strict=True)
-        rows = []
-        try:
-            for row in reader:
-                # A field running over a line end: a quote opened and closed rows later (rows merged).
-                for key, value in row.items():
-                    for v in (value if isinstance(value, list) else [value]):
-                        if isinstance(v, str) and ("\n" in v or "\r" in v):
-                            raise ValueError(f"{path}: line {reader.line_num}: a field spans several lines "
-                                             f"(an unbalanced quote?)")
-                rows.append(row)
-        except csv.Error as e:
-            raise ValueError(f"{path}: line {reader.line_num}: {e} (an unbalanced quote?)") from None
-        except UnicodeDecodeError as e:
-            raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
-    return rows
-
-
-def _name_problem(name):
-    """Why `name` cannot be a case's folder and file stem, or None."""
-    if "\0" in name:
-        return "holds a NUL byte"
-    if "/" in name or name in (".", ".."):
-        return "is not a folder name"
-    if name.startswith("."):
-        return "starts with a dot (the batch's own files)"
-    if name in RESERVED_NAMES:
-        return f"is reserved for the batch's {name}"
-    if len(os.fsencode(name)) > MAX_NAME_BYTES:
-        return f"is longer than {MAX_NAME_BYTES} bytes (file names)"
-    return None
-
-
-def _options_problem(options):
-    """Why a case's options cannot run in its folder, or None."""
-    for i, opt in enumerate(options):
-        if "\0" in opt:
-            return "an option holds a NUL byte"
-        flag, eq, value = opt.partition("=")
-        if flag in BATCH_FLAGS or (not eq and opt in BATCH_FLAGS):
-            return f"{flag} is set by the batch"
-        if flag not in OUTPUT_FLAGS:
-            continue
-        if not eq:
-            if i + 1 >= len(options):
-                return f"{flag} needs a value"
-            value = options[i + 1]
-        p = pathlib.PurePosixPath(value)
-        if p.is_absolute() or ".." in p.parts:
-            return f"{flag} {value}: outputs stay in the case's folder (a relative path without '..')"
-    return None
-
-
 def read_manifest(manifest):
     """The cases of a manifest (a CSV path, or rows as dicts): dicts with
     input (absolute), name, options (a list of flags) and, for a row that
-    cannot run, error (the case is recorded as failed, not run).
-    ValueError for a manifest that cannot be read as rows at all, or a name
-    used twice."""
+    cannot run, error (the case is recorded as failed, not run). Read and
+    checked by the library (isoloft/run/manifest.h), the code the fuzzers
+    run. InputError (a ValueError) for a manifest that cannot be read as
+    rows at all, or a name used twice."""
+    from . import _isoloft
     if isinstance(manifest, (str, os.PathLike)):
-        path = pathlib.Path(manifest)
-        base = path.resolve().parent
-        rows = _open_manifest(path)
-        where = str(path)
-    else:
-        base, rows, where = pathlib.Path.cwd(), [dict(r) for r in manifest], "manifest"
-    cases, names = [], set()
-    for i, row in enumerate(rows, start=2 if where != "manifest" else 0):
-        error = None
-        given = row.get("input") or ""
-        src = pathlib.Path(given.replace("\0", "")) if given else pathlib.Path("")
-        src = src if src.is_absolute() else base / src
-        name = (row.get("name") or "").strip() or (src.name.split(".")[0] if given else f"row{i}")
-        options = row.get("options") or ""
-        try:
-            options = shlex.split(options) if isinstance(options, str) else [str(o) for o in options]
-        except ValueError as e:
-            options, error = [], f"options: {e}"
-        if not given:
-            error = "no 'input'"
-        elif "\0" in given:
-            error = "the input holds a NUL byte"
-        problem = _name_problem(name)
-        if problem:
-            error = f"the name {name!r} {problem}"
-        error = error or _options_problem(options)
-        if name in names:
-            raise ValueError(f"{where}: row {i}: the name '{name}' is used twice")
-        names.add(name)
-        case = {"input": str(src), "name": name, "options": options}
-        if error:
-            case["error"] = f"{where}: row {i}: {error}"
-        cases.append(case)
-    return cases
+        return _isoloft._read_manifest(manifest)
+    rows = [dict(r) for r in manifest]
+    return _isoloft._check_manifest_rows(rows, os.getcwd(), "manifest", 0)
 
 
 def case_command(case, cli, threads=1, fmt="ply"):
@@ -363,16 +258,18 @@ def main(argv=None):
     if a.workers is not None and a.workers < 1:
         parser.error("--workers must be >= 1")
 
+    from ._isoloft import _terminal_text as shown  # names reach the terminal escaped, as the CLI prints them
+
     def report(row):
         if not a.quiet:
-            print(f"isoloft batch: {row['name']}: {row['status']} ({row['seconds']} s)"
-                  + (f": {row['error']}" if row["error"] else ""), file=sys.stderr)
+            print(shown(f"isoloft batch: {row['name']}: {row['status']} ({row['seconds']} s)"
+                        + (f": {row['error']}" if row["error"] else "")), file=sys.stderr)
 
     try:
         rows = batch(a.manifest, a.out, workers=a.workers, scheduler=a.scheduler, threads=a.threads,
                      format=a.format, force=a.force, cli=a.cli, on_case=report)
     except (OSError, ValueError) as e:
-        print(f"isoloft batch: error: {e}", file=sys.stderr)
+        print(shown(f"isoloft batch: error: {e}"), file=sys.stderr)
         return 1
     failed = sum(r["status"] == "failed" for r in rows)
     if not a.quiet:
