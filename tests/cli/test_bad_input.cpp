@@ -635,8 +635,8 @@ TEST_F(BadInput, AnOutputNeverReplacesTheDataFileOfAVolumeHeader) {
   const std::string m = " --method levin --input masks -o " + p("m.ply");
   expect_error("reconstruct " + p("v.mhd") + m + " --report " + p("v.raw"), 1,
                "--report " + p("v.raw") + ": is the input's data file " + p("v.raw") + "; an output never replaces");
-  expect_error("reconstruct " + p("n.nhdr") + m + " --volumes " + p("n.raw"), 1,
-               "--volumes " + p("n.raw") + ": is the input's data file " + p("n.raw"));
+  expect_error("reconstruct " + p("n.nhdr") + m + " --report " + p("n.raw"), 1,
+               "--report " + p("n.raw") + ": is the input's data file " + p("n.raw"));
   fs::create_symlink(p("v.raw"), p("link.json"));  // the same file by another name
   expect_error("reconstruct " + p("v.mhd") + m + " --report " + p("link.json"), 1, "is the input's data file");
   // A reference grid's data file, whatever the input.
