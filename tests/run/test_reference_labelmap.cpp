@@ -659,7 +659,7 @@ TEST_F(Cli, AReferenceGridIsReadFromItsHeaderAndTheBudgetRefusesBeforeAnyVoxel) 
   EXPECT_TRUE(ref.grid.data.empty());
   // What finish() allocates at once, per voxel: the label volume (float), the
   // writer's encoded copy (int32 at most: a value table's labels), one
-  // object's inside byte; the estimate holds all three.
+  // object's inside byte (eight objects' inside bits); the estimate holds all three.
   const double voxels = double(nx) * ny * nz;
   ReferenceLabelmapOutput out(p("lm.nii.gz"), std::make_shared<const ReferenceGrid>(ref));
   const Inputs none;

@@ -139,7 +139,7 @@ int slice_axis(const Volume& grid, const Eigen::Vector3d& normal, double& tilt_m
 struct ReferenceLabelmapOutput::Object {
   struct Slice {
     int u0 = 0, v0 = 0, u1 = 0, v1 = 0;
-    std::vector<std::uint8_t> inside;
+    std::vector<bool> inside;  // a bit a voxel: every object's are held until the map is written
     [[nodiscard]] bool at(int u, int v) const {
       return u >= u0 && u < u1 && v >= v0 && v < v1 && inside[std::size_t(v - v0) * std::size_t(u1 - u0) + std::size_t(u - u0)];
     }
@@ -245,14 +245,14 @@ void ReferenceLabelmapOutput::start_job(const RunContext& ctx, std::size_t job, 
     if (u1 <= u0 || v1 <= v0) return;
     Object::Slice s;
     s.u0 = u0, s.u1 = u1, s.v0 = v0, s.v1 = v1;
-    s.inside.assign(std::size_t(u1 - u0) * std::size_t(v1 - v0), 0);
+    s.inside.assign(std::size_t(u1 - u0) * std::size_t(v1 - v0), false);
     std::size_t count = 0;
     for (int cv = v0; cv < v1; ++cv)
       for (int cu = u0; cu < u1; ++cu) {
         const Eigen::Vector2d w = base + du * cu + dv * cv;
         float f = 0;
         if (bilinear(field, w.x() - box.x0, w.y() - box.y0, f) && f > iso) {
-          s.inside[std::size_t(cv - v0) * std::size_t(u1 - u0) + std::size_t(cu - u0)] = 1;
+          s.inside[std::size_t(cv - v0) * std::size_t(u1 - u0) + std::size_t(cu - u0)] = true;
           ++count;
         }
       }
@@ -269,6 +269,8 @@ double ReferenceLabelmapOutput::fixed_file_bytes(const Inputs&) const {
   return double(g.nx) * double(g.ny) * double(g.nz) * 4;
 }
 
+// kLabelmapBytesPerVoxel's byte for the objects' inside voxels: held as
+// bits, it covers eight objects that each span the whole grid.
 double ReferenceLabelmapOutput::memory_bytes(const Inputs&) const {
   const Volume& g = ref_->grid;
   return double(g.nx) * double(g.ny) * double(g.nz) * kLabelmapBytesPerVoxel;
