@@ -78,6 +78,7 @@ def case_command(case, cli, threads=1, fmt="ply"):
 # The CLI processes running now, stopped when the batch is stopped.
 _children = set()
 _children_lock = threading.Lock()
+_stopping = threading.Event()  # set by a stop signal: no case starts after it
 
 
 def run_case(case, out, cli, threads=1, fmt="ply"):
@@ -85,10 +86,16 @@ def run_case(case, out, cli, threads=1, fmt="ply"):
     folder = pathlib.Path(out) / case["name"]
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
-    with subprocess.Popen(case_command(case, cli, threads, fmt), cwd=folder, stdout=subprocess.PIPE,
-                          stderr=subprocess.PIPE, text=True) as p:
-        with _children_lock:
-            _children.add(p)
+    # Started and registered under one lock: a stop signal between the two once missed the child
+    # (it ran on after the batch died).
+    with _children_lock:
+        if _stopping.is_set():
+            return {"name": case["name"], "input": case["input"], "status": "failed", "exit_code": "",
+                    "seconds": 0.0, "error": "the batch was stopped"}
+        p = subprocess.Popen(case_command(case, cli, threads, fmt), cwd=folder, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+        _children.add(p)
+    with p:
         try:
             _, stderr = p.communicate()
         finally:
@@ -161,6 +168,7 @@ class _StopChildren:
 
     def _stop(self, signum, frame):
         with _children_lock:
+            _stopping.set()
             running = list(_children)
         for p in running:
             try:
