@@ -299,7 +299,8 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
 // An image object's voxels (float, x fastest) and geometry (LPS) as a volume input.
 PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
                     const py::array_t<double, py::array::c_style | py::array::forcecast>& direction, bool integer,
-                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space) {
+                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space,
+                    const std::string& label_names) {
   if (data.ndim() != 3) throw InputError(name, "expected a 3D image, got " + std::to_string(data.ndim()) + " dimensions");
   if (direction.ndim() != 2 || direction.shape(0) != 3 || direction.shape(1) != 3)
     throw InputError(name, "the direction must be 3 x 3");
@@ -341,6 +342,7 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
   r.kind = kind;
   r.axis = axis;
   r.space = space;
+  r.label_names = label_names;
   const auto t0 = Clock::now();
   auto in = std::make_shared<Inputs>();
   {
@@ -353,7 +355,7 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
                    const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
-                   const std::string& max_memory, bool allow_external_data) {
+                   const std::string& max_memory, bool allow_external_data, const std::string& label_names) {
   InputRequest r;
   r.paths = paths;
   r.kind = kind;
@@ -366,6 +368,7 @@ PyInput read_input(const std::vector<std::string>& paths, const std::string& kin
   r.space = space;
   r.max_memory = parse_size(max_memory, "max_memory");
   r.allow_external_data = allow_external_data;
+  r.label_names = label_names;
   if (paths.empty()) throw ParamError("path: no input given");
   const auto t0 = Clock::now();
   auto in = std::make_shared<Inputs>();
@@ -725,9 +728,8 @@ PYBIND11_MODULE(_isoloft, m) {
       .def_readonly("faces", &PyObjectResult::faces, "(M, 3) int32, read-only view of the C++ triangles (counter-clockwise from outside)")
       .def_property_readonly("report", [](const PyObjectResult& o) { return to_python(o.data->report["objects"][o.index]); })
       .def("save", [](const PyObjectResult& o, const py::object& path, bool ascii) {
-        MeshWriteOptions mo = o.data->mesh_options;
+        MeshWriteOptions mo = object_mesh_options(*o.data->in, o.object(), o.data->mesh_options);
         mo.ascii = ascii;
-        mo.label = object_cell_label(o.object());
         const std::string p = py::str(py::module_::import("os").attr("fspath")(path));
         py::gil_scoped_release release;
         write_mesh(p, o.object().mesh, mo);
@@ -779,11 +781,12 @@ PYBIND11_MODULE(_isoloft, m) {
   m.def("_from_arrays", &from_arrays, py::arg("slices"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("image_shape"), py::arg("binarize"));
   m.def("_from_volume", &from_volume, py::arg("data"), py::arg("spacing"), py::arg("origin"), py::arg("direction"),
-        py::arg("integer"), py::arg("name"), py::arg("kind"), py::arg("axis"), py::arg("space"));
+        py::arg("integer"), py::arg("name"), py::arg("kind"), py::arg("axis"), py::arg("space"),
+        py::arg("label_names") = "");
   m.attr("_DEFAULT_MAX_FILES") = kDefaultMaxFiles;
   m.def("_read", &read_input, py::arg("paths"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"),
-        py::arg("max_memory"), py::arg("allow_external_data"));
+        py::arg("max_memory"), py::arg("allow_external_data"), py::arg("label_names") = "");
   m.def("_reconstruct", [](const PyInput& input, const py::dict& params, const std::vector<std::uint32_t>& labels,
                            std::optional<int> threads, const py::object& progress, bool allow_empty,
                            const std::string& volume, const std::string& labelmap, const std::string& dump_stages,
