@@ -67,12 +67,13 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
 /// An image object's voxels (x fastest) and geometry (LPS) as a volume input.
 PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
                     const py::array_t<double, py::array::c_style | py::array::forcecast>& direction, bool integer,
-                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space);
+                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space,
+                    const std::string& label_names);
 /// What `isoloft reconstruct` reads, from paths.
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
                    const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
-                   const std::string& max_memory, bool allow_external_data);
+                   const std::string& max_memory, bool allow_external_data, const std::string& label_names);
 
 // ---------------------------------------------------------------- runs and results (module_run.cpp)
 

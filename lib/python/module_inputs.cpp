@@ -279,7 +279,8 @@ PyInput from_arrays(const py::object& slices, const std::string& kind, std::opti
 // An image object's voxels (float, x fastest) and geometry (LPS) as a volume input.
 PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
                     const py::array_t<double, py::array::c_style | py::array::forcecast>& direction, bool integer,
-                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space) {
+                    const std::string& name, const std::string& kind, const std::string& axis, const std::string& space,
+                    const std::string& label_names) {
   if (data.ndim() != 3) throw InputError(name, "expected a 3D image, got " + std::to_string(data.ndim()) + " dimensions");
   if (direction.ndim() != 2 || direction.shape(0) != 3 || direction.shape(1) != 3)
     throw InputError(name, "the direction must be 3 x 3");
@@ -321,6 +322,7 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
   r.kind = kind;
   r.axis = axis;
   r.space = space;
+  r.label_names = label_names;
   const auto t0 = Clock::now();
   auto in = std::make_shared<Inputs>();
   {
@@ -333,7 +335,7 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
                    const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
-                   const std::string& max_memory, bool allow_external_data) {
+                   const std::string& max_memory, bool allow_external_data, const std::string& label_names) {
   InputRequest r;
   r.paths = paths;
   r.kind = kind;
@@ -346,6 +348,7 @@ PyInput read_input(const std::vector<std::string>& paths, const std::string& kin
   r.space = space;
   r.max_memory = parse_size(max_memory, "max_memory");
   r.allow_external_data = allow_external_data;
+  r.label_names = label_names;
   if (paths.empty()) throw ParamError("path: no input given");
   const auto t0 = Clock::now();
   auto in = std::make_shared<Inputs>();

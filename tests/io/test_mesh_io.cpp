@@ -382,3 +382,45 @@ RC_GTEST_PROP(MeshIoProperty, DamagedFilesThrowInputErrorOrReadValidMeshes, ()) 
     RC_ASSERT(e.file == path);
   }
 }
+
+// The labels' names as VTK field data: "label" (UInt32) and "label_name"
+// (String), one tuple per label, in the byte layouts VTK's readers take
+// (python3-vtk9 reads them back in tests/python/test_rtstruct_labels.py).
+TEST(MeshIo, VtkFormatsCarryLabelNamesAsFieldData) {
+  TempDir dir;
+  const TriMesh m = octahedron();
+  isoloft::MeshWriteOptions o;
+  o.label_names = {{5, "Precentral L"}, {70000, "\xC3\x85%"}, {9, ""}};  // a blank, a non-ASCII byte, '%', an empty name
+  const std::string long_name(70, 'x');                                 // over a 1-byte length header (63)
+  o.label_names.push_back({11, long_name});
+  write_mesh(dir.file("m.vtp"), m, o);
+  const std::string vtp = isoloft::test::read_text(dir.file("m.vtp"));
+  EXPECT_NE(vtp.find("<DataArray type=\"UInt32\" Name=\"label\" NumberOfTuples=\"4\" format=\"ascii\">\n        5 70000 9 11\n"),
+            std::string::npos)
+      << vtp.substr(0, 600);
+  // Each name's bytes, then 0: "Precentral L", "Å%" (UTF-8 bytes), "", 70 'x'.
+  std::string codes = " 80 114 101 99 101 110 116 114 97 108 32 76 0 195 133 37 0 0";
+  for (int i = 0; i < 70; ++i) codes += " 120";
+  EXPECT_NE(vtp.find("Name=\"label_name\" NumberOfTuples=\"4\" format=\"ascii\">\n       " + codes + " 0\n"), std::string::npos)
+      << vtp.substr(0, 900);
+
+  o.ascii = true;
+  write_mesh(dir.file("a.vtk"), m, o);
+  const std::string ascii = isoloft::test::read_text(dir.file("a.vtk"));
+  EXPECT_NE(ascii.find("DATASET POLYDATA\nFIELD FieldData 2\nlabel 1 4 unsigned_int\n5 70000 9 11 \n"
+                       "label_name 1 4 string\nPrecentral%20L\n%C3%85%25\n\n" + long_name + "\nPOINTS 6 float\n"),
+            std::string::npos)
+      << ascii.substr(0, 400);
+  o.ascii = false;
+  write_mesh(dir.file("b.vtk"), m, o);
+  const std::string binary = isoloft::test::read_text(dir.file("b.vtk"));
+  const std::string field = std::string("FIELD FieldData 2\nlabel 1 4 unsigned_int\n") +
+                            std::string("\0\0\0\x05\0\x01\x11\x70\0\0\0\x09\0\0\0\x0B\n", 17) + "label_name 1 4 string\n" +
+                            "\xCC" "Precentral L" "\xC3\xC3\x85%" "\xC0" + std::string("\x80\x46", 2) + long_name +
+                            "\nPOINTS 6 float\n";
+  EXPECT_NE(binary.find(field), std::string::npos);
+  // Without names: no field data beyond SPACE (files of unnamed labels keep their bytes).
+  o.label_names.clear();
+  write_mesh(dir.file("n.vtk"), m, o);
+  EXPECT_EQ(isoloft::test::read_text(dir.file("n.vtk")).find("FIELD"), std::string::npos);
+}

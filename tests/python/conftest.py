@@ -21,3 +21,16 @@ def run_cli(*args):
 @pytest.fixture(scope="session")
 def data_dir():
     return SOURCE_DIR / "data"
+
+
+def dciodvfy_errors(path):
+    """dicom3tools' dciodvfy on a DICOM file: its "Error" lines (skips the test
+    if dciodvfy is missing; fails it if dciodvfy does not see an RT Structure Set)."""
+    import shutil
+    dciodvfy = shutil.which("dciodvfy")
+    if dciodvfy is None:
+        pytest.skip("dciodvfy (Debian package dicom3tools, installed by scripts/setup.sh --full) is not on PATH")
+    r = subprocess.run([dciodvfy, str(path)], capture_output=True, text=True)
+    lines = (r.stdout + r.stderr).splitlines()
+    assert "RTStructureSet" in lines, f"dciodvfy did not recognise the IOD: {lines[:5]}"
+    return [line for line in lines if line.startswith("Error")]

@@ -194,7 +194,7 @@ void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOpt
                        std::to_string(m.triangles.size()) + " triangles");
     format->write(path, o,
                   detail::MeshOut{m, detail::Scaled{m, scale}, vertex_colors, options.ascii, space, options.triangle_labels,
-                                  options.label});
+                                  options.label, &options.label_names});
     o.close();
   }
   file.commit();

@@ -4,6 +4,7 @@
 // Our own exact, one-pass readers and writers (docs/decisions.md).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -40,6 +41,12 @@ MeshFormat mesh_format_from_path(const std::string& path);
 void write_mesh(const std::string& path, const TriMesh& m, double scale = 1.0,
                 const std::vector<Rgb>* vertex_colors = nullptr, bool ascii = false);
 
+/// A label in a mesh file and its name (VTK formats: field data).
+struct LabelName {
+  std::uint32_t label = 0;
+  std::string name;  ///< UTF-8; "" when the label has none
+};
+
 /// How write_mesh() places and writes the vertices.
 struct MeshWriteOptions {
   double scale = 1.0;                 ///< without a frame: coordinates times this
@@ -50,6 +57,10 @@ struct MeshWriteOptions {
   /// VTK formats: each triangle's label (cell data "Label"), or null: every triangle `label`.
   const std::vector<std::uint32_t>* triangle_labels = nullptr;
   std::uint32_t label = 0;
+  /// VTK formats: the labels in the file and their names, as field data
+  /// "label" (UInt32) and "label_name" (String), one tuple each per entry, in
+  /// this order; empty: none written.
+  std::vector<LabelName> label_names;
 };
 
 /// write_mesh() with a patient frame: vertices in patient mm, the space named

@@ -152,11 +152,39 @@ struct RtRoiContours {
 void write_rtstruct(const std::string& path, const std::string& source, const std::vector<RtRoiContours>& rois,
                     const std::string& label, const std::vector<unsigned char>* source_bytes = nullptr);
 
+/// The identity of a structure set written without a source.
+struct RtNewSet {
+  std::string study;               ///< StudyInstanceUID, new
+  std::string frame_of_reference;  ///< FrameOfReferenceUID, new: every ROI's
+};
+
+/// Writes a standalone RT Structure Set, for contours with no source set (a
+/// label map has no CT series): a new study, series, SOP instance and frame
+/// of reference (FrameOfReferenceUID, the ReferencedFrameOfReferenceSequence's
+/// one item and every ROI's); the patient module and the study's other type 2
+/// attributes present and empty; each ROI of `rois` with its number, name (as
+/// a DICOM LO: detail::dicom_lo), colour, generation algorithm AUTOMATIC and
+/// interpreted type ORGAN; its contours as write_rtstruct() writes them
+/// (without Contour Image Sequences: there are no images). Specific
+/// Character Set ISO_IR 192 when a name is not ASCII. Implicit VR Little
+/// Endian, written to a temp file and renamed.
+/// \throw InputError naming `path`: not writable (with the errno text), or a
+///        value DCMTK refuses (the ROI named); Error naming its folder if
+///        that cannot be made.
+RtNewSet write_rtstruct_new(const std::string& path, const std::vector<RtRoiContours>& rois, const std::string& label);
+
 /// The input contour planes (patient z, mm) of a stack from roi_stack(): its
 /// slices with contours, the two slices of a one-plane ROI as their middle.
 std::vector<double> rt_planes(const SliceStack& stack);
 
 namespace detail {
+
+/// A LO (Long String) value holds at most this many characters (PS3.5 table 6.2-1).
+inline constexpr std::size_t kLoMaxChars = 64;
+
+/// `text` as a DICOM LO value: backslashes (the value separator) and control
+/// characters as '_', cut to kLoMaxChars bytes at a UTF-8 character boundary.
+std::string dicom_lo(const std::string& text);
 
 /// A ROIName's bytes (`raw`, embedded NULs kept) as UTF-8, decoded once by the
 /// file's Specific Character Set `charset` (0008,0005's value: "" or

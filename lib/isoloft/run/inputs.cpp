@@ -151,6 +151,13 @@ Inputs slice_volume(Volume volume, const std::string& path, const InputRequest& 
   return in;
 }
 
+// The labels' names from `table` (if any) into `in`.
+void read_names(Inputs& in, const std::optional<std::string>& table, const InputRequest& r) {
+  if (table && in.labels()) in.label_names = read_label_names(*table);
+  else if (!r.label_names.empty())
+    throw ParamError(option_name("--label-names") + ": only with label input (" + option_given("--input", "labels") + ")");
+}
+
 Inputs read_volume_input(const InputRequest& r) {
   const std::string& path = r.paths[0];
   const VolumeSlicing slicing = volume_slicing(r);
@@ -178,10 +185,7 @@ Inputs read_volume_input(const InputRequest& r) {
   Inputs in = slice_volume(std::move(v), path, r, std::move(sliced));
   in.data_files = std::move(data_files);
   // The labels' names: the table given, else the one beside the volume.
-  const std::optional<std::string> table = !r.label_names.empty() ? std::optional(r.label_names) : label_names_beside(path);
-  if (table && in.labels()) in.label_names = read_label_names(*table);
-  else if (!r.label_names.empty())
-    throw ParamError(option_name("--label-names") + ": only with label input (" + option_given("--input", "labels") + ")");
+  read_names(in, !r.label_names.empty() ? std::optional(r.label_names) : label_names_beside(path), r);
   return in;
 }
 
@@ -376,6 +380,7 @@ void check_float_precision(const Inputs& in) {
 Inputs volume_input(Volume volume, const std::string& name, const InputRequest& r) {
   check_request(InputFormat::Volume, r);
   Inputs in = slice_volume(std::move(volume), name, r);
+  read_names(in, !r.label_names.empty() ? std::optional(r.label_names) : std::nullopt, r);  // an image has no file beside
   in.format = InputFormat::Volume;
   in.files = {name};
   in.ras = r.space == "ras";

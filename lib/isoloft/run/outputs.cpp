@@ -83,6 +83,32 @@ std::uint32_t object_cell_label(const RunObject& o) { return o.object.label ? o.
 
 bool several_outputs(const Inputs& in, const RunResult& r) { return in.labels() || r.objects.size() > 1; }
 
+namespace {
+
+// An object's entry in the VTK files' label table: its cell label and its
+// name (the ROI's, or the label's from the table); none for an input without names.
+std::optional<LabelName> object_label_name(const Inputs& in, const RunObject& o) {
+  const Job& job = in.jobs[o.job];
+  if (job.roi) return LabelName{object_cell_label(o), job.name};
+  if (in.labels() && !in.label_names.names.empty()) return LabelName{object_cell_label(o), in.label_name(o.object.label)};
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::string object_display_name(const Inputs& in, const RunObject& o) {
+  const Job& job = in.jobs[o.job];
+  const std::string label_name = o.object.label ? in.label_name(o.object.label) : "";
+  return !job.name.empty() ? job.name : !label_name.empty() ? label_name
+         : o.object.label ? "label " + std::to_string(o.object.label) : "object";
+}
+
+MeshWriteOptions object_mesh_options(const Inputs& in, const RunObject& o, MeshWriteOptions mo) {
+  mo.label = object_cell_label(o);
+  if (const auto named = object_label_name(in, o)) mo.label_names = {*named};
+  return mo;
+}
+
 void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r, const MeshWriteOptions& mo,
                       const std::function<std::string(const std::string&)>& stage) {
   auto staged = [&](const std::string& p) { return stage ? stage(p) : p; };
@@ -96,9 +122,7 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
   const std::string combined_path = several ? staged(output) : std::string();
   auto write_objects = [&] {
     tbb::parallel_for(std::size_t(0), r.objects.size(), [&](std::size_t i) {
-      MeshWriteOptions one = mo;
-      one.label = object_cell_label(r.objects[i]);
-      write_mesh(paths[i], r.objects[i].mesh, one);
+      write_mesh(paths[i], r.objects[i].mesh, object_mesh_options(in, r.objects[i], mo));
     });
   };
   auto write_combined = [&] {
@@ -115,6 +139,8 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
     MeshWriteOptions co = mo;
     co.colors = &vertex_colours;
     co.triangle_labels = &triangle_labels;
+    for (const auto& o : r.objects)
+      if (const auto named = object_label_name(in, o)) co.label_names.push_back(*named);
     write_mesh(combined_path, combined, co);
   };
   tbb::parallel_invoke(write_objects, write_combined);
@@ -137,9 +163,7 @@ std::vector<std::string> save_run_meshes(const std::string& path, const std::str
   std::vector<std::string> written;
   try {
     if (object) {
-      MeshWriteOptions one = mo;
-      one.label = object_cell_label(r.objects.at(*object));
-      write_mesh(files.stage(path), r.objects[*object].mesh, one);
+      write_mesh(files.stage(path), r.objects.at(*object).mesh, object_mesh_options(in, r.objects[*object], mo));
       written.push_back(path);
     } else {
       write_run_meshes(path, in, r, mo, [&](const std::string& p) { return files.stage(p); });

@@ -97,6 +97,15 @@ MeshWriteOptions run_mesh_options(const Inputs& in, bool ascii = false);
 /// job's place in the input, 1, 2, ...
 std::uint32_t object_cell_label(const RunObject& o);
 
+/// The object's name in the volume table and the RT Structure Set written:
+/// its ROI's, its label's (the label table's), else "label N", else "object".
+std::string object_display_name(const Inputs& in, const RunObject& o);
+
+/// `mo` for object `o`'s own file: its cell label, and in the VTK formats'
+/// field data its label and name (the ROI's, or the label table's) when the
+/// input names its objects.
+MeshWriteOptions object_mesh_options(const Inputs& in, const RunObject& o, MeshWriteOptions mo);
+
 /// Whether the run writes one file per object plus a combined one.
 bool several_outputs(const Inputs& in, const RunResult& r);
 

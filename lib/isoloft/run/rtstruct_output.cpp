@@ -22,7 +22,7 @@ namespace {
 
 constexpr const char* kNeedsRtInput =
     ": an RT Structure Set out needs an RT Structure Set input (its patient, study and frame of reference are written "
-    "back)";
+    "back) or a volume (NIfTI, NRRD, MetaImage: a standalone set on its slices' planes)";
 
 // Keyhole cut ends closer than this (mm) are one point, as roi_stack splits
 // them (io/rtstruct.h): a cut is written twice with the same decimal strings.
@@ -171,6 +171,51 @@ void account_plane(const std::vector<DrawnLoop>& drawn, std::vector<Loop>& writt
   }
 }
 
+// Running sums of one ROI's resampling deviation and written steps.
+struct WrittenStats {
+  double deviation_sum = 0, length_sum = 0;
+  long deviation_n = 0;
+};
+
+// The mesh's sections at working z, in patient x, y mm (an axial frame),
+// resampled at `spacing`; their deviation from the exact cut into sum and stats.
+std::vector<Loop> resampled_sections(const TriMesh& mesh, const PatientFrame& f, double z, double spacing,
+                                     RoiContourSummary& sum, WrittenStats& stats) {
+  std::vector<Loop> out;
+  for (const Loop& loop : cut_mesh(mesh, z)) {
+    Loop mm;
+    for (const Vec2d& p : loop) {
+      const Vec3d q = f.to_patient(Vec3d(p.x(), p.y(), z));
+      mm.emplace_back(q.x(), q.y());
+    }
+    ResampledLoop rs = resample_loop(mm, spacing);
+    sum.resample_max_deviation = std::max(sum.resample_max_deviation, rs.max_deviation);
+    stats.deviation_sum += rs.mean_deviation * double(mm.size());
+    stats.deviation_n += long(mm.size());
+    out.push_back(std::move(rs.points));
+  }
+  return out;
+}
+
+// The loops written on plane `z` (counted into sum and stats), the plane
+// appended to `out` unless it has none.
+void add_plane(RtRoiContours& out, double z, std::vector<Loop>& loops, RoiContourSummary& sum, WrittenStats& stats) {
+  RtRoiContours::Plane plane;
+  plane.z = z;
+  for (Loop& l : loops) {
+    sum.points_out += long(l.size());
+    ++sum.contours_out;
+    for (std::size_t i = 0; i < l.size(); ++i) stats.length_sum += (l[(i + 1) % l.size()] - l[i]).norm();
+    plane.loops.push_back(std::move(l));
+  }
+  if (!plane.loops.empty()) out.planes.push_back(std::move(plane));
+}
+
+void finish_summary(RoiContourSummary& sum, const WrittenStats& stats) {
+  sum.resample_mean_deviation = stats.deviation_n ? stats.deviation_sum / double(stats.deviation_n) : 0.0;
+  sum.point_spacing = sum.points_out ? stats.length_sum / double(sum.points_out) : 0.0;
+}
+
 std::string csv_cell(const std::string& s) {
   // Quoted when it holds a separator or quote, and a leading = + - @ (a
   // spreadsheet formula) neutralised by a leading apostrophe.
@@ -181,10 +226,77 @@ std::string csv_cell(const std::string& s) {
   return q + "\"";
 }
 
+// ---------------------------------------------------------------- from a volume
+
+// A voxel axis whose direction's z component is within this of +-1 runs
+// along the patient z axis (NIfTI's float32 affines: 1e-7 rounding).
+constexpr double kAxisAlignedCosine = 1e-6;
+
+// Why a volume's slices cannot be written as RT contours, or "" if they can:
+// the contours of one plane must share one patient z (RT Structure Sets are
+// drawn on axial planes), so the slices' in-plane axes may rise across the
+// slice by at most kPlanarToleranceMm (io/rtstruct.h).
+std::string not_axial(const Inputs& in) {
+  const SliceStack& st = in.first();
+  if (!st.patient) return "it has no patient geometry";
+  const PatientFrame& f = *st.patient;
+  const double rise = std::abs(f.axes(2, 0)) * st.width + std::abs(f.axes(2, 1)) * st.height;
+  if (rise <= kPlanarToleranceMm) return "";
+  const Vec3d n = f.axes.col(2).normalized();
+  std::ostringstream o;
+  o << std::setprecision(4) << "its slices are not axial (perpendicular to the patient z axis): their normal is ("
+    << n.x() << ", " << n.y() << ", " << n.z() << ") in LPS, and a slice's points differ in z by up to " << rise
+    << " mm; RT Structure Set contours lie on axial planes";
+  if (in.volume && in.slicing)
+    for (int a = 0; a < 3; ++a)  // a voxel axis along patient z: slicing along it would do
+      if (a != in.slicing->axis && std::abs(std::abs(in.volume->direction(2, a)) - 1.0) <= kAxisAlignedCosine)
+        return o.str() + " (its voxel axis " + "ijk"[a] + " is: " + option_given("--axis", std::string(1, "ijk"[a])) + ")";
+  return o.str() + " (an oblique volume: resample it to axial slices first)";
+}
+
+// A volume's objects as RT contours on its slices' planes, in a standalone set.
+RtWriteReport write_volume_rtstruct(const std::string& path, const Inputs& in, const RunResult& r,
+                                    const RtContourParams& params) {
+  if (const std::string why = not_axial(in); !why.empty()) throw InputError(in.files.front(), why);
+  const SliceStack& st = in.first();
+  const PatientFrame& f = *st.patient;
+  // Without drawn contours the step is a pixel of the label map: the finest
+  // detail its outlines hold.
+  const double pixel_mm = std::min(f.axes.col(0).norm(), f.axes.col(1).norm());
+  const double spacing = params.point_spacing > 0 ? params.point_spacing : pixel_mm;
+  RtWriteReport report;
+  std::vector<RtRoi> identities;
+  identities.reserve(r.objects.size());  // RtRoiContours point into it
+  std::vector<RtRoiContours> rois;
+  for (const RunObject& o : r.objects) {
+    const std::uint32_t number = object_cell_label(o);
+    if (number > std::uint32_t(std::numeric_limits<std::int32_t>::max()))
+      throw InputError(in.files.front(), "label " + std::to_string(number) +
+                                             " is beyond the largest ROI number a DICOM IS holds (2^31 - 1)");
+    identities.push_back(RtRoi{int(number), object_display_name(in, o), o.colour, {}});
+    RtRoiContours out{&identities.back(), {}};
+    RoiContourSummary sum;
+    sum.roi = out.roi->name;
+    sum.roi_number = out.roi->number;
+    WrittenStats stats;
+    for (const Slice& s : st.slices) {
+      std::vector<Loop> here = resampled_sections(o.object.mesh, f, s.z, spacing, sum, stats);
+      // The plane's patient z (the same across it: not_axial).
+      add_plane(out, f.to_patient(Vec3d(0.5 * st.width, 0.5 * st.height, s.z)).z(), here, sum, stats);
+    }
+    finish_summary(sum, stats);
+    report.rois.push_back(sum);
+    rois.push_back(std::move(out));
+  }
+  write_rtstruct_new(path, rois, "isoloft");
+  return report;
+}
+
 }  // namespace
 
 RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunResult& r,
                                  const RtContourParams& params) {
+  if (in.format == InputFormat::Volume) return write_volume_rtstruct(path, in, r, params);
   if (in.format != InputFormat::RtStruct || !in.rtstruct) throw ParamError(path + kNeedsRtInput);
   RtWriteReport report;
   std::vector<RtRoiContours> rois;
@@ -205,43 +317,21 @@ RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunR
     sum.roi_number = roi.number;
     for (const RtContour& c : roi.contours)
       if (c.type == "CLOSED_PLANAR") ++sum.contours_in, sum.points_in += long(c.points.size());
-    double deviation_sum = 0, length_sum = 0;
-    long deviation_n = 0;
+    WrittenStats stats;
     const std::size_t first_record = report.contours.size();
     for (std::size_t k = 0; k < planes.size(); ++k) {
       const double z_mm = planes[k];
       const double z = (z_mm - f.origin.z()) / f.axes(2, 2);  // working px (roi_stack: axis-aligned frame)
-      std::vector<Loop> here;
       std::vector<Loop> drawn_loops;
       for (const auto& d : drawn[k]) drawn_loops.push_back(d.points);
       const double spacing = params.point_spacing > 0 ? params.point_spacing
                              : !drawn_loops.empty()   ? mean_point_spacing(drawn_loops)
                                                       : roi_spacing;
-      for (const Loop& loop : cut_mesh(o.object.mesh, z)) {
-        Loop mm;
-        for (const Vec2d& p : loop) {
-          const Vec3d q = f.to_patient(Vec3d(p.x(), p.y(), z));
-          mm.emplace_back(q.x(), q.y());
-        }
-        ResampledLoop rs = resample_loop(mm, spacing);
-        sum.resample_max_deviation = std::max(sum.resample_max_deviation, rs.max_deviation);
-        deviation_sum += rs.mean_deviation * double(mm.size());
-        deviation_n += long(mm.size());
-        here.push_back(std::move(rs.points));
-      }
+      std::vector<Loop> here = resampled_sections(o.object.mesh, f, z, spacing, sum, stats);
       account_plane(drawn[k], here, roi, z_mm, params, report, r.warnings);
-      RtRoiContours::Plane plane;
-      plane.z = z_mm;
-      for (Loop& l : here) {
-        sum.points_out += long(l.size());
-        ++sum.contours_out;
-        for (std::size_t i = 0; i < l.size(); ++i) length_sum += (l[(i + 1) % l.size()] - l[i]).norm();
-        plane.loops.push_back(std::move(l));
-      }
-      if (!plane.loops.empty()) out.planes.push_back(std::move(plane));
+      add_plane(out, z_mm, here, sum, stats);
     }
-    sum.resample_mean_deviation = deviation_n ? deviation_sum / double(deviation_n) : 0.0;
-    sum.point_spacing = sum.points_out ? length_sum / double(sum.points_out) : 0.0;
+    finish_summary(sum, stats);
     double weighted = 0;
     long weight = 0;
     for (std::size_t i = first_record; i < report.contours.size(); ++i) {
@@ -331,7 +421,14 @@ RtStructOutput::RtStructOutput(std::string path, std::string option, RtContourPa
 }
 
 void RtStructOutput::check_format(InputFormat format) const {
-  if (format != InputFormat::RtStruct) throw ParamError(option_name(option_) + " " + path_ + kNeedsRtInput);
+  if (format != InputFormat::RtStruct && format != InputFormat::Volume)
+    throw ParamError(option_name(option_) + " " + path_ + kNeedsRtInput);
+}
+
+void RtStructOutput::check(const Inputs& in, const ReconstructParams&) const {
+  if (in.format != InputFormat::Volume) return;
+  if (const std::string why = not_axial(in); !why.empty())
+    throw InputError(in.files.front(), option_name(option_) + " " + path_ + ": " + why);
 }
 
 void RtStructOutput::finish(const RunContext& ctx, RunResult& r) {

@@ -3,7 +3,8 @@
 // RT Structure Set (io/rtstruct.h, write_rtstruct): each ROI's mesh cut at
 // its input contour planes (mesh/plane_cut.h), resampled to the density the
 // contours were drawn at (or --rt-point-spacing), its number, name and
-// colour and the input's patient, study and frame of reference kept.
+// colour and the input's patient, study and frame of reference kept. From a
+// label map: a standalone set, each label's mesh cut at the slices' planes.
 //
 // Every drawn contour is accounted for (the per-contour report, JSON and
 // --rt-contours CSV): matched to the written section on its plane, with both
@@ -79,8 +80,15 @@ struct RtWriteReport {
 };
 
 /// Writes the run's surfaces as an RT Structure Set (see the file comment);
-/// warnings (dropped contours) go to r.warnings.
-/// \throw ParamError unless the input is an RT Structure Set.
+/// warnings (dropped contours) go to r.warnings. From a volume (a label map:
+/// no drawn contours, no CT series): a standalone set (write_rtstruct_new),
+/// one ROI per object, numbered by its label and named as the report names
+/// it, its sections on every slice plane of the volume, resampled at a
+/// pixel (or --rt-point-spacing); the report lists the ROIs' written
+/// contours, with no drawn ones to account for.
+/// \throw ParamError unless the input is an RT Structure Set or a volume;
+///        InputError naming the volume if its slices are not axial or a
+///        label exceeds a ROI number (2^31 - 1).
 RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunResult& r,
                                  const RtContourParams& params = {});
 
@@ -98,8 +106,12 @@ class RtStructOutput final : public RunOutput {
                           std::string contours_csv = "");
   [[nodiscard]] std::string option() const override { return option_; }
   [[nodiscard]] std::string target() const override { return path_; }
-  /// \throw ParamError unless the input is an RT Structure Set.
+  /// \throw ParamError unless the input is an RT Structure Set or a volume.
   void check_format(InputFormat format) const override;
+  /// \throw InputError naming the volume and the option if its slices are
+  ///        not axial (the hint: the voxel axis to slice along, or an
+  ///        oblique volume to resample).
+  void check(const Inputs& in, const ReconstructParams& params) const override;
   void finish(const RunContext& ctx, RunResult& r) override;
   void report(nlohmann::json& report) const override;
   [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs&, const std::vector<PlannedObject>&) const override;

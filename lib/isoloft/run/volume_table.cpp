@@ -65,9 +65,7 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
     const SliceStack& st = job.stack;
     const double s = st.pixel_size;
     VolumeRow row;
-    const std::string label_name = o.object.label ? in.label_name(o.object.label) : "";
-    row.name = !job.name.empty() ? job.name : !label_name.empty() ? label_name
-               : o.object.label ? "label " + std::to_string(o.object.label) : "object";
+    row.name = object_display_name(in, o);
     row.number = job.roi ? job.roi->number : int(o.object.label);
     row.volume = o.object.check.volume * s * s * s;
     row.area = o.object.check.area * s * s;

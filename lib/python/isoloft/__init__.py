@@ -170,7 +170,7 @@ def _image_volume(img):
 
 
 def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
-         voxel_size=None, space=None, max_memory=_BUDGET, allow_external_data=False):
+         voxel_size=None, space=None, max_memory=_BUDGET, allow_external_data=False, label_names=None):
     """Reads what `isoloft reconstruct` reads, as an Input for reconstruct().
 
     path: a directory of PNG slices or a list of PNG files (input: contours,
@@ -183,7 +183,11 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
     the budget checked from the image headers before decoding ("4G",
     "512M", bytes; 0 = no limit). allow_external_data: a NRRD or MetaImage
     header may name a data file outside its own folder (refused by default).
+    label_names: a label volume's table of names (AAL .nii.txt, FreeSurfer
+    LUT, 3D Slicer .ctbl, ITK-SNAP label descriptions), as the CLI's
+    --label-names; default: such a table beside the volume file.
     """
+    names = "" if label_names is None else _os.fsdecode(label_names)
     if _is_image(path):
         given = [n for n, v in (("z_spacing", z_spacing), ("slice_z", slice_z), ("pixel_size", pixel_size),
                                 ("roi", roi), ("voxel_size", voxel_size)) if v is not None]
@@ -196,14 +200,14 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
                                      _np.ascontiguousarray(data, dtype=_np.float32), list(map(float, spacing)),
                                      list(map(float, origin)), _np.ascontiguousarray(direction, dtype=float),
                                      integer, f"slices ({type(path).__name__})", _text("input", input),
-                                     _text("axis", axis), _text("space", space))
+                                     _text("axis", axis), _text("space", space), names)
     if not _is_path(path) and not (hasattr(path, "__iter__") and all(_is_path(p) for p in path)):
         raise ParamError(f"path: expected a path, a list of paths or an image, got {type(path).__name__}")
     return _isoloft._read(_paths(path), _text("input", input), _number("z_spacing", z_spacing),
                           None if slice_z is None else [_number("slice_z", z) for z in slice_z],
                           _number("pixel_size", pixel_size), _text("axis", axis), _rois(roi),
                           _number("voxel_size", voxel_size), _text("space", space), str(max_memory),
-                          bool(allow_external_data))
+                          bool(allow_external_data), names)
 
 
 def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
@@ -216,7 +220,7 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
 def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
                 voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
                 progress=None, allow_empty=False, volume=None, labelmap=None, reference=None, dump_stages=None,
-                rtstruct=None, rt_point_spacing=0.0, rt_min_area=0.0, rt_contours=None, volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, **params):
+                rtstruct=None, rt_point_spacing=0.0, rt_min_area=0.0, rt_contours=None, volumes=None, report=None, max_memory=_BUDGET, max_output=_BUDGET, max_files=_MAX_FILES, allow_external_data=False, label_names=None, **params):
     """Closed surfaces from a slice stack; returns a Result (.objects, .report, .save()).
 
     slices, one of:
@@ -232,7 +236,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     - a nibabel or SimpleITK image, or a path (PNG slices, a polyline file, a
       NIfTI/NRRD/MetaImage volume, an RT Structure Set): read as read() reads
       it, with its options given here (input, z_spacing, slice_z,
-      pixel_size, axis, roi, voxel_size, space); images and volumes keep
+      pixel_size, axis, roi, voxel_size, space, label_names); images and volumes keep
       their geometry: the meshes are in patient mm (LPS, or space="ras").
     - an Input from read() or synth().
     method: isoloft (default), marker2006 or levin; labels: only these;
@@ -279,7 +283,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     if method is not None:
         params["method"] = method
     read_options = {"input": input, "z_spacing": z_spacing, "slice_z": slice_z, "pixel_size": pixel_size,
-                    "axis": axis, "roi": roi, "voxel_size": voxel_size, "space": space}
+                    "axis": axis, "roi": roi, "voxel_size": voxel_size, "space": space, "label_names": label_names}
     external = {"allow_external_data": True} if allow_external_data else {}
     if isinstance(slices, Input):
         given = [n for n, v in read_options.items() if v is not None] + (["image_shape"] if image_shape else [])
@@ -291,7 +295,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
             raise ParamError("image_shape: only with input='polylines' arrays")
         stack = read(slices, max_memory=max_memory, **read_options, **external)
     else:
-        given = [n for n in ("axis", "roi", "voxel_size", "space") if read_options[n] is not None]
+        given = [n for n in ("axis", "roi", "voxel_size", "space", "label_names") if read_options[n] is not None]
         if given:
             raise ParamError(f"{given[0]}: only with a volume, an image or an RT Structure Set, not with arrays")
         if input is not None and input not in _KINDS:

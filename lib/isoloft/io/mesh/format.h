@@ -16,6 +16,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/mesh.h"
+#include "isoloft/io/mesh_io.h"
 
 namespace isoloft::detail {
 
@@ -98,6 +99,8 @@ struct MeshOut {
   /// Per-triangle labels (cell data of the VTK formats), or null: every triangle `label`.
   const std::vector<std::uint32_t>* labels = nullptr;
   std::uint32_t label = 0;
+  /// The labels' names (VTK field data "label" and "label_name"), or null / empty: none.
+  const std::vector<LabelName>* label_names = nullptr;
 };
 
 /// Triangle t's label (MeshOut::labels, else MeshOut::label).

@@ -2,8 +2,10 @@
 // (UInt64 byte-count headers, little-endian), as vtkXMLPolyDataReader reads
 // them; cell data Normals (facet normals) and Label, point data Colors when
 // coloured, and the patient space as the field-data string SPACE the way
-// 3D Slicer reads it. ASCII (`ascii`) writes every array inline.
+// 3D Slicer reads it; the labels' names as field data "label" and
+// "label_name". ASCII (`ascii`) writes every array inline.
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -78,11 +80,27 @@ void write_vtp(const std::string& /*path*/, Out& o, const MeshOut& mo) {
   };
   o.text("<?xml version=\"1.0\"?>\n<!-- written by isoloft -->\n",
          "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <PolyData>\n");
-  if (!mo.space.empty()) {
+  const bool named = mo.label_names && !mo.label_names->empty();
+  if (!mo.space.empty() || named) {
     // A string array: each string's bytes and a terminating 0, as character codes.
-    o.text("    <FieldData>\n      <DataArray type=\"String\" Name=\"SPACE\" NumberOfTuples=\"1\" format=\"ascii\">\n       ");
-    for (const unsigned char c : mo.space) o.text(' ', int(c));
-    o.text(" 0\n      </DataArray>\n    </FieldData>\n");
+    auto strings = [&](const char* name, std::size_t n, const std::function<const std::string&(std::size_t)>& at) {
+      o.text("      <DataArray type=\"String\" Name=\"", name, "\" NumberOfTuples=\"", n, "\" format=\"ascii\">\n       ");
+      for (std::size_t i = 0; i < n; ++i) {
+        for (const unsigned char c : at(i)) o.text(' ', int(c));
+        o.text(" 0");
+      }
+      o.text("\n      </DataArray>\n");
+    };
+    o.text("    <FieldData>\n");
+    if (!mo.space.empty()) strings("SPACE", 1, [&](std::size_t) -> const std::string& { return mo.space; });
+    if (named) {
+      const std::vector<LabelName>& names = *mo.label_names;
+      o.text("      <DataArray type=\"UInt32\" Name=\"label\" NumberOfTuples=\"", names.size(), "\" format=\"ascii\">\n       ");
+      for (const LabelName& l : names) o.text(' ', l.label);
+      o.text("\n      </DataArray>\n");
+      strings("label_name", names.size(), [&](std::size_t i) -> const std::string& { return names[i].name; });
+    }
+    o.text("    </FieldData>\n");
   }
   o.text("    <Piece NumberOfPoints=\"", nv, "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"", nt,
          "\">\n");
