@@ -8,8 +8,8 @@
 // Every drawn contour is accounted for (the per-contour report, JSON and
 // --rt-contours CSV): matched to the written section on its plane, with both
 // areas and the distances between them, and flagged when the surface lost
-// it, merged it with another or shrank it beyond kShrinkShare; sections on
-// an input plane that nobody drew are listed too. A drawn contour the
+// it, merged it with another, split it or shrank it beyond kShrinkShare;
+// sections on an input plane that nobody drew are listed too. A drawn contour the
 // surface lost is written back as drawn (a small closed piece), unless it is
 // smaller than --rt-min-area, when it is dropped and named in a warning.
 #pragma once
@@ -54,6 +54,11 @@ struct ContourRecord {
   double mean_distance = 0, max_distance = 0;  ///< mm: mean of the two directed mean vertex distances; largest of both
   int points_drawn = 0, points_written = 0;
   bool lost = false, merged = false, shrunk = false, undrawn = false;
+  /// The surface split the drawn contour: on its row, it has pieces beyond
+  /// its section (area_section is their sum); on a piece's row (contour set,
+  /// points_drawn 0), that section, which lies on the drawn contour (every
+  /// vertex within kMatchMm): drawn, so not undrawn.
+  bool split = false;
   /// "section" (the surface's), "drawn" (lost: written back as drawn),
   /// "dropped" (lost, under RtContourParams::min_area).
   std::string written;
@@ -66,6 +71,7 @@ struct RoiContourSummary {
   int contours_in = 0, contours_out = 0;
   long points_in = 0, points_out = 0;
   int lost = 0, merged = 0, shrunk = 0, undrawn = 0, undrawn_over_1mm2 = 0, dropped = 0;
+  int split = 0;  ///< drawn contours the surface split (ContourRecord::split)
   double mean_distance = 0;  ///< mean over its matched drawn contours, mm
   double max_distance = 0;   ///< mm
   /// The resampling's departure from the exact section (mesh/plane_cut.h, resample_loop), mm.
