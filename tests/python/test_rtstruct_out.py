@@ -96,7 +96,6 @@ def test_dciodvfy_finds_no_error(written):
 POINTS_FACTOR = 1.5
 MEAN_DISTANCE_MM = 0.1
 UNDRAWN_TOLERATED_MM2 = 1.0  # the issue's target: no undrawn section of more than 1 mm^2
-GRID_LIMITED = {("BODY", -56.44)}  # drawn contours narrower than two working pixels (see its test)
 
 
 def test_contours_come_back_at_the_density_they_were_drawn(written):
@@ -148,20 +147,23 @@ def test_every_drawn_contour_is_accounted_for(written, tmp_path, data_dir):
     # Every drawn contour of 1 mm^2 or more is on the surface.
     big_lost = [r for r in rows if r["lost"] == "true" and float(r["area_drawn_mm2"]) >= 1]
     assert not big_lost, big_lost
-    # No section of more than 1 mm^2 that nobody drew: BODY's lobes behind
-    # necks of about 0.3 mm (its grid is 0.94 mm) at these planes come back as
-    # sections of their own, pieces of the drawn contour (split), not undrawn.
+    # No section of more than 1 mm^2 that nobody drew (BODY's lobes behind
+    # necks of about 0.3 mm come back joined at its refined grid, or split off
+    # as pieces of the drawn contour, not undrawn).
     assert not [r for r in rows if r["undrawn"] == "true" and float(r["area_section_mm2"]) > UNDRAWN_TOLERATED_MM2]
-    pieces = {round(float(r["z_mm"]), 2) for r in rows
-              if r["roi"] == "BODY" and r["split"] == "true" and int(r["points_drawn"]) == 0
-              and float(r["area_section_mm2"]) > UNDRAWN_TOLERATED_MM2}
-    assert {27.56, 75.56, 96.56, 99.56, 105.56, 144.56} <= pieces, pieces
-    # Areas within 25 % for every drawn contour of 1 mm^2 or more, but for
-    # BODY's spindle at z = -56.44 (3.1 mm^2, 1.5 mm wide: under two pixels
-    # of its 0.94 mm grid, so the grid's section keeps 60 % of it).
-    shrunk = {(r["roi"], round(float(r["z_mm"]), 2)) for r in rows
-              if r["shrunk"] == "true" and float(r["area_drawn_mm2"]) >= 1}
-    assert shrunk <= GRID_LIMITED, shrunk
+    # Areas within 25 % for every drawn contour of 1 mm^2 or more: BODY's
+    # narrowest (0.67 mm thick, 2 area / perimeter: 0.71 pixels of the 0.94 mm
+    # grid its triangle budget picks, where they kept 44-60 %) have its grid
+    # refined until they span 1.1 pixels, and the report says so.
+    shrunk = [(r["roi"], r["z_mm"], r["area_drawn_mm2"], r["area_section_mm2"]) for r in rows
+              if r["shrunk"] == "true" and float(r["area_drawn_mm2"]) >= 1]
+    assert not shrunk, shrunk
+    by_roi = {s["roi"]: s for s in report["rois"]}
+    assert all(s["shrunk_over_1mm2"] == 0 for s in report["rois"]), report["rois"]
+    body = by_roi["BODY"]["grid_refined"]
+    assert body["to_mm"] == pytest.approx(by_roi["BODY"]["voxel_size_mm"]) and body["to_mm"] < body["from_mm"], body
+    assert not body["limited"] and "z = 36.56" in body["why"], body
+    assert "grid_refined" not in by_roi["Heart"], by_roi["Heart"]
 
 
 def test_min_area_drops_lost_contours_and_names_them(tmp_path, data_dir):
@@ -244,21 +246,12 @@ def circle_with_lobe(z, radius=30.0, half_neck=0.025):
     return pts
 
 
-@pytest.fixture(scope="module")
-def synthetic_islands(tmp_path_factory, data_dir):
-    tmp = tmp_path_factory.mktemp("islands")
+def heart_with_loops(data_dir, loops, path):
+    """The shared set with ROI Heart's contours replaced by `loops`, saved to `path`."""
     ds = pydicom.dcmread(data_dir / "rtstruct" / "rtss.dcm")
     names = {int(r.ROINumber): r.ROIName for r in ds.StructureSetROISequence}
     rc = next(r for r in ds.ROIContourSequence if names[int(r.ReferencedROINumber)] == "Heart")
     proto = rc.ContourSequence[0]
-    zs = [3.0 * k for k in range(7)]
-    loops = [circle_with_lobe(z) if k == 3 else ngon(0, 0, math.pi * 30 ** 2, z, 96) for k, z in enumerate(zs)]
-    islands = [(1.0, 1), (1.5, 1), (2.0, 1), (3.0, 1), (4.0, 1), (6.0, 1), (10.0, 1), (2.0, 3), (6.0, 3)]
-    for k, (area, planes) in enumerate(islands):
-        angle = 2 * math.pi * (k + 0.5) / len(islands)  # none at +x, where the lobe is
-        for p in range(planes):
-            loops.append(ngon(40 * math.cos(angle), 40 * math.sin(angle), area, zs[3 + p - planes // 2],
-                              8 if area >= 2 else 4, 0.3 * k))
     items = []
     for loop in loops:
         item = copy.deepcopy(proto)
@@ -267,8 +260,22 @@ def synthetic_islands(tmp_path_factory, data_dir):
         item.ContourData = [f"{v:.4f}" for p in loop for v in p]
         items.append(item)
     rc.ContourSequence = pydicom.sequence.Sequence(items)
-    src = tmp / "islands.dcm"
-    ds.save_as(src)
+    ds.save_as(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def synthetic_islands(tmp_path_factory, data_dir):
+    tmp = tmp_path_factory.mktemp("islands")
+    zs = [3.0 * k for k in range(7)]
+    loops = [circle_with_lobe(z) if k == 3 else ngon(0, 0, math.pi * 30 ** 2, z, 96) for k, z in enumerate(zs)]
+    islands = [(1.0, 1), (1.5, 1), (2.0, 1), (3.0, 1), (4.0, 1), (6.0, 1), (10.0, 1), (2.0, 3), (6.0, 3)]
+    for k, (area, planes) in enumerate(islands):
+        angle = 2 * math.pi * (k + 0.5) / len(islands)  # none at +x, where the lobe is
+        for p in range(planes):
+            loops.append(ngon(40 * math.cos(angle), 40 * math.sin(angle), area, zs[3 + p - planes // 2],
+                              8 if area >= 2 else 4, 0.3 * k))
+    src = heart_with_loops(data_dir, loops, tmp / "islands.dcm")
     out = tmp / "out.dcm"
     run_cli("reconstruct", src, "--roi", "Heart", "--voxel-size", SYN_PIXEL_MM, "-o", out, "-q", "--rt-contours",
             out.with_suffix(".csv"))
@@ -299,3 +306,57 @@ def test_small_islands_beside_a_big_contour_keep_their_area(synthetic_islands):
     assert len(pieces) == 1 and pieces[0]["contour"] == big["contour"], pieces
     assert float(pieces[0]["area_section_mm2"]) == pytest.approx(SYN_LOBE_MM2, rel=0.25), pieces
     assert float(big["area_section_mm2"]) == pytest.approx(float(big["area_drawn_mm2"]), rel=0.01), big
+
+
+# A drawn spindle (a lens SPINDLE_WIDTH_MM wide, SPINDLE_LENGTH_MM long) beside
+# a 30 mm circle: 2 area / perimeter about 0.33 mm, 0.66 pixels of the default
+# 0.5 mm grid, under the 1.1 the grid choice asks for (run/inputs.cpp).
+SPINDLE_WIDTH_MM, SPINDLE_LENGTH_MM = 0.5, 6.0
+DEFAULT_GRID_MM = 0.5  # the RT working grid without --voxel-size (README: RT grid)
+# A grid the user gives where the spindle's section keeps 58 % (measured;
+# 0.6 and 0.8 mm keep 93 % and 91 %, 1 mm loses it: the grid's phase).
+COARSE_GRID_MM = 0.7
+SHRINK_SHARE = 0.25  # run/rtstruct_output.h kShrinkShare: the issue's target
+
+
+def spindle(cx, cy, z, n=16):
+    top = [(cx - SPINDLE_LENGTH_MM / 2 + SPINDLE_LENGTH_MM * k / n,
+            SPINDLE_WIDTH_MM / 2 * (1 - (2 * k / n - 1) ** 2)) for k in range(n + 1)]
+    return [(x, cy + y, z) for x, y in top] + [(x, cy - y, z) for x, y in reversed(top[1:-1])]
+
+
+@pytest.fixture(scope="module")
+def synthetic_spindle(tmp_path_factory, data_dir):
+    tmp = tmp_path_factory.mktemp("spindle")
+    zs = [3.0 * k for k in range(5)]
+    loops = [ngon(0, 0, math.pi * 30 ** 2, z, 96) for z in zs] + [spindle(45, 0, zs[2])]
+    src = heart_with_loops(data_dir, loops, tmp / "spindle.dcm")
+    results = {}
+    for name, grid in (("default", []), ("coarse", ["--voxel-size", COARSE_GRID_MM])):
+        out = tmp / f"{name}.dcm"
+        run_cli("reconstruct", src, "--roi", "Heart", *grid, "-o", out, "-q", "--rt-contours",
+                out.with_suffix(".csv"), "--report", out.with_suffix(".json"))
+        row = next(r for r in csv.DictReader(out.with_suffix(".csv").open()) if int(r["contour"]) == len(loops))
+        results[name] = row, json.loads(out.with_suffix(".json").read_text())
+    return polygon_area(loops[-1]), results
+
+
+def test_a_thin_drawn_spindle_refines_its_rois_grid_and_keeps_its_area(synthetic_spindle):
+    area, results = synthetic_spindle
+    row, report = results["default"]
+    roi = report["rtstruct_contours"]["rois"][0]
+    refined = roi["grid_refined"]
+    assert refined["from_mm"] == pytest.approx(DEFAULT_GRID_MM) and refined["to_mm"] < DEFAULT_GRID_MM, refined
+    assert roi["voxel_size_mm"] == pytest.approx(refined["to_mm"]) and not refined["limited"], roi
+    assert "z = 6 mm" in refined["why"], refined
+    assert any("working grid refined from 0.5" in w for w in report["warnings"]), report["warnings"]
+    assert float(row["area_drawn_mm2"]) == pytest.approx(area, rel=1e-3), row
+    assert row["shrunk"] == "false" and float(row["area_section_mm2"]) >= (1 - SHRINK_SHARE) * area, row
+    assert roi["shrunk_over_1mm2"] == 0, roi
+    # At the grid the user gives (no refinement), the same spindle shrinks:
+    # flagged, counted and warned about, so the check above is not idle.
+    row, report = results["coarse"]
+    roi = report["rtstruct_contours"]["rois"][0]
+    assert "grid_refined" not in roi and row["shrunk"] == "true", (roi, row)
+    assert roi["shrunk_over_1mm2"] == 1, roi
+    assert any("keep less than 75 % of their area" in w for w in report["warnings"]), report["warnings"]

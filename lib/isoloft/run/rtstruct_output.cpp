@@ -216,6 +216,26 @@ void account_plane(const std::vector<DrawnLoop>& drawn, std::vector<Loop>& writt
   }
 }
 
+// The target's certificate: the drawn contours of kKeptDrawnMm2 or more the
+// surface shrank (from `first`, one ROI's records), counted and named in a
+// warning with the grid, which is what a finer --voxel-size changes.
+void certify_kept(const RtWriteReport& report, std::size_t first, const std::string& roi, RoiContourSummary& sum,
+                  std::vector<std::string>& warnings) {
+  std::ostringstream where;
+  for (std::size_t i = first; i < report.contours.size(); ++i) {
+    const ContourRecord& c = report.contours[i];
+    if (!c.shrunk || c.area_drawn < kKeptDrawnMm2) continue;
+    where << (sum.shrunk_over_1mm2++ ? "; " : "") << "contour " << c.contour << " at z = " << c.z << " mm ("
+          << c.area_drawn << " -> " << c.area_section << " mm^2)";
+  }
+  if (sum.shrunk_over_1mm2 == 0) return;
+  std::ostringstream o;
+  o << "ROI '" << roi << "': " << sum.shrunk_over_1mm2 << " drawn contour(s) of " << kKeptDrawnMm2
+    << " mm^2 or more keep less than " << 100 * (1 - kShrinkShare) << " % of their area at its " << sum.voxel_size
+    << " mm working grid (" << where.str() << "); a smaller " << option_name("--voxel-size") << " keeps them";
+  warnings.push_back(o.str());
+}
+
 std::string csv_cell(const std::string& s) {
   // Quoted when it holds a separator or quote, and a leading = + - @ (a
   // spreadsheet formula) neutralised by a leading apostrophe.
@@ -301,6 +321,9 @@ RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunR
       }
     }
     sum.mean_distance = weight ? weighted / double(weight) : 0.0;
+    sum.voxel_size = f.axes.col(0).norm();
+    sum.refined = job.refined;
+    certify_kept(report, first_record, roi.name, sum, r.warnings);
     report.rois.push_back(sum);
     rois.push_back(std::move(out));
   }
@@ -324,7 +347,7 @@ std::string contour_report_csv(const RtWriteReport& report) {
 
 nlohmann::json contour_report_json(const RtWriteReport& report) {
   nlohmann::json rois = nlohmann::json::array(), contours = nlohmann::json::array();
-  for (const RoiContourSummary& s : report.rois)
+  for (const RoiContourSummary& s : report.rois) {
     rois.push_back({{"roi", s.roi},
                     {"roi_number", s.roi_number},
                     {"contours_in", s.contours_in},
@@ -342,7 +365,15 @@ nlohmann::json contour_report_json(const RtWriteReport& report) {
                     {"mean_distance_mm", s.mean_distance},
                     {"max_distance_mm", s.max_distance},
                     {"resample_max_deviation_mm", s.resample_max_deviation},
-                    {"resample_mean_deviation_mm", s.resample_mean_deviation}});
+                    {"resample_mean_deviation_mm", s.resample_mean_deviation},
+                    {"shrunk_over_1mm2", s.shrunk_over_1mm2},
+                    {"voxel_size_mm", s.voxel_size}});
+    if (s.refined)
+      rois.back()["grid_refined"] = {{"from_mm", s.refined->from_mm},
+                                     {"to_mm", s.refined->to_mm},
+                                     {"why", s.refined->why},
+                                     {"limited", s.refined->limited}};
+  }
   for (const ContourRecord& c : report.contours)
     contours.push_back({{"roi", c.roi},
                         {"roi_number", c.roi_number},

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,9 @@ inline constexpr double kMatchMm = 1.0;
 /// A section smaller than its drawn contour by more than this share of the
 /// drawn area is "shrunk" (the target: areas within 25 %).
 inline constexpr double kShrinkShare = 0.25;
+/// Drawn contours of at least this area (mm^2) must keep their area within
+/// kShrinkShare (the target); a run that leaves one shrunk warns.
+inline constexpr double kKeptDrawnMm2 = 1.0;
 
 /// One row of the per-contour report: a drawn contour (contour > 0) and
 /// the section matched to it, or a section nobody drew (contour == 0).
@@ -77,6 +81,9 @@ struct RoiContourSummary {
   /// The resampling's departure from the exact section (mesh/plane_cut.h, resample_loop), mm.
   double resample_max_deviation = 0, resample_mean_deviation = 0;
   double point_spacing = 0;  ///< mean written step, mm
+  int shrunk_over_1mm2 = 0;  ///< shrunk drawn contours of kKeptDrawnMm2 or more (warned: the target not met)
+  double voxel_size = 0;     ///< the ROI's working grid, mm
+  std::optional<GridRefinement> refined;  ///< the grid refined for its narrowest drawn contour (run/inputs.h)
 };
 
 struct RtWriteReport {
