@@ -137,8 +137,8 @@ def test_every_drawn_contour_is_accounted_for(written, tmp_path, data_dir):
         if r["undrawn"] == "true":
             assert int(r["contour"]) == 0 and float(r["area_section_mm2"]) > 0, where
     # BODY's islands at z = -101.44 (34.4, 24.3 and 39.5 mm^2, drawn on that
-    # plane alone): each one on the surface (its working grid's planes, 0.94
-    # mm apart, run through every drawn plane), none shrunk beyond 25 %.
+    # plane alone): each one on the surface (its working grid's planes run
+    # through every drawn plane), none shrunk beyond 25 %.
     islands = [r for r in rows if r["roi"] == "BODY" and abs(float(r["z_mm"]) + 101.44) < 0.01
                and 20 < float(r["area_drawn_mm2"]) < 45]
     assert len(islands) == 3, islands
