@@ -176,9 +176,11 @@ TEST(RtStruct, HeartAndLungMeshesPassThroughTheirContours) {
 
 // The triangle budget (run/inputs.cpp): without --voxel-size, BODY (about 5 M
 // triangles at 0.5 mm by its contours) gets the grid that keeps its mesh
-// within 1.5 M triangles, with a warning naming it; the other ROIs keep their
+// within 1.5 M triangles, with a warning naming it; then its narrowest drawn
+// contours (0.67 mm thick) refine it again, from that grid to one finer but
+// above 0.5 mm, within 4 M triangles, reported; the other ROIs keep their
 // grid; --voxel-size keeps the grid asked for.
-constexpr double kRtMeshBudget = 1.5e6;
+constexpr double kRtRefinedMeshBudget = 4e6;
 
 TEST(RtStruct, TheLargestRoiGetsTheGridOfTheTriangleBudget) {
   InputRequest request;
@@ -194,10 +196,17 @@ TEST(RtStruct, TheLargestRoiGetsTheGridOfTheTriangleBudget) {
   EXPECT_TRUE(std::any_of(in.warnings.begin(), in.warnings.end(), [](const std::string& w) {
     return w.find("ROI 'BODY': working grid") != std::string::npos;
   }));
+  ASSERT_TRUE(body->refined.has_value());
+  EXPECT_EQ(body->refined->to_mm, body->stack.pixel_size);
+  EXPECT_LT(body->refined->to_mm, body->refined->from_mm);
+  EXPECT_FALSE(body->refined->limited);
+  EXPECT_TRUE(std::any_of(in.warnings.begin(), in.warnings.end(), [](const std::string& w) {
+    return w.find("ROI 'BODY': working grid refined from") != std::string::npos;
+  }));
   const ReconstructResult r = reconstruct(body->stack, ReconstructParams{});
   ASSERT_EQ(r.objects.size(), 1u);
   EXPECT_TRUE(r.objects[0].check.closed && r.objects[0].check.manifold);
-  EXPECT_LE(double(r.objects[0].mesh.triangles.size()), kRtMeshBudget);
+  EXPECT_LE(double(r.objects[0].mesh.triangles.size()), kRtRefinedMeshBudget);
   request.voxel_size = 0.5;
   request.rois = {"BODY"};
   EXPECT_EQ(read_inputs(request).jobs.at(0).stack.pixel_size, 0.5);

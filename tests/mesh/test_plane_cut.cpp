@@ -84,8 +84,15 @@ TEST(PlaneCut, ResampledCircleHasItsStepAndChordDeviation) {
   EXPECT_LE(rs.mean_deviation, rs.max_deviation);
   EXPECT_NEAR(loop_area(rs.points), M_PI * r * r, 0.01 * M_PI * r * r);
   EXPECT_NEAR(mean_point_spacing({rs.points}), 1.0, 0.01);
-  // Never fewer than 3 points; a loop too short to resample comes back as given.
-  EXPECT_EQ(resample_loop(circle, 1000.0).points.size(), 3u);
+  // A step longer than the loop: not 3 points (a triangle keeps 41 % of a
+  // circle) but the fewest whose regular polygon keeps kResampleAreaShare of
+  // the area: n sin(2 pi / n) / (2 pi) >= 1 - share, n = 19 for 2 %.
+  const ResampledLoop few = resample_loop(circle, 1000.0);
+  std::size_t least = 3;
+  while (least * std::sin(2 * M_PI / double(least)) / (2 * M_PI) < 1 - kResampleAreaShare) ++least;
+  EXPECT_NEAR(double(few.points.size()), double(least), 1.0) << "the 720-gon is a circle within 0.001 %";
+  EXPECT_NEAR(loop_area(few.points), loop_area(circle), kResampleAreaShare * loop_area(circle));
+  // A loop too short to resample comes back as given.
   EXPECT_EQ(resample_loop({{0, 0}, {1, 0}}, 0.1).points.size(), 2u);
   EXPECT_EQ(resample_loop(circle, 0.0).points.size(), circle.size());
 }
@@ -115,4 +122,25 @@ TEST(PlaneCut, DistanceToALoopAndItsArea) {
   EXPECT_DOUBLE_EQ(distance_to_loop({3, 1}, sq), 1.0);
   EXPECT_DOUBLE_EQ(distance_to_loop({-1, 0.5}, sq), 1.0) << "the closing edge counts";
   EXPECT_TRUE(std::isinf(distance_to_loop({0, 0}, {})));
+}
+
+// An island of 2.3 mm^2 as the mesh cuts it (a square of 1.52 mm with its
+// corners cut, 12 vertices, as Lt Lung's 4-point islands on the shared RT
+// set), resampled at the 1.7 mm step of its plane: at max(3, round(length /
+// step)) = 3 points it kept 40 % of its area; now points are added until the
+// area is within kResampleAreaShare, and every point stays on the loop.
+TEST(PlaneCut, ResamplingASmallIslandKeepsItsArea) {
+  const double h = 0.76, c = 0.25;  // half side, corner cut (mm)
+  const std::vector<Vec2d> island{{-h + c, -h}, {0, -h}, {h - c, -h}, {h, -h + c}, {h, 0}, {h, h - c},
+                                  {h - c, h}, {0, h}, {-h + c, h}, {-h, h - c}, {-h, 0}, {-h, -h + c}};
+  const double area = loop_area(island);
+  const ResampledLoop rs = resample_loop(island, 1.7);
+  ASSERT_GE(rs.points.size(), 4u);
+  EXPECT_NEAR(loop_area(rs.points), area, kResampleAreaShare * area);
+  for (std::size_t i = 0; i < rs.points.size(); ++i)
+    EXPECT_LT(distance_to_loop(rs.points[i], island), 1e-12) << "point " << i;
+  // The least such count: starting one below it, the search comes to it again.
+  double length = 0;
+  for (std::size_t i = 0; i < island.size(); ++i) length += (island[(i + 1) % island.size()] - island[i]).norm();
+  EXPECT_EQ(resample_loop(island, length / double(rs.points.size() - 1)).points.size(), rs.points.size());
 }

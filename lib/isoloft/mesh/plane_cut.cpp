@@ -73,6 +73,26 @@ double segment_distance(const Vec2d& p, const Vec2d& a, const Vec2d& b) {
 
 }  // namespace
 
+namespace {
+
+// `loop` at m equal steps of its length (at: length at each vertex), from its first vertex.
+std::vector<Vec2d> equal_steps(const std::vector<Vec2d>& loop, const std::vector<double>& at, std::size_t m) {
+  const std::size_t n = loop.size();
+  const double step = at[n] / double(m);
+  std::vector<Vec2d> points;
+  points.reserve(m);
+  for (std::size_t k = 0, i = 0; k < m; ++k) {
+    const double s = double(k) * step;
+    while (at[i + 1] < s) ++i;
+    const double seg = at[i + 1] - at[i];
+    const double t = seg > 0 ? (s - at[i]) / seg : 0.0;
+    points.push_back(loop[i] + t * (loop[(i + 1) % n] - loop[i]));
+  }
+  return points;
+}
+
+}  // namespace
+
 ResampledLoop resample_loop(const std::vector<Vec2d>& loop, double spacing) {
   ResampledLoop out;
   const std::size_t n = loop.size();
@@ -87,16 +107,15 @@ ResampledLoop resample_loop(const std::vector<Vec2d>& loop, double spacing) {
     out.points = loop;
     return out;
   }
-  const std::size_t m = std::max<std::size_t>(3, std::size_t(std::lround(length / spacing)));
-  const double step = length / double(m);
-  out.points.reserve(m);
-  for (std::size_t k = 0, i = 0; k < m; ++k) {
-    const double s = double(k) * step;
-    while (at[i + 1] < s) ++i;
-    const double seg = at[i + 1] - at[i];
-    const double t = seg > 0 ? (s - at[i]) / seg : 0.0;
-    out.points.push_back(loop[i] + t * (loop[(i + 1) % n] - loop[i]));
+  // The least count from the spacing's on that keeps the area.
+  const double area = std::abs(loop_area(loop));
+  const std::size_t most = std::max<std::size_t>(3, kResampleMostPerVertex * n);
+  std::size_t m = std::max<std::size_t>(3, std::size_t(std::lround(length / spacing)));
+  for (;; ++m) {
+    out.points = equal_steps(loop, at, m);
+    if (m >= most || std::abs(std::abs(loop_area(out.points)) - area) <= kResampleAreaShare * area) break;
   }
+  const double step = length / double(m);
   double sum = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t k = std::min(m - 1, std::size_t(at[i] / step));

@@ -6,6 +6,7 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include "isoloft/core/error.h"
@@ -17,6 +18,7 @@
 #include "isoloft/io/slice_images.h"
 #include "isoloft/io/text.h"
 #include "isoloft/run/budget.h"
+#include "isoloft/run/rtstruct_output.h"
 
 namespace fs = std::filesystem;
 
@@ -207,6 +209,21 @@ constexpr double kRtMeshBudget = 1.5e6;
 // the 2-per-pixel count).
 constexpr double kTrianglesPerWallPixel = 3.6;
 
+// Drawn contours of kKeptDrawnMm2 or more keep their area within kShrinkShare
+// (run/rtstruct_output.h, which checks it) when the narrowest one's thickness 2 area /
+// perimeter spans this many pixels: measured (docs/decisions.md: narrow drawn
+// contours), islands at 1 mm pixels keep 72 % at 0.98 px and 85 % at 1.13 px;
+// on the shared set every contour >= 1 mm^2 keeps >= 75 % at 1.11 px and
+// more (Lt Lung's narrowest, 0.58 mm at 0.5 mm), BODY's two of 0.67 mm keep
+// 44-60 % at 0.71 px (its budget grid, 0.94 mm).
+constexpr double kPixelsAcrossNarrowest = 1.1;
+// A grid refined for a narrow drawn contour may pass kRtMeshBudget up to this
+// many estimated triangles (measured, BODY alone: 2.9 M triangles and 400 MB
+// peak at 0.6 mm, 4.2 M and 530 MB at 0.5 mm; --max-memory still bounds the
+// run); beyond it the grid stops there and a warning says the contour may
+// come out shrunk.
+constexpr double kRtRefinedMeshBudget = 4e6;
+
 // A closed contour's area and perimeter in its plane (mm^2, mm).
 std::pair<double, double> area_perimeter(const RtContour& c) {
   double a = 0, perimeter = 0;
@@ -253,6 +270,42 @@ std::pair<double, double> largest_loop_size(const RtRoi& roi) {
   return {thickness, extent};
 }
 
+// The narrowest closed contour of at least kKeptDrawnMm2 (by thickness 2
+// area / perimeter): its thickness, area and plane; thickness 0 if none.
+std::tuple<double, double, double> narrowest_drawn(const RtRoi& roi) {
+  std::tuple<double, double, double> best{0.0, 0.0, 0.0};
+  for (const RtContour& c : roi.contours) {
+    if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) continue;
+    const auto [a, perimeter] = area_perimeter(c);
+    if (a < kKeptDrawnMm2 || !(perimeter > 0)) continue;
+    const double t = 2 * a / perimeter;
+    if (std::get<0>(best) == 0 || t < std::get<0>(best)) best = {t, a, c.points.front().z()};
+  }
+  return best;
+}
+
+// A grid size for a message: 4 decimals.
+std::string mm4(double mm) { return detail::shortest_text(std::round(mm * 1e4) / 1e4); }
+
+// The grid a ROI's narrowest drawn contour asks for (kPixelsAcrossNarrowest
+// pixels across its thickness), if finer than `grid`: no finer than
+// `finest` (kMinRoiVoxelMm, kMaxRoiPixels) nor than keeps its estimated
+// triangles (`wall_pixels` / voxel^2) within kRtRefinedMeshBudget.
+std::optional<GridRefinement> refine_for_narrowest(const RtRoi& roi, double grid, double finest, double wall_pixels) {
+  const auto [t, area, z] = narrowest_drawn(roi);
+  const double wanted = t / kPixelsAcrossNarrowest;
+  if (!(t > 0) || wanted >= grid) return std::nullopt;
+  const double bound = std::max({finest, kMinRoiVoxelMm, std::sqrt(wall_pixels / kRtRefinedMeshBudget)});
+  if (bound >= grid) return std::nullopt;
+  std::ostringstream why;
+  why << "its contour of " << detail::shortest_text(std::round(area * 100) / 100) << " mm^2 at z = "
+      << detail::shortest_text(std::round(z * 100) / 100) << " mm is " << detail::shortest_text(std::round(t * 1000) / 1000)
+      << " mm thick (2 area / perimeter), " << detail::shortest_text(std::round(t / grid * 100) / 100)
+      << " pixels at " << mm4(grid) << " mm; " << kPixelsAcrossNarrowest << " pixels across keep its area within "
+      << 100 * kShrinkShare << " %";
+  return GridRefinement{grid, std::max(wanted, bound), why.str(), wanted < bound};
+}
+
 // ROIs on different frames of reference are in different patient spaces,
 // and a structure set holds no registration between them: one mesh file, one
 // label map or one RT output would put them in one space, silently wrong. An
@@ -296,6 +349,7 @@ Inputs read_rtstruct_input(const InputRequest& r) {
     // A grid fine enough for the ROI's own size (docs/decisions.md: RT grid):
     // its largest loop's thickness 2 area / perimeter across kPixelsAcross pixels.
     const auto [thickness, extent] = largest_loop_size(*roi);
+    std::optional<GridRefinement> refined;
     if (thickness > 0) {
       const double fine = std::max({kMinRoiVoxelMm, thickness / kPixelsAcross, extent / kMaxRoiPixels});
       if (!r.voxel_size) {
@@ -311,6 +365,20 @@ Inputs read_rtstruct_input(const InputRequest& r) {
             << option_name("--voxel-size") << " sets the grid; the report's contour_vertex_distance is its error)";
           in.warnings.push_back(o.str());
         }
+        refined = refine_for_narrowest(*roi, g.voxel_size, extent / kMaxRoiPixels,
+                                       grid.plane_spacing > 0 ? kTrianglesPerWallPixel *
+                                                                    estimated_wall_area(*roi, grid.plane_spacing)
+                                                              : 0.0);
+        if (refined) {
+          g.voxel_size = refined->to_mm;
+          in.warnings.push_back(path + ": ROI '" + roi->name + "': working grid refined from " +
+                                mm4(refined->from_mm) + " to " + mm4(refined->to_mm) + " mm: " + refined->why);
+          if (refined->limited)
+            in.warnings.push_back(path + ": ROI '" + roi->name + "': " + refined->why + ", but the grid stops at " +
+                                  mm4(refined->to_mm) + " mm (about " +
+                                  detail::shortest_text(kRtRefinedMeshBudget) +
+                                  " triangles): that contour may come out shrunk (the RT report flags it)");
+        }
       } else if (fine < g.voxel_size) {
         std::ostringstream o;
         o << path << ": ROI '" << roi->name << "': its largest contour is " << thickness / g.voxel_size
@@ -322,6 +390,7 @@ Inputs read_rtstruct_input(const InputRequest& r) {
     }
     try {
       in.jobs.push_back({roi_stack(*roi, g, path, warnings), roi->name, roi->color, roi});
+      in.jobs.back().refined = refined;
     } catch (const InputError& e) {
       if (!r.rois.empty()) throw;  // asked for by name: its problem is the run's
       in.warnings.push_back(std::string(e.what()) + ": skipped");

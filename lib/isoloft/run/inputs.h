@@ -36,6 +36,14 @@ inline constexpr std::array<EnumName<InputFormat>, 6> kInputFormatNames{{{InputF
 constexpr std::span<const EnumName<InputFormat>> enum_names(InputFormat) { return kInputFormatNames; }
 
 /// One reconstruct() call.
+/// RT Structure Sets: a ROI's working grid made finer than the triangle
+/// budget's for its narrowest drawn contour (run/inputs.cpp, read_rtstruct_input).
+struct GridRefinement {
+  double from_mm = 0, to_mm = 0;  ///< the budget's grid, the grid used
+  std::string why;                ///< the contour that asked for it (plane, area, thickness)
+  bool limited = false;           ///< the refinement stopped at its limit, short of what the contour asks
+};
+
 struct Job {
   SliceStack stack;
   std::string name;          ///< "" (one object), or the ROI name (RT Structure Set)
@@ -45,6 +53,7 @@ struct Job {
   /// field3d method instead of `stack` (which stays empty).
   std::vector<Section> sections{};
   std::uint32_t section_label = 0;  ///< the label of `sections` this job reconstructs
+  std::optional<GridRefinement> refined{};  ///< RT ROIs: set when the grid was refined
 };
 
 /// A CSL file (planes at any angle, io/csl.h): one job per label that has a contour.

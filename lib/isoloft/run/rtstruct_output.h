@@ -9,13 +9,14 @@
 // Every drawn contour is accounted for (the per-contour report, JSON and
 // --rt-contours CSV): matched to the written section on its plane, with both
 // areas and the distances between them, and flagged when the surface lost
-// it, merged it with another or shrank it beyond kShrinkShare; sections on
-// an input plane that nobody drew are listed too. A drawn contour the
+// it, merged it with another, split it or shrank it beyond kShrinkShare;
+// sections on an input plane that nobody drew are listed too. A drawn contour the
 // surface lost is written back as drawn (a small closed piece), unless it is
 // smaller than --rt-min-area, when it is dropped and named in a warning.
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,9 @@ inline constexpr double kMatchMm = 1.0;
 /// A section smaller than its drawn contour by more than this share of the
 /// drawn area is "shrunk" (the target: areas within 25 %).
 inline constexpr double kShrinkShare = 0.25;
+/// Drawn contours of at least this area (mm^2) must keep their area within
+/// kShrinkShare (the target); a run that leaves one shrunk warns.
+inline constexpr double kKeptDrawnMm2 = 1.0;
 
 /// One row of the per-contour report: a drawn contour (contour > 0) and
 /// the section matched to it, or a section nobody drew (contour == 0).
@@ -55,6 +59,11 @@ struct ContourRecord {
   double mean_distance = 0, max_distance = 0;  ///< mm: mean of the two directed mean vertex distances; largest of both
   int points_drawn = 0, points_written = 0;
   bool lost = false, merged = false, shrunk = false, undrawn = false;
+  /// The surface split the drawn contour: on its row, it has pieces beyond
+  /// its section (area_section is their sum); on a piece's row (contour set,
+  /// points_drawn 0), that section, which lies on the drawn contour (every
+  /// vertex within kMatchMm): drawn, so not undrawn.
+  bool split = false;
   /// "section" (the surface's), "drawn" (lost: written back as drawn),
   /// "dropped" (lost, under RtContourParams::min_area).
   std::string written;
@@ -67,11 +76,15 @@ struct RoiContourSummary {
   int contours_in = 0, contours_out = 0;
   long points_in = 0, points_out = 0;
   int lost = 0, merged = 0, shrunk = 0, undrawn = 0, undrawn_over_1mm2 = 0, dropped = 0;
+  int split = 0;  ///< drawn contours the surface split (ContourRecord::split)
   double mean_distance = 0;  ///< mean over its matched drawn contours, mm
   double max_distance = 0;   ///< mm
   /// The resampling's departure from the exact section (mesh/plane_cut.h, resample_loop), mm.
   double resample_max_deviation = 0, resample_mean_deviation = 0;
   double point_spacing = 0;  ///< mean written step, mm
+  int shrunk_over_1mm2 = 0;  ///< shrunk drawn contours of kKeptDrawnMm2 or more (warned: the target not met)
+  double voxel_size = 0;     ///< the ROI's working grid, mm
+  std::optional<GridRefinement> refined;  ///< the grid refined for its narrowest drawn contour (run/inputs.h)
 };
 
 struct RtWriteReport {
