@@ -137,7 +137,7 @@ def test_rtstruct_stays_lps_when_the_meshes_are_ras(boxes, tmp_path):
 
 def test_names_reach_files_report_volume_table_and_vtk_field_data(boxes):
     d, _ = boxes
-    report = json.loads((d / "r.json").read_text())
+    report = json.loads((d / "r.json").read_text(encoding="utf-8"))
     assert {o["label"]: o["name"] for o in report["objects"]} == NAMES
     assert {r["roi"] for r in report["rtstruct_contours"]["rois"]} == set(NAMES.values())
     with (d / "v.csv").open(encoding="utf-8") as f:
