@@ -1,8 +1,8 @@
 // @file pipeline.cpp
-// @brief reconstruct(): the objects found (pipeline/objects.h), grouped (one
+// @brief reconstruct(): the objects found (objects/objects.h), grouped (one
 // object, or the labels of a partition: partition/partition.h), each group
-// streamed (pipeline/column_stream.h), decimated and checked; the results
-// joined in object order. Parameter schema: pipeline/params.cpp.
+// streamed (methods/columns/column_stream.h), decimated and checked; the results
+// joined in object order. Parameter schema: methods/params.cpp.
 #include "isoloft/pipeline.h"
 
 #include <tbb/blocked_range.h>
@@ -15,8 +15,8 @@
 #include <utility>
 
 #include "isoloft/partition/partition.h"
-#include "isoloft/pipeline/column_stream.h"
-#include "isoloft/pipeline/objects.h"
+#include "isoloft/methods/columns/column_stream.h"
+#include "isoloft/objects/objects.h"
 
 namespace isoloft {
 
@@ -142,6 +142,12 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
 }
 
 }  // namespace
+
+ReconstructResult reconstruct(const MethodInput& in, const ReconstructParams& params, const ReconstructOptions& options) {
+  const MethodSpec* m = find_method(params.method.name());
+  if (m && m->reconstruct) return m->reconstruct(in, params);
+  return reconstruct(in.stack, params, options);
+}
 
 ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options) {
   detail::check_stack(stack);
