@@ -34,9 +34,9 @@ namespace isoloft {
 /// distances, with a warning.
 ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options = {});
 
-/// The same for one input as its method reads it: a method with a family of
-/// its own (MethodSpec::reconstruct) runs it, and the options' hooks see
-/// nothing; any other streams in.stack as above.
+/// The same for one input as its method reads it (the stack alone above): a
+/// method with a family of its own (MethodSpec::reconstruct) runs it, and the
+/// options' hooks see nothing; any other streams in.stack.
 ReconstructResult reconstruct(const MethodInput& in, const ReconstructParams& params, const ReconstructOptions& options = {});
 
 }  // namespace isoloft
