@@ -1,8 +1,10 @@
 // @file pipeline.cpp
-// @brief reconstruct(): the objects found (pipeline/objects.h), grouped (one
-// object, or the labels of a partition: partition/partition.h), each group
-// streamed (pipeline/column_stream.h), decimated and checked; the results
-// joined in object order. Parameter schema: pipeline/params.cpp.
+// @brief reconstruct(): a method with a family of its own runs it
+// (MethodSpec::reconstruct, methods/method.h); else the columns family: the
+// objects found (objects/objects.h), grouped (one object, or the labels of a
+// partition: partition/partition.h), each group streamed
+// (methods/columns/column_stream.h), decimated and checked; the results
+// joined in object order. Parameter schema: methods/params.cpp.
 #include "isoloft/pipeline.h"
 
 #include <tbb/blocked_range.h>
@@ -15,8 +17,8 @@
 #include <utility>
 
 #include "isoloft/partition/partition.h"
-#include "isoloft/pipeline/column_stream.h"
-#include "isoloft/pipeline/objects.h"
+#include "isoloft/methods/columns/column_stream.h"
+#include "isoloft/objects/objects.h"
 
 namespace isoloft {
 
@@ -141,9 +143,10 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
     if (e) std::rethrow_exception(e);
 }
 
-}  // namespace
-
-ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options) {
+// The columns family: the slice fields streamed through the z scheme, with
+// the label partition.
+ReconstructResult reconstruct_columns(const SliceStack& stack, const ReconstructParams& params,
+                                      const ReconstructOptions& options) {
   detail::check_stack(stack);
   params_table<ReconstructParams>().validate(params);
   ReconstructResult result;
@@ -181,6 +184,19 @@ ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& 
     result.objects.push_back(again ? plan.objects[i] : std::move(plan.objects[i]));
   }
   return result;
+}
+
+}  // namespace
+
+ReconstructResult reconstruct(const MethodInput& in, const ReconstructParams& params, const ReconstructOptions& options) {
+  const MethodSpec* m = find_method(params.method.name());
+  if (m && m->reconstruct) return m->reconstruct(in, params);
+  return reconstruct_columns(in.stack, params, options);
+}
+
+ReconstructResult reconstruct(const SliceStack& stack, const ReconstructParams& params, const ReconstructOptions& options) {
+  const std::vector<Section> none;
+  return reconstruct(MethodInput{stack, none, 0}, params, options);
 }
 
 }  // namespace isoloft

@@ -19,6 +19,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
+#include "isoloft/methods/method.h"
 #include "isoloft/run/volume_table.h"
 
 namespace isoloft {
@@ -84,18 +85,19 @@ void check_planned_files(const Inputs& in, const RunOptions& o) {
   check_output_paths(in, reads, files, dirs);
 }
 
-// Before any work: sections at any angle need the method that reads them,
-// and that method has no slice fields or sampled planes for the outputs
-// made of them.
+// Before any work: sections at any angle need a method that reads them,
+// and a family of its own has no slice fields or sampled planes for the
+// outputs made of them.
 void check_method_reads_input(const Inputs& in, const ReconstructParams& params, const RunOptions& o) {
-  const bool field3d = params.method == Method::Field3d;
-  if (in.format == InputFormat::Csl && !field3d)
+  const MethodSpec* m = find_method(params.method.name());
+  if (in.format == InputFormat::Csl && !(m && m->reads_sections))
     throw ParamError(option_name("--method") + " " + params.method.name() +
-                     ": reads parallel slices; a CSL file's planes at any angle need " + option_given("--method", "field3d"));
-  if (!field3d) return;
+                     ": reads parallel slices; a CSL file's planes at any angle need " +
+                     option_given("--method", section_method_names()));
+  if (!m || !m->reconstruct) return;
   for (const auto& out : o.outputs)
     if (const std::string opt = out->option(); opt == "--volume" || opt == "--labelmap" || opt == "--dump-stages")
-      throw ParamError(option_name(opt) + ": not with " + option_given("--method", "field3d") +
+      throw ParamError(option_name(opt) + ": not with " + option_given("--method", params.method.name()) +
                        " (it has no slice fields or sampled planes to write)");
 }
 
@@ -234,54 +236,6 @@ std::vector<Vec3d> contour_vertices(const SliceStack& st) {
   return v;
 }
 
-// The sections the field3d method reads for a job, and the label it
-// reconstructs: a CSL file's own, or a polygon stack's slices as parallel
-// sections (working pixels, normal +z; even-odd nesting as the stack).
-std::vector<Section> job_sections(const Job& job, std::uint32_t& label) {
-  if (!job.sections.empty()) {
-    label = job.section_label;
-    return job.sections;
-  }
-  const SliceStack& st = job.stack;
-  if (!st.has_polygons())
-    throw ParamError(option_given("--method", "field3d") +
-                     ": reads drawn polygons (CSL, RT Structure Sets, polyline files); image and volume input "
-                     "need another method");
-  label = 1;
-  std::vector<Section> out;
-  for (const Slice& s : st.slices) {
-    Section sec;
-    sec.pose.origin = Vec3d(0, 0, s.z);
-    sec.source = s.source;
-    for (const Polygon& p : s.polygons) sec.contours.push_back({p.points, label, false});
-    out.push_back(std::move(sec));
-  }
-  return out;
-}
-
-// One job by the field3d method: its mesh as the one object (world units
-// for CSL, working pixels for a stack); no decimation (its bound is in the
-// stack's pixels, which a CSL file does not have).
-ReconstructResult reconstruct_field3d(const Job& job, const ReconstructParams& params) {
-  params_table<ReconstructParams>().validate(params);
-  std::uint32_t label = 0;
-  const std::vector<Section> sections = job_sections(job, label);
-  Field3dResult f = reconstruct_sections(sections, label, params.field3d);
-  ReconstructResult r;
-  ObjectResult ob;
-  ob.mesh = std::move(f.mesh);
-  ob.check = f.check;
-  ob.triangles_before_decimation = long(ob.mesh.triangles.size());
-  ob.slices_with_contours = int(std::count_if(sections.begin(), sections.end(), [&](const Section& s) {
-    return std::any_of(s.contours.begin(), s.contours.end(), [&](const SectionContour& c) { return c.label == label; });
-  }));
-  if (ob.mesh.empty()) ob.empty_reason = "the field3d field never rises above zero (no inside anywhere)";
-  r.times.interp = f.seconds;
-  r.warnings = std::move(f.warnings);
-  r.objects.push_back(std::move(ob));
-  return r;
-}
-
 bool sees_objects_one_by_one(const ReconstructOptions& o) { return o.on_slice_fields || o.on_plane || o.on_sample; }
 
 // Pixel work of a job, to start the largest first.
@@ -310,8 +264,8 @@ std::vector<ReconstructResult> reconstruct_jobs(const Inputs& in, const Reconstr
     one_by_one = one_by_one || sees_objects_one_by_one(options[j]);
   }
   auto run_one = [&](std::size_t j) {
-    results[j] = params.method == Method::Field3d ? reconstruct_field3d(in.jobs[j], params)
-                                                  : reconstruct(in.jobs[j].stack, params, options[j]);
+    const Job& job = in.jobs[j];
+    results[j] = reconstruct(MethodInput{job.stack, job.sections, job.section_label}, params, options[j]);
     if (finished) finished(j);
     // RT ROIs: the error of the working grid isoloft chose for them (RT grid, triangle budget).
     if (in.jobs[j].roi && in.jobs[j].stack.has_polygons())

@@ -10,8 +10,9 @@
 #include "isoloft/contour/mask_curve.h"
 #include "isoloft/field/narrow_band.h"
 #include "isoloft/pipeline.h"
-#include "isoloft/pipeline/field_band.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/methods/columns/field_band.h"
+#include "isoloft/methods/columns/slice_methods.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft {
 namespace {

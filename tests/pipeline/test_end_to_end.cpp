@@ -11,7 +11,8 @@
 #include "isoloft/field/edt.h"
 #include "isoloft/io/slice_images.h"
 #include "isoloft/pipeline.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/objects/slice_fields.h"
+#include "isoloft/methods/columns/slice_methods.h"
 #include "isoloft/synth/synth.h"
 
 using namespace isoloft;

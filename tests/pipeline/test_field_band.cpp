@@ -1,4 +1,4 @@
-// Fields computed only where they reach the mesh (pipeline/field_band.h):
+// Fields computed only where they reach the mesh (methods/columns/field_band.h):
 // the extension stopped at its required pixels and the filter run on its
 // needed pixels give those pixels the whole run's values bit for bit, the
 // known sides match a brute-force scan, and reconstruct() gives the mesh of
@@ -17,8 +17,8 @@
 #include "isoloft/field/marching.h"
 #include "isoloft/field/narrow_band.h"
 #include "isoloft/pipeline.h"
-#include "isoloft/pipeline/field_band.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/methods/columns/field_band.h"
+#include "isoloft/objects/slice_fields.h"
 #include "isoloft/synth/tilted_tubes.h"
 #include "isoloft/synth/synth.h"
 

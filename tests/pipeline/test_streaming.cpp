@@ -13,7 +13,7 @@
 
 #include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/objects/slice_fields.h"
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/synth/synth.h"

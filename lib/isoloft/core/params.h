@@ -317,7 +317,7 @@ class ParamTable {
 };
 
 /// The table of S: one specialisation per Params struct, inline below the
-/// struct (ReconstructParams: pipeline/params.cpp).
+/// struct (ReconstructParams: methods/params.cpp).
 template <class S>
 const ParamTable<S>& params_table();
 

@@ -1,12 +1,16 @@
 // @file methods/method.h
 // @brief The seam for reconstruction methods and z schemes.
-// A method says how one slice of one object becomes a signed distance field
-// (paper 2.1-2.3, or a baseline); a z scheme says how those fields are
+// Methods come in families. The columns family (methods/columns/) says how
+// one slice of one object becomes a signed distance field (paper 2.1-2.3, or
+// a baseline; MethodSpec::slice_field), and a z scheme how those fields are
 // interpolated between the slices (paper 2.4) into the planes Marching Cubes
-// reads. Each is one file (methods/<name>.cpp) returning its spec, plus one
-// line in methods/registry.cpp. A spec names itself, gives its defaults over
-// the stages' (the paper's), and lists the parameter rows it reads: a flag for
-// a row that some other method or scheme reads but this one does not is an
+// reads; reconstruct() streams them, with the label partition. A family of
+// its own (methods/field3d/) gives MethodSpec::reconstruct, the whole run of
+// one input (sections in any orientation), which reconstruct() calls instead.
+// Each method is one file returning its spec, plus one line in
+// methods/registry.cpp. A spec names itself, gives its defaults over the
+// stages' (the paper's), and lists the parameter rows it reads: a flag for a
+// row that some other method or scheme reads but this one does not is an
 // error naming where it applies (unused_param()). Sign convention: positive
 // inside.
 #pragma once
@@ -18,14 +22,26 @@
 #include <string>
 #include <vector>
 
+#include "isoloft/core/section.h"
+#include "isoloft/core/slice_stack.h"
 #include "isoloft/interp/z_stream.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/objects/result.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft {
 
 struct ReconstructParams;
 
-/// A method: slices to fields.
+/// One input as a method reads it: a slice stack (working pixels), and the
+/// sections a reader gave in world space when it gave them (a CSL file; the
+/// stack is then empty), with the label of those sections to reconstruct.
+struct MethodInput {
+  const SliceStack& stack;
+  const std::vector<Section>& sections;
+  std::uint32_t section_label = 0;
+};
+
+/// A method: slices (or sections) to fields.
 struct MethodSpec {
   std::string name;  ///< as in --method and the report
   std::string doc;   ///< one line: what it is, with the paper section or reference
@@ -36,8 +52,14 @@ struct MethodSpec {
   std::vector<std::string> rows;
   /// Whether it fits curves (its slices report MPU statistics, --dump-stages).
   bool fits_curves = false;
-  /// One slice's field over the object's crop box.
+  /// The columns family: one slice's field over the object's crop box.
   std::function<SliceField(const SliceInput&, const ReconstructParams&)> slice_field;
+  /// A family of its own: its whole run of one input (objects, warnings,
+  /// times); unset for the columns family. It has no slice fields or sampled
+  /// planes (ReconstructOptions' hooks, --volume, --labelmap, --dump-stages).
+  std::function<ReconstructResult(const MethodInput&, const ReconstructParams&)> reconstruct;
+  /// Reads sections at any angle (a CSL file's), not only parallel slices.
+  bool reads_sections = false;
 };
 
 /// What a z scheme needs to build its plane source for one object.
@@ -66,10 +88,14 @@ const std::vector<ZSchemeSpec>& z_schemes();
 
 /// \throw ParamError naming the known names if `name` is not registered.
 const MethodSpec& method_spec(const std::string& name);
+/// The registered method of that name, or null.
+const MethodSpec* find_method(const std::string& name);
 const ZSchemeSpec& z_scheme_spec(const std::string& name);
 
 /// The names, for a parameter row's choices.
 std::vector<std::string> method_names();
+/// The methods that read sections at any angle (MethodSpec::reads_sections), comma-separated.
+std::string section_method_names();
 std::vector<std::string> z_scheme_names();
 
 /// If parameter row `key` is read by some method or z scheme but not by

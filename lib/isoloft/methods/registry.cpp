@@ -3,11 +3,11 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/objects/params.h"
 
 namespace isoloft {
 
-// Each file's spec (methods/<name>.cpp).
+// Each file's spec (methods/<family>/<name>.cpp).
 MethodSpec isoloft_method();
 MethodSpec marker2006_method();
 MethodSpec levin_method();
@@ -68,9 +68,20 @@ std::string comma_list(const std::vector<std::string>& names) {
 }  // namespace
 
 const MethodSpec& method_spec(const std::string& name) { return find_spec(methods(), name, "method"); }
+const MethodSpec* find_method(const std::string& name) {
+  for (const MethodSpec& m : methods())
+    if (m.name == name) return &m;
+  return nullptr;
+}
 const ZSchemeSpec& z_scheme_spec(const std::string& name) { return find_spec(z_schemes(), name, "z_scheme"); }
 std::vector<std::string> method_names() { return names_of(methods()); }
 std::vector<std::string> z_scheme_names() { return names_of(z_schemes()); }
+std::string section_method_names() {
+  std::vector<std::string> names;
+  for (const MethodSpec& m : methods())
+    if (m.reads_sections) names.push_back(m.name);
+  return comma_list(names);
+}
 
 namespace detail {
 bool row_matches(const std::string& row, const std::string& key) {

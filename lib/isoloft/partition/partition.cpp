@@ -16,7 +16,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/mesh/stream_mesher.h"
-#include "isoloft/pipeline/column_stream.h"
+#include "isoloft/methods/columns/column_stream.h"
 
 namespace isoloft::detail {
 

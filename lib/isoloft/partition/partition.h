@@ -11,7 +11,7 @@
 
 #include <vector>
 
-#include "isoloft/pipeline/objects.h"
+#include "isoloft/objects/objects.h"
 
 namespace isoloft::detail {
 

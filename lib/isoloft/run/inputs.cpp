@@ -74,7 +74,7 @@ Inputs read_polyline_file(const InputRequest& r) {
 }
 
 // A CSL file: its sections, one job per label drawn on some plane (a job's
-// stack stays empty: the field3d method reads the sections).
+// stack stays empty: a method that reads sections, MethodSpec::reads_sections, reads them).
 Inputs read_csl_input(const InputRequest& r) {
   Inputs in;
   reject(r.z_spacing || r.slice_z, "--z-spacing/--slice-z", kCslInputOnly);

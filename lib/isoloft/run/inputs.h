@@ -50,7 +50,7 @@ struct Job {
   std::optional<Rgb> color;  ///< the ROI's display colour, if any
   const RtRoi* roi = nullptr;  ///< RT Structure Sets: the ROI (in Inputs::rtstruct)
   /// CSL input: every section in world space (any orientation), read by the
-  /// field3d method instead of `stack` (which stays empty).
+  /// methods that read sections (MethodSpec::reads_sections) instead of `stack` (which stays empty).
   std::vector<Section> sections{};
   std::uint32_t section_label = 0;  ///< the label of `sections` this job reconstructs
   std::optional<GridRefinement> refined{};  ///< RT ROIs: set when the grid was refined

@@ -1,4 +1,5 @@
-#include "isoloft/pipeline/field_band.h"
+#include "isoloft/methods/columns/field_band.h"
+#include "isoloft/methods/columns/slice_methods.h"
 
 #include <tbb/parallel_for.h>
 
@@ -7,7 +8,7 @@
 
 #include "isoloft/field/filter.h"
 #include "isoloft/interp/z_stream.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft::detail {
 

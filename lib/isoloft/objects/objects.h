@@ -1,4 +1,4 @@
-// @file pipeline/objects.h
+// @file objects/objects.h
 // @brief Object discovery for reconstruct(): the run every stage shares, the
 // label scan (every label's masks from one pass over each slice), the objects
 // to reconstruct and their contour stage (paper 2.1). Internals of
@@ -17,8 +17,9 @@
 #include <utility>
 #include <vector>
 
-#include "isoloft/pipeline.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/objects/params.h"
+#include "isoloft/objects/result.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft::detail {
 

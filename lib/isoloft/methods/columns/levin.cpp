@@ -4,7 +4,8 @@
 #include <chrono>
 
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/columns/slice_methods.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft {
 

@@ -1,13 +1,13 @@
-// @file pipeline/work_estimate.cpp
+// @file methods/columns/work_estimate.cpp
 // @brief An object's cost from its packed masks, before any fit
-// (estimate_work(), pipeline/column_stream.h; ReconstructOptions::on_estimate).
+// (estimate_work(), methods/columns/column_stream.h; ReconstructOptions::on_estimate).
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline/column_stream.h"
+#include "isoloft/methods/columns/column_stream.h"
 
 namespace isoloft::detail {
 

@@ -2,7 +2,7 @@
 // pixel column through the slice fields (InterpParams::spline), streamed a
 // window of knots at a time (interp/z_stream.h).
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft {
 

@@ -1,4 +1,4 @@
-// @file pipeline/field_band.h
+// @file methods/columns/field_band.h
 // @brief Where a slice's field can reach the mesh: the pixels whose exact
 // value the z splines and Marching Cubes read (docs/decisions.md, "Fields
 // only where they reach the mesh").
@@ -33,7 +33,7 @@
 #include <vector>
 
 #include "isoloft/core/grid.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft::detail {
 

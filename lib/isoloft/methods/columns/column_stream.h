@@ -1,4 +1,4 @@
-// @file pipeline/column_stream.h
+// @file methods/columns/column_stream.h
 // @brief The column streaming engine of reconstruct() (paper 2.1-2.5 but
 // decimation): an object's slice fields computed a window at a time in
 // parallel (the method's MethodSpec::slice_field), the knot feed (end caps,
@@ -15,8 +15,9 @@
 
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/stream_mesher.h"
-#include "isoloft/pipeline/field_band.h"
-#include "isoloft/pipeline/objects.h"
+#include "isoloft/methods/columns/field_band.h"
+#include "isoloft/methods/params.h"
+#include "isoloft/objects/objects.h"
 
 namespace isoloft::detail {
 
@@ -36,7 +37,7 @@ class ObjectStream {
   /// Each knot the stream pulls, with its index, goes to `tap` too (if set).
   using KnotTap = std::function<void(std::size_t, const Grid2f&)>;
 
-  /// band: the fields are exact only where they reach the mesh (pipeline/field_band.h).
+  /// band: the fields are exact only where they reach the mesh (methods/columns/field_band.h).
   /// \throw InputError if the knots span less than one plane step.
   ObjectStream(const Run& run, ObjectResult& obj, std::vector<PackedMasks> masks, KnotTap tap = {},
                const std::optional<FieldBand::Setup>& band = std::nullopt);
@@ -62,7 +63,7 @@ class ObjectStream {
 StreamMeshOptions mesh_options(const Run& run, const ObjectResult& obj);
 
 /// Stages (paper 2.1-2.5 but decimation) of one object, its mesh into obj.
-/// The fields banded (pipeline/field_band.h) unless a hook sees them or the
+/// The fields banded (methods/columns/field_band.h) unless a hook sees them or the
 /// options ask for whole fields. An empty mesh is made again with whole
 /// fields: its reason quotes the fields' maximum, which a band does not keep.
 void stream_stages(const Run& run, std::vector<PackedMasks> masks, ObjectResult& obj);

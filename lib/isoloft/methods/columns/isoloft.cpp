@@ -5,7 +5,8 @@
 // z planes through the slices, the extremum-preserving z spline (Dougherty,
 // Edelman, Hyman 1989), slab end caps (docs/decisions.md, "End caps").
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/columns/slice_methods.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft {
 

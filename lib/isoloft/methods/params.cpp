@@ -1,4 +1,4 @@
-// @file pipeline/params.cpp
+// @file methods/params.cpp
 // @brief The parameter schema of reconstruct(): params_table<ReconstructParams>
 // (one row per parameter: key, unit, doc, range, flag), JSON both ways, and
 // the method defaults it starts from (methods/method.h).
@@ -8,7 +8,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft {
 

@@ -5,7 +5,7 @@
 // not beat the per-column spline (docs/decisions.md, the track z scheme).
 #include "isoloft/interp/track.h"
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft {
 

@@ -3,7 +3,8 @@
 // their extension (2.2), the distance-dependent filter (2.3); Hyman's
 // monotone z spline (2.4), dome end caps (not in the paper).
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline.h"
+#include "isoloft/methods/columns/slice_methods.h"
+#include "isoloft/methods/params.h"
 
 namespace isoloft {
 

@@ -1,10 +1,14 @@
-// @file pipeline/slice_fields.h
-// @brief The per-slice stages of reconstruct() (paper 2.1-2.2, or Levin).
+// @file objects/slice_fields.h
+// @brief Per-slice preparation shared by the slice methods (paper 2.1): a
+// slice's contour and inside masks, packed between passes, the label scan,
+// crop boxes, the fields of empty slices; and what a slice method reads and
+// returns (SliceInput, SliceField; the methods: methods/columns/slice_methods.h).
 // Pure functions of one slice, run over the slices in parallel. A field covers
 // the crop box b: its pixel (i, j) is working pixel (b.x0 + i, b.y0 + j).
 // Sign convention: positive inside.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -35,6 +39,14 @@ std::size_t slice_window();
 /// Slice fields held at most before the spline's knots: the batch handed
 /// out, and the next computing while it is meshed (2 x slice_window()).
 std::size_t slices_in_flight();
+
+/// The part of g inside b (b within g).
+template <class T>
+Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {
+  Grid2<T> out(b.width(), b.height());
+  for (int y = b.y0; y < b.y1; ++y) std::copy_n(&g(b.x0, y), b.width(), &out(0, y - b.y0));
+  return out;
+}
 
 /// One slice of one object: its contour and inside pixels.
 struct SliceMasks {
@@ -87,21 +99,12 @@ PixelBox mask_bounds(const SliceMasks& m);
 /// Union of the slices' mask_bounds() plus margin, clipped; empty if all are.
 PixelBox object_box(const std::vector<PixelBox>& bounds, int width, int height, int margin);
 
-/// The Levin field over b: exact signed EDT to the contour pixels (contours,
-/// polylines) or to the mask's edge (masks, labels).
-Grid2f levin_field(const SliceMasks& m, const PixelBox& b, InputKind kind);
-
-/// Where one slice's field must be exact (pipeline/field_band.h): `needed`
+/// Where one slice's field must be exact (methods/columns/field_band.h): `needed`
 /// (the values the splines and Marching Cubes read), `required` (needed grown
 /// by the filter's reach: where the extension must have finished).
 struct SliceBand {
   Grid2u8 needed, required;
 };
-
-/// Whether the slice path keeps the boundary the input gives, with its sign:
-/// masks and labels traced (mask_boundary traced), polygons drawn
-/// (polyline_boundary drawn); else the MPU fit.
-bool takes_given_boundary(InputKind kind, const ReconstructParams& params);
 
 }  // namespace isoloft::detail
 
@@ -115,7 +118,7 @@ struct SliceInput {
   InputKind kind = InputKind::Contours;
   int stack_width = 0;              ///< working grid width (fine polyline rasters)
   bool keep_stages = false;         ///< keep SliceField::mpu and distance (--dump-stages)
-  /// If set: the field need only be exact there (pipeline/field_band.h); elsewhere only its sign counts.
+  /// If set: the field need only be exact there (methods/columns/field_band.h); elsewhere only its sign counts.
   const detail::SliceBand* band = nullptr;
 };
 
@@ -134,43 +137,6 @@ struct SliceField {
 }  // namespace isoloft
 
 namespace isoloft::detail {
-
-/// Fewer contour points than this cannot carry a conic fit (6 coefficients).
-inline constexpr std::size_t kMinMpuPoints = 6;
-
-/// Distance from a pixel within ReconstructParams::mpu_band of a contour pixel
-/// to the nearest contour point is at most mpu_band + this, px: a mask's
-/// points lie |mask_edge_offset| <= 2 px from their boundary pixels, polygon
-/// samples within 1 px of their rasterised pixels (and 1 px to spare). The
-/// MPU domain (MpuParams::domain_distance) is the band grown by it, so every
-/// evaluated pixel lies in a fitted cell.
-inline constexpr double kBandPointMargin = 3.0;
-
-/// marker2006 for one slice over in.box (paper 2.1-2.2): points and normals,
-/// the MPU curve (on a finer raster for polylines if polyline_raster_width > 0),
-/// the sign guard (docs/decisions.md: sign guard), narrow band, extension;
-/// SliceField::field is the distance before the filter.
-/// @warning Fewer than kMinMpuPoints oriented points (e.g. a one-pixel island)
-/// give the exact pixel distance field (fallback = true).
-SliceField marker_slice(const SliceInput& in, const ReconstructParams& params);
-
-/// A mask or label slice traced to its sub-pixel boundary
-/// (contour/mask_curve.h) over in.box, and the exact signed distance to that
-/// curve: in the band, to its segments (the narrow band stage with linear
-/// vertices and saddles joining the inside), beyond by the extension (paper
-/// 2.2). No fit: the traced curve is already the smooth curve the pixels
-/// allow. SliceField::mpu keeps the traced function (figures).
-SliceField traced_mask_slice(const SliceInput& in, const ReconstructParams& params);
-
-/// A polygon slice taken as drawn: the exact distance to its edges in the band
-/// (polygon_narrow_band), extended. No fit. SliceField::mpu keeps the band.
-SliceField drawn_polygon_slice(const SliceInput& in, const ReconstructParams& p);
-
-/// The curve-fitting methods' slice field (paper 2.1-2.3): traced_mask_slice()
-/// for masks and labels with mask_boundary traced, drawn_polygon_slice() for
-/// polylines with polyline_boundary drawn, else marker_slice(); then
-/// the distance-dependent filter if enabled.
-SliceField curve_slice(const SliceInput& in, const ReconstructParams& params);
 
 /// Gives every empty slice a field: a non-empty neighbour's field moved
 /// 1 / cap_extent of the way to its cap_slice() for the gap (z: the slices'

@@ -1,6 +1,6 @@
-// @file pipeline/objects.cpp
-// @brief Object discovery and the contour stage of reconstruct() (pipeline/objects.h).
-#include "isoloft/pipeline/objects.h"
+// @file objects/objects.cpp
+// @brief Object discovery and the contour stage of reconstruct() (objects/objects.h).
+#include "isoloft/objects/objects.h"
 
 #include <algorithm>
 #include <set>

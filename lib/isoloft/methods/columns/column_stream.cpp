@@ -1,7 +1,7 @@
-// @file pipeline/column_stream.cpp
-// @brief The column streaming engine (pipeline/column_stream.h): SliceFields,
+// @file methods/columns/column_stream.cpp
+// @brief The column streaming engine (methods/columns/column_stream.h): SliceFields,
 // KnotFeed, ObjectStream, the samples served on the way.
-#include "isoloft/pipeline/column_stream.h"
+#include "isoloft/methods/columns/column_stream.h"
 
 #include <tbb/task_group.h>
 
@@ -16,7 +16,8 @@
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
 #include "isoloft/methods/method.h"
-#include "isoloft/pipeline/slice_fields.h"
+#include "isoloft/methods/columns/slice_methods.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft::detail {
 
@@ -51,7 +52,7 @@ void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const F
 // slices at a time in parallel, handed out in slice order.
 class SliceFields {
  public:
-  // band: the fields are exact only where they reach the mesh (pipeline/field_band.h).
+  // band: the fields are exact only where they reach the mesh (methods/columns/field_band.h).
   SliceFields(const Run& run, ObjectResult& obj, std::vector<PackedMasks>& masks, ResidentCount& count,
               const std::optional<FieldBand::Setup>& band)
       : run_(run),
@@ -462,7 +463,7 @@ void stream_stages_once(const Run& run, std::vector<PackedMasks> masks, ObjectRe
 }  // namespace
 
 
-// The fields banded (pipeline/field_band.h) unless a hook sees them or the
+// The fields banded (methods/columns/field_band.h) unless a hook sees them or the
 // options ask for whole fields. An empty mesh is made again with whole
 // fields: its reason quotes the fields' maximum, which a band does not keep.
 void stream_stages(const Run& run, std::vector<PackedMasks> masks, ObjectResult& obj) {
