@@ -93,6 +93,36 @@ void metaimage(const std::uint8_t* d, std::size_t n) {
   guarded(scratch(".mha", d, n), [](const std::string& p) { slice_volume(read_volume(p), p); });
 }
 
+// The RT writers on what was read: every ROI's closed contours written back,
+// derived from the file's own bytes and as a standalone set, then read again.
+// A refusal (isoloft::Error) is fine; the sanitizers watch the rest.
+void write_back(const RtStructureSet& set, const std::string& source) {
+  std::vector<RtRoiContours> rois;
+  for (const RtRoi& roi : set.rois) {
+    RtRoiContours out{&roi, {}};
+    for (const RtContour& c : roi.contours) {
+      if (c.type != "CLOSED_PLANAR" || c.points.empty()) continue;
+      RtRoiContours::Plane plane{c.points.front().z(), {{}}};
+      for (const Vec3d& q : c.points) plane.loops.front().emplace_back(q.x(), q.y());
+      out.planes.push_back(std::move(plane));
+    }
+    rois.push_back(std::move(out));
+  }
+  const std::string derived = source + ".derived.dcm", fresh = source + ".new.dcm";
+  try {
+    write_rtstruct(derived, source, rois, "fuzz", &set.bytes);
+    (void)read_rtstruct(derived);
+  } catch (const Error&) {
+  }
+  try {
+    (void)write_rtstruct_new(fresh, rois, "fuzz");
+    (void)read_rtstruct(fresh);
+  } catch (const Error&) {
+  }
+  std::remove(derived.c_str());
+  std::remove(fresh.c_str());
+}
+
 void rtstruct(const std::uint8_t* d, std::size_t n) {
   guarded(scratch(".dcm", d, n), [](const std::string& p) {
     const RtStructureSet set = read_rtstruct(p);
@@ -107,6 +137,7 @@ void rtstruct(const std::uint8_t* d, std::size_t n) {
       } catch (const Error&) {
       }
     }
+    write_back(set, p);
   });
 }
 

@@ -27,6 +27,7 @@
 #include "isoloft/methods/method.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/run/reference_labelmap.h"
+#include "isoloft/run/unused_params.h"
 
 namespace fs = std::filesystem;
 
@@ -107,31 +108,6 @@ ReconstructParams read_params_file(const std::string& path, std::optional<Method
   }
 }
 
-// A parameter flag given for a method, z scheme or input that never reads
-// it: an error naming the flag and where it applies.
-void reject_unused_flags(const ParamFlags& flags, const ReconstructParams& params, InputFormat format, InputKind kind) {
-  for (const auto& row : params_table<ReconstructParams>().rows())
-    if (const std::string flag = flags.given(row.key); !flag.empty())
-      if (const std::string where = unused_param(row.key, params.method.name(), params.z_scheme); !where.empty())
-        throw ParamError(flag + ": has no effect here, " + where);
-  const bool images = format == InputFormat::Images;
-  struct Use {
-    const char* key;
-    bool used;
-    const char* where;
-  };
-  const Use uses[] = {
-      {"polyline_raster_width", kind == InputKind::Polylines, "only with a polyline input"},
-      {"fill.max_gap", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
-      {"fill.open_contours", images && kind == InputKind::Contours, "only with contour images (--input contours)"},
-      {"binarize", images && kind != InputKind::Labels, "only with contour or mask images"},
-      {"label_partition", kind == InputKind::Labels, "only with label input (--input labels, or an integer label volume)"},
-  };
-  for (const Use& u : uses)
-    if (!u.used)
-      if (const std::string flag = flags.given(u.key); !flag.empty()) throw ParamError(flag + ": has no effect here, " + u.where);
-}
-
 }  // namespace
 
 int Commands::reconstruct() {
@@ -204,7 +180,7 @@ int Commands::reconstruct() {
   check_outputs_format(run, detect_input(request.paths));
   const Inputs in = read_inputs(request);
   run.read_seconds = seconds_since(t0);
-  reject_unused_flags(param_flags_, params, in.format, in.first().kind);
+  refuse_unused_params([this](const std::string& key) { return param_flags_.given(key); }, params, in);
   if (!o.labels.empty()) run.labels = parse_labels(o.labels);
 
   Progress progress(!o.quiet && isatty(2));

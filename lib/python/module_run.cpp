@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <tuple>
 
 #include "isoloft/core/error.h"
@@ -12,6 +13,7 @@
 #include "isoloft/eval/metrics.h"
 #include "isoloft/io/mesh/format.h"
 #include "isoloft/run/reference_labelmap.h"
+#include "isoloft/run/unused_params.h"
 #include "isoloft/synth/synth.h"
 #include "python/module.h"
 
@@ -62,6 +64,18 @@ PyResult run(const PyInput& input, const py::dict& params_kw, const std::vector<
              const std::string& max_memory, const std::string& max_output, long max_files) {
   const InputsPtr in = input.in;
   ReconstructParams params = params_from_json(to_json(params_kw, ""));
+  // The keywords given, by row key (a nested dict's entries as "mpu.n_min"),
+  // refused as the CLI refuses a flag where the run never reads them.
+  std::set<std::string> given;
+  for (const auto& [k, v] : params_kw) {
+    const std::string key = py::str(k);
+    if (!py::isinstance<py::dict>(v)) {
+      given.insert(key);
+      continue;
+    }
+    for (const auto& [k2, v2] : v.cast<py::dict>()) given.insert(key + "." + std::string(py::str(k2)));
+  }
+  refuse_unused_params([&](const std::string& key) { return given.count(key) ? key : std::string(); }, params, *in);
   if (threads && *threads < 1) throw ParamError("threads: must be >= 1, got " + std::to_string(*threads));
   for (std::uint32_t l : labels)
     if (l == 0) throw ParamError("labels: 0 is the background, not a label");

@@ -428,6 +428,17 @@ def test_volume_labelmap_and_report_are_the_cli_files(tmp_path):
     assert comparable(written["objects"]) == comparable(cli["objects"])
 
 
+def test_a_keyword_the_run_never_reads_is_refused_as_the_cli_refuses_its_flag(tmp_path):
+    stack = isoloft.synth("sphere", size=64)
+    with pytest.raises(isoloft.ParamError, match=r"mpu\.n_min: has no effect here, only with .*isoloft, marker2006"):
+        isoloft.reconstruct(stack, method="levin", mpu={"n_min": 100})
+    with pytest.raises(isoloft.ParamError, match="polyline_raster_width: has no effect here, only with a polyline input"):
+        isoloft.reconstruct(stack, polyline_raster_width=256)
+    with pytest.raises(isoloft.ParamError, match="label_partition: has no effect here, only with label input"):
+        isoloft.reconstruct(stack, label_partition=True)
+    assert not list(tmp_path.iterdir())
+
+
 def test_output_options_refused_as_the_cli_refuses_them(tmp_path):
     stack = isoloft.synth("sphere", size=64)
     with pytest.raises(isoloft.ParamError, match="labelmap: only with a volume input"):

@@ -258,7 +258,9 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     report (the JSON of .report). max_memory, max_output: the work budget ("4G", "512M", bytes;
     0 = no limit), checked before the work; max_files: the most files the run
     writes (0 = no limit). allow_external_data: as for read(). **params: reconstruction
-    parameters by their --print-params names.
+    parameters by their --print-params names; one the run would never read
+    (another method's, or one the input cannot use) is a ParamError naming
+    it, as the CLI refuses its flag.
     """
     # Every argument checked before any work, named in the error.
     labels = _labels(labels)
