@@ -110,6 +110,16 @@ TEST(Manifest, BadRowsCarryWhyAndTheOthersRun) {
   EXPECT_EQ(c[12].error, "");
 }
 
+// A bare CR ends a row as Python's csv reads it; what follows is a row of
+// its own whose input (a dot file) gives no name: that row fails alone.
+TEST(Manifest, ARowWhoseNameComesOutEmptyFailsAlone) {
+  const auto c = cases_of("input,name,options\nb.png,up,\r.vc\n/d/.e,,\na.png,ok,\n");
+  ASSERT_EQ(c.size(), 4u);
+  EXPECT_EQ(c[0].error, "");
+  for (const std::size_t i : {1u, 2u}) EXPECT_NE(c[i].error.find("the name '' is empty"), std::string::npos) << "case " << i << ": " << c[i].error;
+  EXPECT_EQ(c[3].error, "");
+}
+
 TEST(Manifest, ANameUsedTwiceRefusesTheManifest) {
   try {
     (void)cases_of("input,name,options\na.png,x,\nb.png,x,\n");

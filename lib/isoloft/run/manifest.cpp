@@ -178,6 +178,7 @@ std::vector<std::string> shell_words(std::string_view s) {
 }
 
 std::string case_name_problem(const std::string& name) {
+  if (name.empty()) return "is empty (give one in the 'name' column)";
   if (name.find('\0') != std::string::npos) return "holds a NUL byte";
   if (name.find('/') != std::string::npos || name == "." || name == "..") return "is not a folder name";
   if (!name.empty() && name.front() == '.') return "starts with a dot (the batch's own files)";
@@ -271,7 +272,7 @@ std::vector<ManifestCase> check_manifest_rows(const std::vector<ManifestRow>& ro
     if (const std::string problem = detail::case_name_problem(c.name); !problem.empty())
       error = "the name " + shown_name(c.name) + " " + problem;
     if (error.empty()) error = detail::case_options_problem(c.options);
-    if (!names.insert(c.name).second)
+    if (!c.name.empty() && !names.insert(c.name).second)
       throw InputError(where, "row " + std::to_string(row.row) + ": the name " + shown_name(c.name) + " is used twice");
     if (!error.empty()) c.error = terminal_text(where) + ": row " + std::to_string(row.row) + ": " + error;
     cases.push_back(std::move(c));
