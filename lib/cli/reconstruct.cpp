@@ -177,6 +177,8 @@ int Commands::reconstruct() {
   activity_ = "reading " + o.inputs.front();
   InputRequest request = input_request(o);
   request.max_memory = run.budget.max_memory;
+  const MethodSpec* spec = find_method(params.method.name());
+  request.any_plane = spec && spec->reads_sections;
   check_outputs_format(run, detect_input(request.paths));
   const Inputs in = read_inputs(request);
   run.read_seconds = seconds_since(t0);

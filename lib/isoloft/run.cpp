@@ -90,9 +90,11 @@ void check_planned_files(const Inputs& in, const RunOptions& o) {
 // outputs made of them.
 void check_method_reads_input(const Inputs& in, const ReconstructParams& params, const RunOptions& o) {
   const MethodSpec* m = find_method(params.method.name());
-  if (in.format == InputFormat::Csl && !(m && m->reads_sections))
+  const bool any_angle = std::any_of(in.jobs.begin(), in.jobs.end(), [](const Job& j) { return !j.sections.empty(); });
+  if (any_angle && !(m && m->reads_sections))
     throw ParamError(option_name("--method") + " " + params.method.name() +
-                     ": reads parallel slices; a CSL file's planes at any angle need " +
+                     ": reads parallel slices; " + (in.format == InputFormat::Csl ? "a CSL file's" : "sections'") +
+                     " planes at any angle need " +
                      option_given("--method", section_method_names()));
   if (!m || !m->reconstruct) return;
   for (const auto& out : o.outputs)
@@ -265,7 +267,7 @@ std::vector<ReconstructResult> reconstruct_jobs(const Inputs& in, const Reconstr
   }
   auto run_one = [&](std::size_t j) {
     const Job& job = in.jobs[j];
-    results[j] = reconstruct(MethodInput{job.stack, job.sections, job.section_label}, params, options[j]);
+    results[j] = reconstruct(MethodInput{job.stack, job.sections, job.section_label, job.partition.get()}, params, options[j]);
     if (finished) finished(j);
     // RT ROIs: the error of the working grid isoloft chose for them (RT grid, triangle budget).
     if (in.jobs[j].roi && in.jobs[j].stack.has_polygons())

@@ -205,6 +205,7 @@ PYBIND11_MODULE(_isoloft, m) {
   m.def("_from_volume", &from_volume, py::arg("data"), py::arg("spacing"), py::arg("origin"), py::arg("direction"),
         py::arg("integer"), py::arg("name"), py::arg("kind"), py::arg("axis"), py::arg("space"),
         py::arg("label_names") = "");
+  m.def("_from_sections", &from_sections, py::arg("sections"));
   m.attr("_DEFAULT_MAX_FILES") = kDefaultMaxFiles;
   m.def("_read", &read_input, py::arg("paths"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"),

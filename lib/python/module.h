@@ -69,6 +69,10 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
                     const py::array_t<double, py::array::c_style | py::array::forcecast>& direction, bool integer,
                     const std::string& name, const std::string& kind, const std::string& axis, const std::string& space,
                     const std::string& label_names);
+/// A list of sections {origin, u, v, contours: [{points, label, hole}]}
+/// (world units, N x 2 in-plane or N x 3 world points) as a Sections input
+/// (run/inputs.h, sections_input). \throw InputError naming "sections[i]...".
+PyInput from_sections(const py::object& sections);
 /// What `isoloft reconstruct` reads, from paths.
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,

@@ -8,6 +8,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/io/text.h"
 #include "isoloft/io/volume.h"
 #include "python/module.h"
 
@@ -329,6 +330,111 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
     py::gil_scoped_release release;
     *in = volume_input(std::move(v), name, r);
   }
+  return {in, {}, seconds_since(t0)};
+}
+
+namespace {
+
+/// A section's world points (N x 3) may leave its plane by this share of
+/// their largest coordinate: float32 arrays round each coordinate by 6e-8 of
+/// it, and a plane through them, rounded too, by as much again; 1e-5 leaves
+/// room for coordinates computed in float32 and refuses a point a visible
+/// share of the section off it.
+constexpr double kSectionOffPlaneShare = 1e-5;
+/// The pose's axes must be unit and orthogonal within this (float32 axes
+/// are off by ~1e-7; a skewed pose would silently shear the drawing).
+constexpr double kSectionAxesTolerance = 1e-6;
+
+Vec3d vec3(const py::handle& o, const std::string& where) {
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(o);
+  if (!a || a.ndim() != 1 || a.shape(0) != 3) throw InputError(where, "expected 3 numbers (x, y, z)");
+  const Vec3d v(a.at(0), a.at(1), a.at(2));
+  if (!v.allFinite()) throw InputError(where, "not finite");
+  return v;
+}
+
+// One drawn contour {points: N x 2 in-plane or N x 3 world, label, hole} on `pose`.
+SectionContour section_contour(const py::handle& o, const PlanePose& pose, const std::string& where) {
+  if (!py::isinstance<py::dict>(o)) throw InputError(where, "expected a dict {points, label, hole}");
+  const py::dict d = o.cast<py::dict>();
+  for (auto [k, v] : d)
+    if (const std::string key = py::str(k); key != "points" && key != "label" && key != "hole")
+      throw InputError(where, "unknown key '" + key + "' (expected points, label, hole)");
+  if (!d.contains("points")) throw InputError(where, "no 'points'");
+  const auto p = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(d["points"]);
+  if (!p || p.ndim() != 2 || (p.shape(1) != 2 && p.shape(1) != 3))
+    throw InputError(where + ".points", "expected an N x 2 (in-plane) or N x 3 (world) array");
+  if (p.shape(0) < 3) throw InputError(where + ".points", "a closed contour needs at least 3 points");
+  SectionContour c;
+  const bool world = p.shape(1) == 3;
+  double reach = 0, off = 0;
+  for (py::ssize_t k = 0; k < p.shape(0); ++k) {
+    if (!world) {
+      c.points.emplace_back(p.at(k, 0), p.at(k, 1));
+      if (!c.points.back().allFinite()) throw InputError(where + ".points", "point " + std::to_string(k) + " is not finite");
+      continue;
+    }
+    const Vec3d w(p.at(k, 0), p.at(k, 1), p.at(k, 2));
+    if (!w.allFinite()) throw InputError(where + ".points", "point " + std::to_string(k) + " is not finite");
+    reach = std::max(reach, w.cwiseAbs().maxCoeff());
+    off = std::max(off, std::abs(pose.height(w)));
+    c.points.push_back(pose.to_plane(w));
+  }
+  reach = std::max(reach, pose.origin.cwiseAbs().maxCoeff());
+  if (world && off > kSectionOffPlaneShare * reach)
+    throw InputError(where + ".points", "a point lies " + detail::shortest_text(off) +
+                                            " off the section's plane (world points must lie on it)");
+  if (d.contains("label")) {
+    const py::object l = d["label"];
+    if (!py::isinstance<py::int_>(l) || py::isinstance<py::bool_>(l) || l.cast<py::int_>() < py::int_(1) ||
+        l.cast<py::int_>() > py::int_(std::numeric_limits<std::uint32_t>::max()))
+      throw InputError(where + ".label", "expected an integer from 1 to 2^32 - 1 (0 is outside), got " +
+                                             std::string(py::str(py::repr(l))));
+    c.label = l.cast<std::uint32_t>();
+  }
+  if (d.contains("hole")) {
+    if (!py::isinstance<py::bool_>(d["hole"])) throw InputError(where + ".hole", "expected True or False");
+    c.hole = d["hole"].cast<bool>();
+  }
+  return c;
+}
+
+}  // namespace
+
+PyInput from_sections(const py::object& sections) {
+  if (!py::isinstance<py::sequence>(sections) || py::isinstance<py::str>(sections))
+    throw InputError("sections", "expected a list of dicts {origin, u, v, contours}");
+  std::vector<Section> out;
+  std::size_t i = 0;
+  for (const py::handle& o : sections.cast<py::sequence>()) {
+    const std::string where = "sections[" + std::to_string(i++) + "]";
+    if (!py::isinstance<py::dict>(o)) throw InputError(where, "expected a dict {origin, u, v, contours}");
+    const py::dict d = o.cast<py::dict>();
+    for (auto [k, v] : d)
+      if (const std::string key = py::str(k); key != "origin" && key != "u" && key != "v" && key != "contours")
+        throw InputError(where, "unknown key '" + key + "' (expected origin, u, v, contours)");
+    for (const char* key : {"origin", "u", "v", "contours"})
+      if (!d.contains(key)) throw InputError(where, std::string("no '") + key + "'");
+    Section s;
+    s.source = where;
+    s.pose.origin = vec3(d["origin"], where + ".origin");
+    s.pose.u = vec3(d["u"], where + ".u");
+    s.pose.v = vec3(d["v"], where + ".v");
+    if (!s.pose.orthonormal(kSectionAxesTolerance))
+      throw InputError(where, "u and v must be unit and orthogonal (|u| = " + detail::shortest_text(s.pose.u.norm()) +
+                                  ", |v| = " + detail::shortest_text(s.pose.v.norm()) +
+                                  ", u.v = " + detail::shortest_text(s.pose.u.dot(s.pose.v)) + ")");
+    const py::handle cs = d["contours"];
+    if (!py::isinstance<py::sequence>(cs) || py::isinstance<py::str>(cs))
+      throw InputError(where + ".contours", "expected a list of dicts {points, label, hole}");
+    std::size_t k = 0;
+    for (const py::handle& c : cs.cast<py::sequence>())
+      s.contours.push_back(section_contour(c, s.pose, where + ".contours[" + std::to_string(k++) + "]"));
+    out.push_back(std::move(s));
+  }
+  if (out.empty()) throw InputError("sections", "the list is empty");
+  const auto t0 = Clock::now();
+  auto in = std::make_shared<Inputs>(sections_input(std::move(out), "sections"));
   return {in, {}, seconds_since(t0)};
 }
 

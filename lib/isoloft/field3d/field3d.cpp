@@ -404,6 +404,10 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   }
   if (!(lo.array() <= hi.array()).all())
     throw InputError("", "no section holds a contour of label " + std::to_string(label));
+  if (params.box) {  // a given box: the contours' box replaced (it must hold them; the caller's)
+    lo = (*params.box)[0];
+    hi = (*params.box)[1];
+  }
   const double diag = (hi - lo).norm();
   if (!(diag > 0)) throw InputError("", "the contours of label " + std::to_string(label) + " span no extent");
 

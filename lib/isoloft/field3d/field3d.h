@@ -31,7 +31,9 @@
 #pragma once
 
 #include <cstddef>
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,6 +58,10 @@ struct Field3dParams {
   int max_iterations = 4000;
   double conflict_tolerance = 0.5;
   bool direct = false;
+  /// The box (world mm, low and high corners) the grid covers before its
+  /// margin, instead of the label's contours' box: labels solved on one box
+  /// get one grid (field3d/partition3d.h). Not a parameter row (no flag).
+  std::optional<std::array<Vec3d, 2>> box{};
 };
 
 /// Largest grid (nodes) the direct twin accepts: its LDLT fill grows as n^(5/3).

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/section.h"
 #include "isoloft/core/slice_stack.h"
 
 namespace isoloft {
@@ -127,12 +128,15 @@ struct RoiGrid {
 SliceStack roi_stack(const RtRoi& roi, const RoiGrid& grid, const std::string& path, std::vector<std::string>& warnings);
 
 /// One ROI written back to the planning system: its identity (as read) and
-/// its contours, closed polygons per axial plane.
+/// its contours, closed polygons per plane (axial, or any plane given its pose).
 struct RtRoiContours {
   const RtRoi* roi = nullptr;  ///< number, name and colour written as they were
   struct Plane {
-    double z = 0;                            ///< patient z, mm
+    double z = 0;                            ///< patient z, mm (axial planes)
     std::vector<std::vector<Vec2d>> loops;   ///< patient x, y mm; holes and islands by the even-odd rule
+    /// Set for a plane of any orientation: `loops` are in-plane (s, t) mm
+    /// on it, written at pose.to_world(), with no Contour Image Sequence; z unused.
+    std::optional<PlanePose> pose{};
   };
   std::vector<Plane> planes;
 };

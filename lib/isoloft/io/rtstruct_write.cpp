@@ -95,11 +95,12 @@ void add_contours(DRTContourSequence& cs, const RtRoiContours& out,
     const DRTContourImageSequence* image = nullptr;
     const std::string zs = ds(plane.z);
     for (const auto& [z, seq] : images)
-      if (std::abs(z - plane.z) <= kPlanarToleranceMm) image = &seq;
+      if (!plane.pose && std::abs(z - plane.z) <= kPlanarToleranceMm) image = &seq;
     for (const auto& loop : plane.loops) {
       std::vector<std::string> points;
       for (const Vec2d& p : loop) {
-        std::string q = ds(p.x()) + "\\" + ds(p.y()) + "\\" + zs;
+        const Vec3d w = plane.pose ? plane.pose->to_world(p) : Vec3d(p.x(), p.y(), plane.z);
+        std::string q = ds(w.x()) + "\\" + ds(w.y()) + "\\" + (plane.pose ? ds(w.z()) : zs);
         if (points.empty() || q != points.back()) points.push_back(std::move(q));
       }
       while (points.size() > 1 && points.front() == points.back()) points.pop_back();

@@ -31,6 +31,7 @@
 namespace isoloft {
 
 struct ReconstructParams;
+class SharedPartition;
 
 /// One input as a method reads it: a slice stack (working pixels), and the
 /// sections a reader gave in world space when it gave them (a CSL file; the
@@ -39,6 +40,9 @@ struct MethodInput {
   const SliceStack& stack;
   const std::vector<Section>& sections;
   std::uint32_t section_label = 0;
+  /// The labels of `sections` as one partition, shared with the jobs of the
+  /// other labels (field3d/partition3d.h); null: `section_label` alone.
+  SharedPartition* partition = nullptr;
 };
 
 /// A method: slices (or sections) to fields.

@@ -15,6 +15,7 @@
 #include "isoloft/io/file_util.h"
 #include "isoloft/io/polylines.h"
 #include "isoloft/io/rtstruct.h"
+#include "isoloft/io/rtstruct_sections.h"
 #include "isoloft/io/slice_images.h"
 #include "isoloft/io/text.h"
 #include "isoloft/run/budget.h"
@@ -73,29 +74,13 @@ Inputs read_polyline_file(const InputRequest& r) {
   return in;
 }
 
-// A CSL file: its sections, one job per label drawn on some plane (a job's
-// stack stays empty: a method that reads sections, MethodSpec::reads_sections, reads them).
+// A CSL file: its sections (sections_input(): one job per label, a job's
+// stack empty; a method that reads sections, MethodSpec::reads_sections, reads them).
 Inputs read_csl_input(const InputRequest& r) {
-  Inputs in;
   reject(r.z_spacing || r.slice_z, "--z-spacing/--slice-z", kCslInputOnly);
   reject(bool(r.pixel_size), "--pixel-size", kCslInputOnly);
   reject(!r.kind.empty(), "--input", "a CSL file holds polygons, not images");
-  CslFile csl = read_csl(r.paths[0]);
-  std::vector<std::uint32_t> labels;
-  for (const Section& s : csl.sections)
-    for (const SectionContour& c : s.contours) labels.push_back(c.label);
-  std::sort(labels.begin(), labels.end());
-  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
-  if (labels.empty()) throw InputError(r.paths[0], "no plane has a contour: nothing to reconstruct");
-  for (const std::uint32_t l : labels) {
-    Job job;
-    job.stack.kind = InputKind::Polylines;
-    job.name = labels.size() > 1 ? "label" + std::to_string(l) : "";
-    job.sections = csl.sections;
-    job.section_label = l;
-    in.jobs.push_back(std::move(job));
-  }
-  return in;
+  return sections_input(read_csl(r.paths[0]).sections, r.paths[0]);
 }
 
 // The slicing a volume request asks for (--axis, --input), checked before any voxel is read.
@@ -326,6 +311,32 @@ void check_one_frame(const std::vector<const RtRoi*>& rois, const std::string& p
                              "between them; select the ROIs of one frame with " + option_name("--roi"));
 }
 
+// Whether every closed contour of the ROI lies on an axial plane (its
+// points' z within kPlanarToleranceMm, as roi_stack() takes them).
+bool axial_roi(const RtRoi& roi) {
+  return std::all_of(roi.contours.begin(), roi.contours.end(), [](const RtContour& c) {
+    if (c.type != "CLOSED_PLANAR" || c.points.size() < 3) return true;
+    const auto [lo, hi] = std::minmax_element(c.points.begin(), c.points.end(),
+                                              [](const Vec3d& a, const Vec3d& b) { return a.z() < b.z(); });
+    return hi->z() - lo->z() <= kPlanarToleranceMm;
+  });
+}
+
+// A ROI with contours on oblique planes, for a method that reads sections:
+// its sections in patient mm (io/rtstruct_sections.h), the working frame
+// the patient's own (1 mm a unit), no slices.
+Job roi_section_job(const RtRoi& roi, const std::string& path, std::vector<std::string>& warnings) {
+  Job job;
+  job.stack.kind = InputKind::Polylines;
+  job.stack.patient = PatientFrame{};
+  job.name = roi.name;
+  job.color = roi.color;
+  job.roi = &roi;
+  job.sections = roi_sections(roi, path, warnings);
+  job.section_label = 1;
+  return job;
+}
+
 Inputs read_rtstruct_input(const InputRequest& r) {
   Inputs in;
   const std::string& path = r.paths[0];
@@ -345,6 +356,17 @@ Inputs read_rtstruct_input(const InputRequest& r) {
   std::vector<std::string> skipped;  // each ROI not reconstructed and why
   for (const RtRoi* roi : chosen) {
     std::vector<std::string> warnings;
+    if (r.any_plane && !axial_roi(*roi)) {
+      try {
+        in.jobs.push_back(roi_section_job(*roi, path, warnings));
+      } catch (const InputError& e) {
+        if (!r.rois.empty()) throw;  // asked for by name: its problem is the run's
+        in.warnings.push_back(std::string(e.what()) + ": skipped");
+        skipped.push_back(e.problem);
+      }
+      for (auto& w : warnings) in.warnings.push_back(std::move(w));
+      continue;
+    }
     RoiGrid g = grid;
     // A grid fine enough for the ROI's own size (docs/decisions.md: RT grid):
     // its largest loop's thickness 2 area / perimeter across kPixelsAcross pixels.
@@ -446,6 +468,30 @@ void check_float_precision(const Inputs& in) {
 
 }  // namespace
 
+Inputs sections_input(std::vector<Section> sections, const std::string& name) {
+  Inputs in;
+  std::vector<std::uint32_t> labels;
+  for (const Section& s : sections)
+    for (const SectionContour& c : s.contours) labels.push_back(c.label);
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  if (labels.empty()) throw InputError(name, "no plane has a contour: nothing to reconstruct");
+  // Labels drawn on one input partition its space: touching ones share their boundary.
+  const auto partition = std::make_shared<SharedPartition>(labels);
+  for (const std::uint32_t l : labels) {
+    Job job;
+    job.stack.kind = InputKind::Polylines;
+    job.name = labels.size() > 1 ? "label" + std::to_string(l) : "";
+    job.sections = sections;
+    job.section_label = l;
+    job.partition = partition;
+    in.jobs.push_back(std::move(job));
+  }
+  in.format = InputFormat::Sections;
+  in.files = {name};
+  return in;
+}
+
 Inputs volume_input(Volume volume, const std::string& name, const InputRequest& r) {
   check_request(InputFormat::Volume, r);
   Inputs in = slice_volume(std::move(volume), name, r);
@@ -481,7 +527,8 @@ Inputs read_inputs(const InputRequest& r) {
     case InputFormat::Volume: in = read_volume_input(r); break;
     case InputFormat::RtStruct: in = read_rtstruct_input(r); break;
     case InputFormat::Csl: in = read_csl_input(r); break;
-    case InputFormat::Arrays: break;
+    case InputFormat::Arrays:
+    case InputFormat::Sections: break;
   }
   in.format = format;
   in.files = r.paths;
@@ -514,7 +561,7 @@ nlohmann::json input_report(const Inputs& in) {
     input["annotated_slices"] = in.slicing->annotated;
   }
   if (!in.label_names.file.empty()) input["label_names"] = in.label_names.file;
-  if (in.format == InputFormat::Csl) {
+  if (in.format == InputFormat::Csl || in.format == InputFormat::Sections) {
     input["planes"] = in.jobs.front().sections.size();
     nlohmann::json labels = nlohmann::json::array();
     for (const auto& job : in.jobs) labels.push_back(job.section_label);
@@ -523,7 +570,9 @@ nlohmann::json input_report(const Inputs& in) {
   if (in.format == InputFormat::RtStruct) {
     nlohmann::json rois = nlohmann::json::array();
     for (const auto& job : in.jobs)
-      rois.push_back({{"name", job.name}, {"planes", job.stack.slices.size()}, {"pixel_size", job.stack.pixel_size}});
+      rois.push_back(job.sections.empty()
+                         ? nlohmann::json{{"name", job.name}, {"planes", job.stack.slices.size()}, {"pixel_size", job.stack.pixel_size}}
+                         : nlohmann::json{{"name", job.name}, {"planes", job.sections.size()}, {"any_plane", true}});
     input["rois"] = rois;
   }
   return input;

@@ -17,6 +17,7 @@
 #include "isoloft/core/params.h"
 #include "isoloft/core/section.h"
 #include "isoloft/core/slice_stack.h"
+#include "isoloft/field3d/partition3d.h"
 #include "isoloft/io/label_names.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/io/volume.h"
@@ -24,15 +25,16 @@
 
 namespace isoloft {
 
-enum class InputFormat { Images, Polylines, Volume, RtStruct, Arrays, Csl };
+enum class InputFormat { Images, Polylines, Volume, RtStruct, Arrays, Csl, Sections };
 
 /// Names as in the report's "input.format".
-inline constexpr std::array<EnumName<InputFormat>, 6> kInputFormatNames{{{InputFormat::Images, "png"},
+inline constexpr std::array<EnumName<InputFormat>, 7> kInputFormatNames{{{InputFormat::Images, "png"},
                                                                          {InputFormat::Polylines, "polylines"},
                                                                          {InputFormat::Volume, "volume"},
                                                                          {InputFormat::RtStruct, "rtstruct"},
                                                                          {InputFormat::Arrays, "arrays"},
-                                                                         {InputFormat::Csl, "csl"}}};
+                                                                         {InputFormat::Csl, "csl"},
+                                                                         {InputFormat::Sections, "sections"}}};
 constexpr std::span<const EnumName<InputFormat>> enum_names(InputFormat) { return kInputFormatNames; }
 
 /// One reconstruct() call.
@@ -53,6 +55,8 @@ struct Job {
   /// methods that read sections (MethodSpec::reads_sections) instead of `stack` (which stays empty).
   std::vector<Section> sections{};
   std::uint32_t section_label = 0;  ///< the label of `sections` this job reconstructs
+  /// CSL input: every label of `sections` as one partition, shared by the jobs (field3d/partition3d.h).
+  std::shared_ptr<SharedPartition> partition{};
   std::optional<GridRefinement> refined{};  ///< RT ROIs: set when the grid was refined
 };
 
@@ -76,6 +80,10 @@ struct InputRequest {
   /// Label volumes: the table naming the labels (--label-names); "" = the
   /// table beside the volume if there is one (label_names_beside()).
   std::string label_names;
+  /// RT Structure Sets: the method reads sections at any angle
+  /// (MethodSpec::reads_sections), so a ROI with contours on oblique planes
+  /// is read as sections (io/rtstruct_sections.h) instead of refused.
+  bool any_plane = false;
 };
 
 struct Inputs {
@@ -114,6 +122,12 @@ InputFormat detect_input(const std::vector<std::string>& paths);
 /// a folder nor a regular file (a FIFO, a device) is refused before it is
 /// opened; a volume's size is checked against max_memory from its header,
 /// before its voxels are read.
+/// Sections in world space (a CSL file's, or Python's list of plane poses)
+/// as an input: one job per label drawn on some section, the labels one
+/// partition (Job::partition); format Sections, `name` standing for the file.
+/// \throw InputError naming `name` when no section has a contour.
+Inputs sections_input(std::vector<Section> sections, const std::string& name);
+
 /// \throw InputError / ParamError naming the file or the option; InputError
 ///        for patient coordinates so far from the origin that the meshes'
 ///        32-bit floats cannot keep their shape (see kFloatPrecisionFraction).

@@ -10,6 +10,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/field3d/field3d.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/rtstruct.h"
 #include "isoloft/mesh/plane_cut.h"
@@ -357,6 +358,37 @@ RtWriteReport write_volume_rtstruct(const std::string& path, const Inputs& in, c
   return report;
 }
 
+// A ROI read as sections (contours off the axial planes, io/rtstruct_sections.h;
+// its mesh in patient mm): the mesh cut by each input plane in that plane's
+// frame (a rotation: loops keep their turn), resampled at the step drawn
+// there, written on the plane's pose. The per-contour accounting matches
+// loops on axial planes and is not made here; max_distance is the largest
+// distance between a plane's drawn contours and the mesh's section on it.
+RtRoiContours section_contours(const Job& job, const TriMesh& mesh, const RtContourParams& params,
+                               RoiContourSummary& sum) {
+  RtRoiContours out;
+  out.roi = job.roi;
+  WrittenStats stats;
+  for (const Section& sec : job.sections) {
+    TriMesh local = mesh;
+    for (Vec3f& v : local.vertices) {
+      const Vec3d w = v.cast<double>();
+      const Vec2d q = sec.pose.to_plane(w);
+      v = Vec3f(float(q.x()), float(q.y()), float(sec.pose.height(w)));
+    }
+    std::vector<Loop> drawn;
+    for (const SectionContour& c : sec.contours) drawn.push_back(c.points);
+    const double spacing = params.point_spacing > 0 ? params.point_spacing : mean_point_spacing(drawn);
+    std::vector<Loop> here = resampled_sections(local, PatientFrame{}, 0.0, spacing, sum, stats);
+    const std::size_t before = out.planes.size();
+    add_plane(out, 0.0, here, sum, stats);
+    if (out.planes.size() > before) out.planes.back().pose = sec.pose;
+    sum.max_distance = std::max(sum.max_distance, detail::plane_section_distance(mesh, sec.pose, drawn).max());
+  }
+  finish_summary(sum, stats);
+  return out;
+}
+
 }  // namespace
 
 RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunResult& r,
@@ -367,6 +399,16 @@ RtWriteReport write_run_rtstruct(const std::string& path, const Inputs& in, RunR
   std::vector<RtRoiContours> rois;
   for (const RunObject& o : r.objects) {
     const Job& job = in.jobs[o.job];
+    if (!job.sections.empty()) {
+      RoiContourSummary sum;
+      sum.roi = job.roi->name;
+      sum.roi_number = job.roi->number;
+      for (const RtContour& c : job.roi->contours)
+        if (c.type == "CLOSED_PLANAR") ++sum.contours_in, sum.points_in += long(c.points.size());
+      rois.push_back(section_contours(job, o.object.mesh, params, sum));  // working = patient mm (roi_section_job)
+      report.rois.push_back(sum);
+      continue;
+    }
     const PatientFrame& f = *job.stack.patient;
     const RtRoi& roi = *job.roi;
     RtRoiContours out;

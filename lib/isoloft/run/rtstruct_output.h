@@ -1,7 +1,8 @@
 // @file run/rtstruct_output.h
 // @brief --rtstruct OUT.dcm (or -o OUT.dcm): the run's surfaces back as an
 // RT Structure Set (io/rtstruct.h, write_rtstruct): each ROI's mesh cut at
-// its input contour planes (mesh/plane_cut.h), resampled to the density the
+// its input contour planes (mesh/plane_cut.h; planes of any orientation for a
+// ROI read as sections, --method field3d), resampled to the density the
 // contours were drawn at (or --rt-point-spacing), its number, name and
 // colour and the input's patient, study and frame of reference kept. From a
 // label map: a standalone set, each label's mesh cut at the slices' planes.

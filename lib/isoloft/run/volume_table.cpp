@@ -69,7 +69,8 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
     row.number = job.roi ? job.roi->number : int(o.object.label);
     row.volume = o.object.check.volume * s * s * s;
     row.area = o.object.check.area * s * s;
-    row.planes = in.format == InputFormat::RtStruct ? int(rt_planes(st).size()) : o.object.slices_with_contours;
+    row.planes = in.format == InputFormat::RtStruct && job.sections.empty() ? int(rt_planes(st).size())
+                                                                           : o.object.slices_with_contours;
     row.closed = o.object.check.closed && o.object.check.manifold && o.object.check.oriented;
     if (st.has_polygons()) {
       double area = 0;
@@ -90,7 +91,7 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
       row.cap_share = std::clamp((volume_above(mesh, hi) + whole - volume_above(mesh, lo)) / whole, 0.0, 1.0);
     }
     row.spacing = row.planes > 1 ? typical_step(st) * s : 0.0;
-    if (row.planes < kTrustedPlanes)
+    if (row.planes < kTrustedPlanes && job.sections.empty())  // crossing sections have no end caps
       row.warning = "on " + std::to_string(row.planes) + " plane" + (row.planes == 1 ? "" : "s") +
                     ": its volume is mostly end caps" +
                     (std::isnan(row.cap_share) ? std::string()

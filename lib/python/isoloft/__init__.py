@@ -217,6 +217,12 @@ def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
     return _isoloft._synth(shape, size, z_spacing, kind)
 
 
+def _is_sections(x):
+    """A list of section dicts (reconstruct()'s sections in any orientation)."""
+    import collections.abc
+    return isinstance(x, (list, tuple)) and len(x) > 0 and isinstance(x[0], collections.abc.Mapping)
+
+
 def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
                 voxel_size=None, space=None, image_shape=None, method=None, labels=None, threads=None,
                 progress=None, allow_empty=False, volume=None, labelmap=None, reference=None, dump_stages=None,
@@ -238,6 +244,13 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
       it, with its options given here (input, z_spacing, slice_z,
       pixel_size, axis, roi, voxel_size, space, label_names); images and volumes keep
       their geometry: the meshes are in patient mm (LPS, or space="ras").
+    - sections in any orientation: a list of dicts {origin, u, v (3 numbers
+      each, world units; u, v orthonormal in-plane axes), contours: a list
+      of {points (N x 2 in-plane along u, v, or N x 3 world points on the
+      plane), label (default 1), hole (default False)}}; each label is one
+      object, the labels one partition (touching ones share their
+      boundary); the meshes are in the sections' world units. They need
+      method="field3d" (as a CSL file does).
     - an Input from read() or synth().
     method: isoloft (default), marker2006 or levin; labels: only these;
     threads: worker threads (default: all cores); progress(p) is called with
@@ -292,6 +305,11 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
         if given:
             raise ParamError(f"{given[0]}: the Input already holds its slices and geometry (give it to isoloft.read)")
         stack = slices
+    elif _is_sections(slices):
+        given = [n for n, v in read_options.items() if v is not None] + (["image_shape"] if image_shape else [])
+        if given:
+            raise ParamError(f"{given[0]}: sections carry their own poses and units (origin, u, v)")
+        stack = _isoloft._from_sections(slices)
     elif _is_path(slices) or _is_image(slices):
         if image_shape is not None:
             raise ParamError("image_shape: only with input='polylines' arrays")

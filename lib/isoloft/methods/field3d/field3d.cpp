@@ -8,6 +8,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/field3d/partition3d.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/methods/params.h"
 
@@ -47,18 +48,25 @@ ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructPa
   params_table<ReconstructParams>().validate(params);
   std::uint32_t label = 0;
   const std::vector<Section> sections = input_sections(in, label);
-  Field3dResult f = reconstruct_sections(sections, label, params.field3d);
   ReconstructResult r;
   ObjectResult ob;
-  ob.mesh = std::move(f.mesh);
-  ob.check = f.check;
+  if (in.partition && !in.sections.empty()) {  // the labels of one file as one partition
+    Partition3dObject p = in.partition->take(sections, label, params.field3d, r.times.interp);
+    ob.mesh = std::move(p.mesh);
+    ob.check = p.check;
+    r.warnings = std::move(p.warnings);
+  } else {
+    Field3dResult f = reconstruct_sections(sections, label, params.field3d);
+    ob.mesh = std::move(f.mesh);
+    ob.check = f.check;
+    r.times.interp = f.seconds;
+    r.warnings = std::move(f.warnings);
+  }
   ob.triangles_before_decimation = long(ob.mesh.triangles.size());
   ob.slices_with_contours = int(std::count_if(sections.begin(), sections.end(), [&](const Section& s) {
     return std::any_of(s.contours.begin(), s.contours.end(), [&](const SectionContour& c) { return c.label == label; });
   }));
   if (ob.mesh.empty()) ob.empty_reason = "the field3d field never rises above zero (no inside anywhere)";
-  r.times.interp = f.seconds;
-  r.warnings = std::move(f.warnings);
   r.objects.push_back(std::move(ob));
   return r;
 }
