@@ -209,7 +209,7 @@ PYBIND11_MODULE(_isoloft, m) {
   m.attr("_DEFAULT_MAX_FILES") = kDefaultMaxFiles;
   m.def("_read", &read_input, py::arg("paths"), py::arg("kind"), py::arg("z_spacing"), py::arg("slice_z"),
         py::arg("pixel_size"), py::arg("axis"), py::arg("rois"), py::arg("voxel_size"), py::arg("space"),
-        py::arg("max_memory"), py::arg("allow_external_data"), py::arg("label_names") = "");
+        py::arg("max_memory"), py::arg("allow_external_data"), py::arg("label_names") = "", py::arg("method") = "");
   m.def("_reconstruct", [](const PyInput& input, const py::dict& params, const std::vector<std::uint32_t>& labels,
                            std::optional<int> threads, const py::object& progress, bool allow_empty,
                            const std::string& volume, const std::string& labelmap, const std::string& dump_stages,

@@ -77,7 +77,8 @@ PyInput from_sections(const py::object& sections);
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
                    const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
-                   const std::string& max_memory, bool allow_external_data, const std::string& label_names);
+                   const std::string& max_memory, bool allow_external_data, const std::string& label_names,
+                   const std::string& method);
 
 // ---------------------------------------------------------------- runs and results (module_run.cpp)
 

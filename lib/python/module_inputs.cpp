@@ -10,6 +10,7 @@
 #include "isoloft/core/option_names.h"
 #include "isoloft/io/text.h"
 #include "isoloft/io/volume.h"
+#include "isoloft/methods/method.h"
 #include "python/module.h"
 
 namespace isoloft::python {
@@ -441,8 +442,13 @@ PyInput from_sections(const py::object& sections) {
 PyInput read_input(const std::vector<std::string>& paths, const std::string& kind, std::optional<double> z_spacing,
                    std::optional<std::vector<double>> slice_z, std::optional<double> pixel_size, const std::string& axis,
                    const std::vector<std::string>& rois, std::optional<double> voxel_size, const std::string& space,
-                   const std::string& max_memory, bool allow_external_data, const std::string& label_names) {
+                   const std::string& max_memory, bool allow_external_data, const std::string& label_names,
+                   const std::string& method) {
   InputRequest r;
+  if (!method.empty()) {
+    const MethodSpec& m = method_spec(method);  // an unknown name: the ParamError naming the known ones
+    r.any_plane = m.reads_sections;
+  }
   r.paths = paths;
   r.kind = kind;
   r.z_spacing = z_spacing;

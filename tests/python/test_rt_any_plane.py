@@ -144,3 +144,14 @@ def test_a_contour_off_its_plane_names_the_roi_and_the_contour(tmp_path, data_di
                     tmp_path / "c.ply", "-q")
     assert "ROI 'Heart' contour 1: not planar" in err, err
     assert not (tmp_path / "c.ply").exists()
+
+
+def test_python_reads_oblique_rt_contours_for_field3d(oblique):
+    import isoloft
+    res = isoloft.reconstruct(oblique, roi="Heart", method="field3d", **FIELD3D)
+    [ob] = res.objects
+    assert ob.roi == "Heart" and ob.report["closed"] and ob.report["euler_characteristic"] == 2, ob.report
+    r = np.linalg.norm(ob.vertices - CENTRE, axis=1)
+    assert r.max() < 1.1 * RADIUS and r.min() > 0.9 * RADIUS, (r.min(), r.max())
+    with pytest.raises(isoloft.InputError, match="ROI 'Heart' contour 0 lies on an oblique plane"):
+        isoloft.read(oblique, roi="Heart")

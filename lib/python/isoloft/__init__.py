@@ -170,7 +170,8 @@ def _image_volume(img):
 
 
 def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axis=None, roi=None,
-         voxel_size=None, space=None, max_memory=_BUDGET, allow_external_data=False, label_names=None):
+         voxel_size=None, space=None, max_memory=_BUDGET, allow_external_data=False, label_names=None,
+         method=None):
     """Reads what `isoloft reconstruct` reads, as an Input for reconstruct().
 
     path: a directory of PNG slices or a list of PNG files (input: contours,
@@ -186,6 +187,9 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
     label_names: a label volume's table of names (AAL .nii.txt, FreeSurfer
     LUT, 3D Slicer .ctbl, ITK-SNAP label descriptions), as the CLI's
     --label-names; default: such a table beside the volume file.
+    method: the method the Input is for, as reconstruct()'s; with one that
+    reads sections (field3d), an RT Structure Set's ROIs with contours on
+    oblique planes are read as sections on their own planes (else refused).
     """
     names = "" if label_names is None else _os.fsdecode(label_names)
     if _is_image(path):
@@ -207,7 +211,7 @@ def read(path, *, input=None, z_spacing=None, slice_z=None, pixel_size=None, axi
                           None if slice_z is None else [_number("slice_z", z) for z in slice_z],
                           _number("pixel_size", pixel_size), _text("axis", axis), _rois(roi),
                           _number("voxel_size", voxel_size), _text("space", space), str(max_memory),
-                          bool(allow_external_data), names)
+                          bool(allow_external_data), names, _text("method", method) or "")
 
 
 def synth(shape, *, size=128, z_spacing=8.0, kind="contours"):
@@ -313,7 +317,7 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
     elif _is_path(slices) or _is_image(slices):
         if image_shape is not None:
             raise ParamError("image_shape: only with input='polylines' arrays")
-        stack = read(slices, max_memory=max_memory, **read_options, **external)
+        stack = read(slices, max_memory=max_memory, method=method, **read_options, **external)
     else:
         given = [n for n in ("axis", "roi", "voxel_size", "space", "label_names") if read_options[n] is not None]
         if given:
