@@ -39,6 +39,8 @@ struct MethodInput {
   const SliceStack& stack;
   const std::vector<Section>& sections;
   std::uint32_t section_label = 0;
+  /// Label input: only these labels (ReconstructOptions::labels; empty = all).
+  std::vector<std::uint32_t> labels{};
 };
 
 /// A method: slices (or sections) to fields.
