@@ -84,11 +84,8 @@ int main(int argc, char** argv) {
       {"levin", Method::Levin, SplineKind::Monotone, false},
       {"isoloft track", Method::Isoloft, SplineKind::ExtremumPreserving, true, "track"},
       {"field3d", Method::Field3d, SplineKind::ExtremumPreserving, false},
-      {"field3d smooth-traced", Method::Field3d, SplineKind::ExtremumPreserving, false, "columns",
-       [](ReconstructParams& p) {
-         p.mask_curve.sigma = 1.5;
-         p.mask_curve.margin = 0.02;
-       }},
+      // Dropped (docs/decisions.md: label-image sections in field3d): a smoother
+      // traced boundary (mask_curve sigma 1.5, margin 0.02) lost input-slice Dice.
   };
   std::vector<Config> configs;
   for (const Config& c : all_configs)
