@@ -102,7 +102,6 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
   const double longest = ((hi - lo).array() + 2 * params.margin * (hi - lo).norm()).maxCoeff();
   const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
   params.resolution = std::clamp(needed, params.resolution, std::max(params.resolution, kMaxResolution));
-  params.band = std::max(params.band, kImageBand);
   return params;
 }
 

@@ -51,18 +51,14 @@ Section traced_section(const Section& section, std::uint32_t label, const MaskCu
 std::vector<Section> traced_sections(const std::vector<Section>& sections, std::uint32_t label,
                                      const MaskCurveParams& params = {});
 
-/// In-plane distances of pixel input are clamped to at least this many
-/// cells (a cell is a pixel, kImageCellsPerPixel): on the mask kit at 8:1,
-/// band 8 -> 32 took the torus's mean distance from 0.37 to 0.10 px and the
-/// ellipsoid's from 0.20 to 0.17 px (docs/decisions.md: label-image sections
-/// in field3d).
-inline constexpr double kImageBand = 32.0;
-
 /// `params` for pixel input: the resolution raised so that the solver's grid
 /// over `traced` (the box reconstruct_sections() builds around `label`'s
 /// contours) has at least kImageCellsPerPixel cells per `pixel_size` mm
-/// (at most the resolution row's limit, 1024), and the band raised to at
-/// least kImageBand; unchanged if `label` has no contour.
+/// (at most the resolution row's limit, 1024); unchanged if `label` has no
+/// contour. The band stays field3d.band: raising it to 32 cells lowered the
+/// mean distance on 12 of the kit's 18 rows but cost the branching
+/// cylinders at 4:1 its input-slice Dice (0.9804; docs/decisions.md:
+/// label-image sections in field3d).
 Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t label, double pixel_size,
                            Field3dParams params);
 
