@@ -2,23 +2,31 @@
 // ratio? Every shape of synth/shapes.h is cut at z ratios 4, 8, 16 into 1-pixel
 // contour images and reconstructed by marker2006 (default; without filter;
 // with each spline kind), by the Levin-style baseline and by the default
-// method with the track z scheme (interp/track.h). Each mesh is
+// method with the track z scheme (interp/track.h), and by field3d (one 3D
+// field from every slice, field3d/field3d.h; masks traced,
+// field3d/image_sections.h). With --kind masks the cuts are filled masks,
+// and each mesh's section on every input slice is compared with the drawn
+// mask (input-slice Dice, the least over the slices). Each mesh is
 // compared with the analytic surface by the validation oracles (two-sided
 // distances, Hausdorff interval, normal angle), inside the slice range (caps
 // are reported apart).
 //
 // usage: accuracy [--out DIR] [--size N] [--ratios 4,8,16] [--shapes a,b] [--configs a,b] [--threads N]
+//                 [--kind contours|masks]
 // writes DIR/accuracy.csv, DIR/accuracy.json, DIR/accuracy.md
 #include <tbb/global_control.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
+#include "isoloft/field3d/image_sections.h"
 #include "isoloft/pipeline.h"
 #include "isoloft/synth/synth.h"
 #include "experiment_util.h"
@@ -35,6 +43,7 @@ struct Config {
   SplineKind spline;
   bool filter;
   std::string z_scheme = "columns";
+  std::function<void(ReconstructParams&)> tweak = {};  ///< changes to the method's defaults
 };
 
 
@@ -45,6 +54,7 @@ int main(int argc, char** argv) {
   int size = 128, threads = 0;
   std::vector<double> ratios{4, 8, 16};
   std::vector<std::string> shapes = shape_names(), config_names;
+  InputKind kind = InputKind::Contours;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--out") out = v;
@@ -55,6 +65,7 @@ int main(int argc, char** argv) {
       for (const auto& r : experiments::split(v)) ratios.push_back(std::stod(r));
     } else if (a == "--shapes") shapes = experiments::split(v);
     else if (a == "--configs") config_names = experiments::split(v);
+    else if (a == "--kind") kind = enum_from_string<InputKind>(v, "--kind");
     else {
       std::cerr << "unknown option " << a << "\n";
       return 2;
@@ -72,6 +83,9 @@ int main(int argc, char** argv) {
       {"marker2006 linear", Method::Marker2006, SplineKind::Linear, true},
       {"levin", Method::Levin, SplineKind::Monotone, false},
       {"isoloft track", Method::Isoloft, SplineKind::ExtremumPreserving, true, "track"},
+      {"field3d", Method::Field3d, SplineKind::ExtremumPreserving, false},
+      // Dropped (docs/decisions.md: label-image sections in field3d): a smoother
+      // traced boundary (mask_curve sigma 1.5, margin 0.02) lost input-slice Dice.
   };
   std::vector<Config> configs;
   for (const Config& c : all_configs)
@@ -80,7 +94,8 @@ int main(int argc, char** argv) {
   fs::create_directories(out);
   std::ofstream csv(fs::path(out) / "accuracy.csv");
   csv << "shape,ratio,method,mean_two_sided_px,mean_mesh_to_truth_px,mean_truth_to_mesh_px,p99_mesh_to_truth_px,"
-         "hausdorff_lower_px,hausdorff_upper_px,normal_angle_deg,caps_mean_mesh_to_truth_px,triangles,seconds\n";
+         "hausdorff_lower_px,hausdorff_upper_px,normal_angle_deg,caps_mean_mesh_to_truth_px,triangles,seconds,"
+         "input_slice_dice_min,input_slice_dice_mean\n";
   nlohmann::json rows = nlohmann::json::array();
   std::map<std::string, std::map<std::string, std::string>> cells;  // row key -> method -> cell
   std::vector<std::string> row_keys;
@@ -89,6 +104,7 @@ int main(int argc, char** argv) {
       SynthParams sp;
       sp.size = size;
       sp.z_spacing = ratio;
+      sp.kind = kind;
       const SynthResult syn = synthesize(*make_default_shape(shape_name, size), sp);
       const double z0 = syn.stack.slices.front().z, z1 = syn.stack.slices.back().z;
       std::ostringstream key;
@@ -99,22 +115,41 @@ int main(int argc, char** argv) {
         p.interp.spline = c.spline;
         p.filter.enabled = c.filter;
         p.z_scheme = c.z_scheme;
+        if (c.tweak) c.tweak(p);
         const auto t0 = std::chrono::steady_clock::now();
         const ReconstructResult r = reconstruct(syn.stack, p);
         const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const TriMesh& mesh = r.objects.front().mesh;
         const TruthDistanceReport t = mesh_to_truth(mesh, *syn.shape, z0, z1);
+        // Masks: the mesh's section on every input slice against the drawn mask.
+        double dice_min = 1, dice_sum = 0;
+        if (kind == InputKind::Masks) {
+          for (const Slice& s : syn.stack.slices) {
+            PlanePose pose;
+            pose.origin = Vec3d(0, 0, s.z);
+            Grid2u8 drawn(s.image.width, s.image.height, 0);
+            for (std::size_t i = 0; i < drawn.size(); ++i) drawn.data[i] = s.image.data[i] > syn.stack.max_value / 2;
+            const double d = dice(section_pixels(mesh, pose, 1.0, drawn.width, drawn.height), drawn);
+            dice_min = std::min(dice_min, d);
+            dice_sum += d;
+          }
+        }
+        const double dice_mean = dice_sum / double(std::max<std::size_t>(1, syn.stack.slices.size()));
         const auto& in = t.in_range;
         const double two_sided = 0.5 * (in.mesh_to_truth.mean + in.truth_to_mesh.mean);
         const HausdorffInterval hin{std::max(in.mesh_to_truth.max.lower, in.truth_to_mesh.max.lower),
                                     std::max(in.mesh_to_truth.max.upper, in.truth_to_mesh.max.upper)};
         csv << shape_name << "," << ratio << "," << c.name << "," << two_sided << "," << in.mesh_to_truth.mean << ","
             << in.truth_to_mesh.mean << "," << in.mesh_to_truth.p99 << "," << hin.lower << "," << hin.upper << ","
-            << in.mean_normal_angle_deg << "," << t.caps.mesh_to_truth.mean << "," << mesh.triangles.size() << "," << secs << "\n";
+            << in.mean_normal_angle_deg << "," << t.caps.mesh_to_truth.mean << "," << mesh.triangles.size() << "," << secs
+            << "," << (kind == InputKind::Masks ? dice_min : NAN) << "," << (kind == InputKind::Masks ? dice_mean : NAN)
+            << "\n";
         rows.push_back({{"shape", shape_name}, {"ratio", ratio}, {"method", c.name}, {"seconds", secs}, {"report", t.to_json()}});
+        if (kind == InputKind::Masks) rows.back()["input_slice_dice_min"] = dice_min;
         std::ostringstream cell;
         cell << std::fixed << std::setprecision(3) << two_sided << " / " << std::setprecision(2) << hin.lower << " / "
              << std::setprecision(1) << in.mean_normal_angle_deg;
+        if (kind == InputKind::Masks) cell << " / " << std::setprecision(4) << dice_min;
         cells[key.str()][c.name] = cell.str();
         std::cerr << key.str() << " " << c.name << ": " << cell.str() << "\n";
       }
@@ -123,8 +158,10 @@ int main(int argc, char** argv) {
   std::ofstream(fs::path(out) / "accuracy.json") << nlohmann::json{{"size", size}, {"rows", rows}}.dump(1) << "\n";
   std::ofstream md(fs::path(out) / "accuracy.md");
   md << "Cells: mean two-sided distance (px) / Hausdorff distance, lower end of its interval (px) / area-weighted mean normal "
-        "angle (deg), inside the slice range. Input: "
-     << size << "x" << size << " 1-pixel contour images.\n\n| shape, ratio |";
+        "angle (deg), inside the slice range"
+     << (kind == InputKind::Masks ? " / input-slice Dice, the least over the input slices" : "") << ". Input: " << size
+     << "x" << size << (kind == InputKind::Masks ? " filled masks" : " 1-pixel contour images")
+     << ", slices every `ratio` px.\n\n| shape, ratio |";
   for (const auto& c : configs) md << " " << c.name << " |";
   md << "\n|---|";
   for (std::size_t i = 0; i < configs.size(); ++i) md << "---|";

@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Accuracy benchmark (validation issue): every analytic shape at z ratios 4, 8
-# and 16, marker2006 (default, no filter, each spline kind) vs levin, against
-# the analytic surface. Writes experiments/out/accuracy/ and copies the table
-# to paper/accuracy.md and paper/accuracy.csv.
+# and 16 as filled masks (KIND=contours: 1-pixel contour images), the default
+# method, marker2006, levin and field3d (CONFIGS: any of experiments/accuracy.cpp's),
+# against the analytic surface, with the input-slice Dice. Writes
+# experiments/out/accuracy/ and copies the table to paper/accuracy.md and
+# paper/accuracy.csv.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/setup.sh" --full
 OUT="$ROOT/experiments/out/accuracy"
-"$ROOT/build/experiments/accuracy" --out "$OUT" --size "${SIZE:-128}" --ratios 4,8,16 "$@"
+"$ROOT/build/experiments/accuracy" --out "$OUT" --size "${SIZE:-128}" --ratios 4,8,16 --kind "${KIND:-masks}" \
+  --configs "${CONFIGS:-isoloft,marker2006,levin,field3d}" "$@"
 {
   echo "# Accuracy on analytic shapes"
   echo

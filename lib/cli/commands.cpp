@@ -59,6 +59,8 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   R->add_option("--rt-contours", r_.rt_contours, "RT Structure Set out: write the per-contour report as .csv (each drawn contour: plane, areas drawn and written, distances, lost/merged/shrunk; sections nobody drew)");
   R->add_option("--volumes", r_.volumes, "Write the volume table (per object: name, number, volume, slab volume = contour area x spacing, area, planes, closed) as .csv or .json; RT Structure Sets also print it on stdout");
   R->add_option("--dump-stages", r_.dump_stages, "marker2006: write each slice's MPU field, distance, filtered distance, difference (NRRD) and points (CSV) here");
+  R->add_option("--annotated", r_.annotated, "Label volumes annotated along several axes (--method field3d): the annotated slices per voxel axis, e.g. 'k:10,20;i:50' (every voxel of those slices drawn; 0 = outside)");
+  R->add_option("--annotated-mask", r_.annotated_mask, "Label volumes annotated along several axes (--method field3d): a mask volume on the label volume's grid whose non-zero voxels mark the annotated slices (whole slices, any axis)");
   R->add_option("--label-names", r_.label_names, "Label volumes: the table naming the labels (AAL .nii.txt, FreeSurfer LUT, 3D Slicer .ctbl, ITK-SNAP label descriptions); default: such a table beside the volume (aal.nii.txt for aal.nii.gz)");
   R->add_option("--params", r_.params_file, "JSON file of parameters (see --print-params); flags override it");
   R->add_flag("--print-params", r_.print_params, "Print every parameter (defaults, --params and flags applied) as JSON with its unit, range and doc, and exit");

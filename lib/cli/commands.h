@@ -39,6 +39,7 @@ struct ReconstructArgs {
   bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
   bool allow_external_data = false;                  ///< --allow-external-data
   std::string label_names;                           ///< --label-names
+  std::string annotated, annotated_mask;             ///< --annotated, --annotated-mask
   CLI::Option *z_spacing_opt = nullptr, *pixel_size_opt = nullptr, *slice_z_opt = nullptr, *voxel_size_opt = nullptr;
 };
 

@@ -47,6 +47,8 @@ InputRequest input_request(const ReconstructArgs& a) {
   r.space = a.space;
   r.allow_external_data = a.allow_external_data;
   r.label_names = a.label_names;
+  r.annotated = a.annotated;
+  r.annotated_mask = a.annotated_mask;
   return r;
 }
 

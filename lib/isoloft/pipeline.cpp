@@ -190,7 +190,11 @@ ReconstructResult reconstruct_columns(const SliceStack& stack, const Reconstruct
 
 ReconstructResult reconstruct(const MethodInput& in, const ReconstructParams& params, const ReconstructOptions& options) {
   const MethodSpec* m = find_method(params.method.name());
-  if (m && m->reconstruct) return m->reconstruct(in, params);
+  if (m && m->reconstruct) {
+    MethodInput with_labels = in;
+    with_labels.labels = options.labels;
+    return m->reconstruct(with_labels, params);
+  }
   return reconstruct_columns(in.stack, params, options);
 }
 

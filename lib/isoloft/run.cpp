@@ -96,7 +96,16 @@ void check_method_reads_input(const Inputs& in, const ReconstructParams& params,
                      ": reads parallel slices; " + (in.format == InputFormat::Csl ? "a CSL file's" : "sections'") +
                      " planes at any angle need " +
                      option_given("--method", section_method_names()));
+  if (!in.jobs.empty() && !in.jobs.front().sections.empty() && !(m && m->reads_sections))
+    throw ParamError(option_name("--method") + " " + params.method.name() +
+                     ": reads parallel slices; a volume annotated along several axes needs " +
+                     option_given("--method", section_method_names()));
   if (!m || !m->reconstruct) return;
+  const bool annotated = in.format == InputFormat::Volume && !in.jobs.front().sections.empty();
+  for (const auto& out : o.outputs)
+    if (annotated && out->option() == "--rtstruct")
+      throw ParamError(option_name("--rtstruct") +
+                       ": not with a volume annotated along several axes (RT contours are written on axial slices)");
   for (const auto& out : o.outputs)
     if (const std::string opt = out->option(); opt == "--volume" || opt == "--labelmap" || opt == "--dump-stages")
       throw ParamError(option_name(opt) + ": not with " + option_given("--method", params.method.name()) +

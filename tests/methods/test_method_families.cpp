@@ -61,9 +61,11 @@ TEST(MethodFamilies, OwnFamilyRunsThePolygonStackAsParallelSections) {
   for (std::size_t i = 0; i < a.triangles.size(); ++i) EXPECT_EQ(a.triangles[i], b.triangles[i]) << "triangle " << i;
 }
 
-TEST(MethodFamilies, OwnFamilyRefusesImageStacks) {
+// Contour images (1-pixel curves) are refused; masks and labels are read
+// (tests/field3d/test_image_sections.cpp).
+TEST(MethodFamilies, OwnFamilyRefusesContourImageStacks) {
   SliceStack st;
-  st.kind = InputKind::Masks;
+  st.kind = InputKind::Contours;
   st.width = st.height = 8;
   EXPECT_THROW(reconstruct(st, method_defaults(Method::Field3d)), ParamError);
 }

@@ -43,6 +43,8 @@ struct MethodInput {
   /// The labels of `sections` as one partition, shared with the jobs of the
   /// other labels (field3d/partition3d.h); null: `section_label` alone.
   SharedPartition* partition = nullptr;
+  /// Label input: only these labels (ReconstructOptions::labels; empty = all).
+  std::vector<std::uint32_t> labels{};
 };
 
 /// A method: slices (or sections) to fields.

@@ -18,6 +18,7 @@
 #include "isoloft/io/rtstruct_sections.h"
 #include "isoloft/io/slice_images.h"
 #include "isoloft/io/text.h"
+#include "isoloft/io/volume_sections.h"
 #include "isoloft/run/budget.h"
 #include "isoloft/run/rtstruct_output.h"
 
@@ -145,7 +146,69 @@ void read_names(Inputs& in, const std::optional<std::string>& table, const Input
     throw ParamError(option_name("--label-names") + ": only with label input (" + option_given("--input", "labels") + ")");
 }
 
+// A label volume annotated along several axes: its annotated slices as
+// sections in patient mm (io/volume_sections.h), one job per label drawn on
+// some slice (as a CSL file's: the job's stack stays empty, a method that
+// reads sections reads them; meshes come out in patient mm).
+Inputs read_annotated_volume(const InputRequest& r) {
+  const std::string& path = r.paths[0];
+  reject(r.z_spacing || r.slice_z, "--z-spacing/--slice-z", "a volume carries its own voxel spacing");
+  reject(bool(r.pixel_size), "--pixel-size", "a volume carries its own voxel size");
+  const std::string flag = !r.annotated.empty() ? "--annotated" : "--annotated-mask";
+  reject(!r.annotated.empty() && !r.annotated_mask.empty(), "--annotated",
+         "give either " + option_name("--annotated") + " or " + option_name("--annotated-mask") + ", not both");
+  reject(!r.axis.empty(), "--axis", "not with " + option_name(flag) + " (the annotated slices may lie along every axis)");
+  reject(!r.kind.empty() && r.kind != "labels", "--input", "a volume annotated along several axes holds labels");
+  VolumeReadOptions ro;
+  ro.allow_external_data = r.allow_external_data;
+  std::vector<std::string> data_files;
+  ro.on_header = [&](const VolumeHeader& h) {
+    data_files = h.data_files;
+    const double voxels = double(h.nx) * double(h.ny) * double(h.nz);
+    check_budget(option_name("--max-memory"),
+                 "reading the " + std::to_string(h.nx) + "x" + std::to_string(h.ny) + "x" + std::to_string(h.nz) + " volume",
+                 voxels * double(h.sample_bytes + sizeof(float)), r.max_memory);
+  };
+  Inputs in;
+  in.volume = std::make_unique<Volume>(read_volume(path, ro));
+  in.data_files = std::move(data_files);
+  for (auto& w : in.volume->warnings) in.warnings.push_back(w);
+  detail::check_finite_voxels(*in.volume, path);
+  AnnotatedSlices slices;
+  if (!r.annotated.empty()) {
+    try {
+      slices = parse_annotated_slices(r.annotated, *in.volume);
+    } catch (const ParamError& e) {
+      throw ParamError(option_name("--annotated") + ": " + e.what());
+    }
+  } else {
+    detail::check_regular_file(r.annotated_mask);
+    const Volume mask = read_volume(r.annotated_mask, {.allow_external_data = r.allow_external_data});
+    slices = annotated_slices_from_mask(mask, *in.volume, r.annotated_mask);
+    in.data_files.push_back(r.annotated_mask);  // read with the input: no output may replace it
+  }
+  std::vector<Section> sections = label_volume_sections(*in.volume, slices, path);
+  std::vector<std::uint32_t> labels;
+  for (const Section& s : sections) labels.insert(labels.end(), s.labels.data.begin(), s.labels.data.end());
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  labels.erase(std::remove(labels.begin(), labels.end(), 0u), labels.end());
+  if (labels.empty()) throw InputError(path, "no annotated slice holds a label: nothing to reconstruct");
+  for (const std::uint32_t l : labels) {
+    Job job;
+    job.stack.kind = InputKind::Polylines;
+    job.stack.patient = PatientFrame{};  // the sections, and so the meshes, are in patient mm already
+    job.name = labels.size() > 1 ? "label" + std::to_string(l) : "";
+    job.sections = sections;
+    job.section_label = l;
+    in.jobs.push_back(std::move(job));
+  }
+  if (!r.label_names.empty()) in.label_names = read_label_names(r.label_names);
+  return in;
+}
+
 Inputs read_volume_input(const InputRequest& r) {
+  if (!r.annotated.empty() || !r.annotated_mask.empty()) return read_annotated_volume(r);
   const std::string& path = r.paths[0];
   const VolumeSlicing slicing = volume_slicing(r);
   VolumeReadOptions ro;
@@ -432,6 +495,8 @@ Inputs read_rtstruct_input(const InputRequest& r) {
 void check_request(InputFormat format, const InputRequest& r) {
   if (format != InputFormat::Volume) reject(!r.axis.empty(), "--axis", kVolumeInputOnly);
   if (format != InputFormat::Volume) reject(!r.label_names.empty(), "--label-names", kVolumeInputOnly);
+  if (format != InputFormat::Volume)
+    reject(!r.annotated.empty() || !r.annotated_mask.empty(), "--annotated/--annotated-mask", kAnnotatedVolumeOnly);
   if (format != InputFormat::RtStruct)
     reject(r.voxel_size || !r.rois.empty(), "--roi/--voxel-size", "only with a DICOM RT Structure Set input");
   if ((format == InputFormat::Images || format == InputFormat::Polylines || format == InputFormat::Csl) && !r.space.empty())

@@ -84,6 +84,11 @@ struct InputRequest {
   /// (MethodSpec::reads_sections), so a ROI with contours on oblique planes
   /// is read as sections (io/rtstruct_sections.h) instead of refused.
   bool any_plane = false;
+  /// Label volumes annotated along several axes (io/volume_sections.h): the
+  /// annotated slices ("k:10,20;i:50", --annotated) or a mask volume on the
+  /// same grid marking them (--annotated-mask); each job is then one label's
+  /// sections in patient mm (LPS), read by the methods that read sections.
+  std::string annotated, annotated_mask;
 };
 
 struct Inputs {
@@ -110,6 +115,9 @@ struct Inputs {
   /// One object per label value (InputKind::Labels).
   [[nodiscard]] bool labels() const { return first().kind == InputKind::Labels; }
 };
+
+/// Why --annotated / --annotated-mask cannot be used (an error's second half).
+inline constexpr const char* kAnnotatedVolumeOnly = "only with a label volume input (NIfTI, NRRD, MetaImage)";
 
 /// Why an option needs a volume input (an error's second half).
 inline constexpr const char* kVolumeInputOnly = "only with a volume input (NIfTI, NRRD, MetaImage)";

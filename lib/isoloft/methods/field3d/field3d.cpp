@@ -1,73 +1,148 @@
 // @file methods/field3d/field3d.cpp
 // @brief field3d: one smooth 3D field constrained by every drawn section, in
 // any orientation (the solver: field3d/field3d.h). It reads sections, not
-// slices: a CSL file's sections, or a polygon stack's slices as parallel
-// sections; it has no per-slice field, so it is a family of its own
-// (MethodSpec::reconstruct).
+// slices: a reader's sections (CSL; label images on any plane, traced), a
+// polygon stack's slices as parallel sections, or a mask or label stack's
+// slices as label-image sections traced to their sub-pixel boundary
+// (field3d/image_sections.h); it has no per-slice field, so it is a family of
+// its own (MethodSpec::reconstruct).
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/field3d/image_sections.h"
 #include "isoloft/field3d/partition3d.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/methods/params.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft {
 
 namespace {
 
-// The sections the method reads for one input, and the label it
-// reconstructs: the reader's own sections, or a polygon stack's slices as
-// parallel sections (working pixels, normal +z; even-odd nesting as the stack).
-std::vector<Section> input_sections(const MethodInput& in, std::uint32_t& label) {
-  if (!in.sections.empty()) {
-    label = in.section_label;
-    return in.sections;
-  }
-  const SliceStack& st = in.stack;
-  if (!st.has_polygons())
-    throw ParamError(option_given("--method", "field3d") +
-                     ": reads drawn polygons (CSL, RT Structure Sets, polyline files); image and volume input "
-                     "need another method");
-  label = 1;
-  std::vector<Section> out;
+/// One object's sections as the solver reads them (polylines only), with
+/// the label it reconstructs and the finest pixel of its image sections (0: none).
+struct ObjectSections {
+  std::uint32_t label = 0;  ///< the solver's label
+  std::uint32_t object = 0; ///< ObjectResult::label (0: the one object of a mask or polygon stack)
+  std::vector<Section> sections;
+  double pixel = 0;
+};
+
+bool asked_for(const MethodInput& in, std::uint32_t label) {
+  return in.labels.empty() || std::find(in.labels.begin(), in.labels.end(), label) != in.labels.end();
+}
+
+// A polygon stack's slices as parallel sections (working pixels, normal +z;
+// even-odd nesting as the stack).
+ObjectSections polygon_stack_sections(const SliceStack& st) {
+  ObjectSections o{1, 0, {}, 0};
   for (const Slice& s : st.slices) {
     Section sec;
     sec.pose.origin = Vec3d(0, 0, s.z);
     sec.source = s.source;
-    for (const Polygon& p : s.polygons) sec.contours.push_back({p.points, label, false});
-    out.push_back(std::move(sec));
+    for (const Polygon& p : s.polygons) sec.contours.push_back({p.points, o.label, false});
+    o.sections.push_back(std::move(sec));
   }
+  return o;
+}
+
+// A mask or label stack's slices as label-image sections (working pixels,
+// normal +z), each traced per label: one object per label (masks: one).
+std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const ReconstructParams& params) {
+  const SliceStack& st = in.stack;
+  if (st.kind == InputKind::Contours)
+    throw ParamError(option_given("--method", "field3d") +
+                     ": reads masks, label images, label volumes and drawn polygons; contour images need " +
+                     option_given("--input", "masks") + " (filled regions) or another method");
+  const bool labels = st.kind == InputKind::Labels;
+  params_table<MaskCurveParams>().validate(params.mask_curve);
+  // Per slice, per label: its traced loops.
+  std::vector<std::map<std::uint32_t, std::vector<std::vector<Vec2d>>>> loops(st.slices.size());
+  tbb::parallel_for(std::size_t(0), st.slices.size(), [&](std::size_t k) {
+    Slice s = st.slices[k];
+    if (st.load_image) s.image = st.load_image(k);
+    if (!labels) {
+      loops[k][1] = traced_loops(detail::slice_masks(st, s, params, 1).inside, params.mask_curve);
+      return;
+    }
+    std::vector<std::uint32_t> present(s.image.data.begin(), s.image.data.end());
+    std::sort(present.begin(), present.end());
+    present.erase(std::unique(present.begin(), present.end()), present.end());
+    Grid2u8 inside(s.image.width, s.image.height, 0);
+    for (const std::uint32_t l : present) {
+      if (l == 0 || !asked_for(in, l)) continue;
+      for (std::size_t i = 0; i < inside.size(); ++i) inside.data[i] = s.image.data[i] == l;
+      loops[k][l] = traced_loops(inside, params.mask_curve);
+    }
+  });
+  std::map<std::uint32_t, ObjectSections> objects;
+  for (const auto& per : loops)
+    for (const auto& [l, ls] : per)
+      if (!ls.empty()) objects.emplace(l, ObjectSections{l, labels ? l : 0, {}, 1.0});
+  for (auto& [l, o] : objects)
+    for (std::size_t k = 0; k < st.slices.size(); ++k) {
+      Section sec;
+      sec.pose.origin = Vec3d(0, 0, st.slices[k].z);
+      sec.source = st.slices[k].source;
+      if (const auto it = loops[k].find(l); it != loops[k].end())
+        for (const auto& loop : it->second) sec.contours.push_back({loop, l, false});
+      o.sections.push_back(std::move(sec));
+    }
+  std::vector<ObjectSections> out;
+  for (auto& [l, o] : objects) out.push_back(std::move(o));
   return out;
 }
 
-// Its mesh as the one object (world units for CSL, working pixels for a
+// The objects the method reconstructs for one input: the reader's sections
+// (label images traced), or the stack's slices as sections.
+std::vector<ObjectSections> input_objects(const MethodInput& in, const ReconstructParams& params) {
+  if (!in.sections.empty()) {
+    ObjectSections o{in.section_label, in.section_label, traced_sections(in.sections, in.section_label, params.mask_curve), 0};
+    double pixel = std::numeric_limits<double>::infinity();
+    for (const Section& s : in.sections)
+      if (s.is_image()) pixel = std::min(pixel, s.pixel_size);
+    o.pixel = std::isfinite(pixel) ? pixel : 0.0;
+    return {std::move(o)};
+  }
+  if (in.stack.has_polygons()) return {polygon_stack_sections(in.stack)};
+  return image_stack_sections(in, params);
+}
+
+// Every object's mesh (world units for sections, working pixels for a
 // stack); no decimation (its bound is in the stack's pixels, which a CSL file
 // does not have).
 ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructParams& params) {
   params_table<ReconstructParams>().validate(params);
-  std::uint32_t label = 0;
-  const std::vector<Section> sections = input_sections(in, label);
   ReconstructResult r;
-  ObjectResult ob;
-  if (in.partition && !in.sections.empty()) {  // the labels of one file as one partition
-    Partition3dObject p = in.partition->take(sections, label, params.field3d, r.times.interp);
-    ob.mesh = std::move(p.mesh);
-    ob.check = p.check;
-    r.warnings = std::move(p.warnings);
-  } else {
-    Field3dResult f = reconstruct_sections(sections, label, params.field3d);
-    ob.mesh = std::move(f.mesh);
-    ob.check = f.check;
-    r.times.interp = f.seconds;
-    r.warnings = std::move(f.warnings);
+  for (const ObjectSections& o : input_objects(in, params)) {
+    const Field3dParams fp = o.pixel > 0 ? pixel_params(o.sections, o.label, o.pixel, params.field3d) : params.field3d;
+    ObjectResult ob;
+    ob.label = o.object;
+    if (in.partition && !in.sections.empty()) {  // the labels of one input as one partition
+      Partition3dObject p = in.partition->take(o.sections, o.label, fp, r.times.interp);
+      ob.mesh = std::move(p.mesh);
+      ob.check = p.check;
+      for (auto& w : p.warnings) r.warnings.push_back(std::move(w));
+    } else {
+      Field3dResult f = reconstruct_sections(o.sections, o.label, fp);
+      ob.mesh = std::move(f.mesh);
+      ob.check = f.check;
+      r.times.interp += f.seconds;
+      for (auto& w : f.warnings) r.warnings.push_back(std::move(w));
+    }
+    ob.triangles_before_decimation = long(ob.mesh.triangles.size());
+    ob.slices_with_contours = int(std::count_if(o.sections.begin(), o.sections.end(), [&](const Section& s) {
+      return std::any_of(s.contours.begin(), s.contours.end(), [&](const SectionContour& c) { return c.label == o.label; });
+    }));
+    if (ob.mesh.empty()) ob.empty_reason = "the field3d field never rises above zero (no inside anywhere)";
+    r.objects.push_back(std::move(ob));
   }
-  ob.triangles_before_decimation = long(ob.mesh.triangles.size());
-  ob.slices_with_contours = int(std::count_if(sections.begin(), sections.end(), [&](const Section& s) {
-    return std::any_of(s.contours.begin(), s.contours.end(), [&](const SectionContour& c) { return c.label == label; });
-  }));
-  if (ob.mesh.empty()) ob.empty_reason = "the field3d field never rises above zero (no inside anywhere)";
-  r.objects.push_back(std::move(ob));
   return r;
 }
 
@@ -77,9 +152,10 @@ MethodSpec field3d_method() {
   return {
       .name = "field3d",
       .doc = "one smooth 3D field from every drawn section in any orientation (bi-Laplacian energy, the in-plane "
-             "distances on every plane; CSL, RT Structure Sets and polyline files; docs/decisions.md)",
+             "distances on every plane; CSL, RT Structure Sets, polyline files, masks and labels traced to their "
+             "sub-pixel boundary; docs/decisions.md)",
       .defaults = [](ReconstructParams&) {},
-      .rows = {"field3d."},
+      .rows = {"field3d.", "mask_curve."},
       .fits_curves = false,
       .slice_field = {},
       .reconstruct = reconstruct_field3d,

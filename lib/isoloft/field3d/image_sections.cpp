@@ -1,0 +1,131 @@
+// @file field3d/image_sections.cpp
+// @brief Label images to traced polylines (clamped smoothed mask, marching
+// squares with saddles joining the inside, segments chained into loops) and
+// the grid resolution of pixel input.
+#include "isoloft/field3d/image_sections.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "isoloft/core/error.h"
+#include "isoloft/contour/rasterize.h"
+#include "isoloft/field/narrow_band.h"
+#include "isoloft/mesh/plane_cut.h"
+
+namespace isoloft {
+
+namespace {
+
+/// Outside pixels added around the image: one closes every loop (the curve
+/// crosses between the last image pixel and the pad); two keep the
+/// smoothing's reach (sigma 0.7 px) the same as beyond-the-grid zeros.
+constexpr int kPad = 2;
+
+/// Largest field3d.resolution its row accepts (field3d/field3d.h).
+constexpr int kMaxResolution = 1024;
+
+}  // namespace
+
+std::vector<std::vector<Vec2d>> traced_loops(const Grid2u8& inside, const MaskCurveParams& params) {
+  std::vector<std::vector<Vec2d>> loops;
+  if (std::none_of(inside.data.begin(), inside.data.end(), [](std::uint8_t v) { return v != 0; })) return loops;
+  Grid2u8 padded(inside.width + 2 * kPad, inside.height + 2 * kPad, 0);
+  for (int y = 0; y < inside.height; ++y)
+    for (int x = 0; x < inside.width; ++x) padded(x + kPad, y + kPad) = inside(x, y) != 0;
+  const Grid2f f = clamped_smoothed_mask(padded, params);
+  // Linear vertices (each between its inside and outside pixel centre), saddles joining the inside.
+  const detail::ZeroSet zs = detail::marching_squares(f, [](const Vec2d&) { return 1.0; }, 0, 1);
+  std::vector<std::uint8_t> used(zs.segments.size(), 0);
+  const Vec2d shift(kPad, kPad);
+  for (std::size_t s0 = 0; s0 < zs.segments.size(); ++s0) {
+    if (used[s0]) continue;
+    std::vector<Vec2d> loop{zs.segments[s0][0] - shift};
+    used[s0] = 1;
+    // Walk from end 1 of s0; each next segment is entered at the end equal to the point reached.
+    Vec2d at = zs.segments[s0][1];
+    std::int32_t k = zs.links[s0][1];
+    while (k >= 0 && !used[std::size_t(k)]) {
+      loop.push_back(at - shift);
+      used[std::size_t(k)] = 1;
+      const auto& sg = zs.segments[std::size_t(k)];
+      const int enter = sg[0] == at ? 0 : 1;
+      at = sg[1 - enter];
+      k = zs.links[std::size_t(k)][1 - enter];
+    }
+    if (loop.size() >= 3) loops.push_back(std::move(loop));
+  }
+  return loops;
+}
+
+Section traced_section(const Section& section, std::uint32_t label, const MaskCurveParams& params) {
+  if (!section.is_image()) return section;
+  if (!(section.pixel_size > 0) || !std::isfinite(section.pixel_size))
+    throw InputError(section.source, "the label image's pixel size is not positive and finite");
+  Section out;
+  out.pose = section.pose;
+  out.source = section.source;
+  Grid2u8 inside(section.labels.width, section.labels.height, 0);
+  for (std::size_t i = 0; i < inside.size(); ++i) inside.data[i] = section.labels.data[i] == label;
+  for (auto& loop : traced_loops(inside, params)) {
+    for (Vec2d& p : loop) p *= section.pixel_size;
+    out.contours.push_back({std::move(loop), label, false});
+  }
+  return out;
+}
+
+std::vector<Section> traced_sections(const std::vector<Section>& sections, std::uint32_t label,
+                                     const MaskCurveParams& params) {
+  params_table<MaskCurveParams>().validate(params);
+  std::vector<Section> out(sections.size());
+  tbb::parallel_for(std::size_t(0), sections.size(),
+                    [&](std::size_t i) { out[i] = traced_section(sections[i], label, params); });
+  return out;
+}
+
+Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t label, double pixel_size,
+                           Field3dParams params) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Vec3d lo = Vec3d::Constant(kInf), hi = Vec3d::Constant(-kInf);
+  for (const Section& s : traced)
+    for (const SectionContour& c : s.contours)
+      if (c.label == label)
+        for (const Vec2d& p : c.points) {
+          const Vec3d w = s.pose.to_world(p);
+          lo = lo.cwiseMin(w);
+          hi = hi.cwiseMax(w);
+        }
+  if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params;
+  // The box as reconstruct_sections() sizes it: the contours' extent plus the margin on each side.
+  const double longest = ((hi - lo).array() + 2 * params.margin * (hi - lo).norm()).maxCoeff();
+  const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
+  params.resolution = std::clamp(needed, params.resolution, std::max(params.resolution, kMaxResolution));
+  return params;
+}
+
+Grid2u8 section_pixels(const TriMesh& mesh, const PlanePose& pose, double pixel_size, int width, int height) {
+  // The mesh in the plane's frame (pixels along u and v, mm along the
+  // normal), cut at height 0 with vertices on the plane counted above it.
+  TriMesh local = mesh;
+  const Vec3d n = pose.normal();
+  for (Vec3f& v : local.vertices) {
+    const Vec3d d = v.cast<double>() - pose.origin;
+    v = Vec3d(d.dot(pose.u) / pixel_size, d.dot(pose.v) / pixel_size, d.dot(n)).cast<float>();
+  }
+  std::vector<Polygon> loops;
+  for (auto& l : cut_mesh(local, 0.0)) loops.push_back({std::move(l)});
+  return even_odd_inside(loops, width, height);
+}
+
+double dice(const Grid2u8& a, const Grid2u8& b) {
+  long both = 0, sum = 0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    both += a.data[i] && b.data[i];
+    sum += (a.data[i] != 0) + (b.data[i] != 0);
+  }
+  return sum > 0 ? 2.0 * double(both) / double(sum) : 1.0;
+}
+
+}  // namespace isoloft

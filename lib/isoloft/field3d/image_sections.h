@@ -1,0 +1,77 @@
+// @file field3d/image_sections.h
+// @brief Label-image sections as the polyline sections field3d's solver
+// reads (issue 35 item 2, pixel input): per label, the traced sub-pixel
+// boundary of its pixels (contour/mask_curve.h, the default method's) as
+// closed in-plane polylines. The solver then puts f = 0 samples on that
+// boundary and the clamped in-plane signed distance to it over the whole
+// plane, so the boundary between pixels of different labels is where the
+// surface passes and inside/outside is known everywhere on the plane.
+// Every traced vertex lies strictly between an inside and an outside pixel
+// centre, so the polylines' even-odd inside holds exactly the label's
+// pixel centres.
+// Units: in-plane millimetres (Section::pixel_size per pixel).
+// @warning A label absent from an image section leaves it without contours:
+// the solver then takes the whole plane as outside (what the image says).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "isoloft/contour/mask_curve.h"
+#include "isoloft/core/grid.h"
+#include "isoloft/core/mesh.h"
+#include "isoloft/core/section.h"
+#include "isoloft/field3d/field3d.h"
+
+namespace isoloft {
+
+/// The grid of a pixel input is at least this many cells per pixel along
+/// each axis (the finest pixel of all sections): the traced boundary lies
+/// within a pixel of the centres it separates, so the trilinear field needs
+/// cells no larger than a pixel to follow it; with one cell per pixel the
+/// surface drew every input pixel of the analytic mask kit (input-slice
+/// Dice 1.0000 on all 18 rows, docs/decisions.md: label-image sections in
+/// field3d). Coarser grids were not measured.
+inline constexpr double kImageCellsPerPixel = 1.0;
+
+/// The traced boundary of `inside` (1 = inside) as closed polylines in
+/// pixel units (pixel (x, y)'s centre at (x, y)), inside by even-odd
+/// nesting; beyond the image everything is outside, so every loop closes.
+/// \throw ParamError for MaskCurveParams out of range.
+/// @warning An empty mask gives no loop.
+std::vector<std::vector<Vec2d>> traced_loops(const Grid2u8& inside, const MaskCurveParams& params = {});
+
+/// `section` with its label image replaced by the traced boundary of
+/// `label`'s pixels (in-plane mm, label `label`, even-odd); a polyline
+/// section is returned as it is.
+/// \throw InputError naming Section::source for a pixel size that is not
+///        positive and finite.
+Section traced_section(const Section& section, std::uint32_t label, const MaskCurveParams& params = {});
+
+/// Every section through traced_section(), side by side.
+std::vector<Section> traced_sections(const std::vector<Section>& sections, std::uint32_t label,
+                                     const MaskCurveParams& params = {});
+
+/// `params` for pixel input: the resolution raised so that the solver's grid
+/// over `traced` (the box reconstruct_sections() builds around `label`'s
+/// contours) has at least kImageCellsPerPixel cells per `pixel_size` mm
+/// (at most the resolution row's limit, 1024); unchanged if `label` has no
+/// contour. The band stays field3d.band: raising it to 32 cells lowered the
+/// mean distance on 12 of the kit's 18 rows but cost the branching
+/// cylinders at 4:1 its input-slice Dice (0.9804; docs/decisions.md:
+/// label-image sections in field3d).
+Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t label, double pixel_size,
+                           Field3dParams params);
+
+/// The pixels of a `width` x `height` image on `pose` (pixel (x, y)'s centre
+/// at pose.to_world({x pixel_size, y pixel_size})) whose centres lie inside
+/// the closed mesh's section by that plane (mesh/plane_cut.h cut_mesh, then
+/// the even-odd rule): what the surface draws on an input section, to
+/// compare with the drawn pixels.
+/// @warning An open mesh's chains are dropped (cut_mesh): no meaning then.
+Grid2u8 section_pixels(const TriMesh& mesh, const PlanePose& pose, double pixel_size, int width, int height);
+
+/// Dice 2 |a and b| / (|a| + |b|) of two masks of one size (1 when both are empty).
+double dice(const Grid2u8& a, const Grid2u8& b);
+
+}  // namespace isoloft

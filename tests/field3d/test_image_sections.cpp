@@ -1,0 +1,191 @@
+// @file tests/field3d/test_image_sections.cpp
+// @brief Label-image sections in field3d (field3d/image_sections.h): the
+// traced loops hold exactly the drawn pixels; an analytic torus given as
+// label images on three orthogonal axes comes back one closed surface of
+// genus 1 whose section on every input plane draws the input's pixels; the
+// method reads mask and label stacks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "isoloft/contour/rasterize.h"
+#include "isoloft/core/error.h"
+#include "isoloft/field3d/image_sections.h"
+#include "isoloft/methods/params.h"
+#include "isoloft/pipeline.h"
+#include "isoloft/synth/shapes.h"
+
+namespace isoloft {
+namespace {
+
+/// The pixel-fidelity target: the surface's section on each input
+/// plane stays inside each drawn pixel's band, input-slice Dice >= 0.999.
+constexpr double kMinInputDice = 0.999;
+
+/// The even-odd inside of loops at the pixel centres of a width x height image.
+Grid2u8 loops_inside(const std::vector<std::vector<Vec2d>>& loops, int width, int height) {
+  std::vector<Polygon> polys;
+  for (const auto& l : loops) polys.push_back({l});
+  return even_odd_inside(polys, width, height);
+}
+
+void expect_same_pixels(const Grid2u8& got, const Grid2u8& want, const std::string& what) {
+  ASSERT_EQ(got.width, want.width);
+  ASSERT_EQ(got.height, want.height);
+  for (int y = 0; y < want.height; ++y)
+    for (int x = 0; x < want.width; ++x)
+      ASSERT_EQ(got(x, y) != 0, want(x, y) != 0) << what << ": pixel (" << x << ", " << y << ")";
+}
+
+// A ring (a hole), a one-pixel island, a diagonal line and a region touching
+// the image's edge: the loops' even-odd inside is exactly the mask.
+TEST(ImageSections, TracedLoopsHoldExactlyTheDrawnPixels) {
+  Grid2u8 m(40, 30, 0);
+  for (int y = 0; y < m.height; ++y)
+    for (int x = 0; x < m.width; ++x) {
+      const double r = std::hypot(x - 12.0, y - 12.0);
+      m(x, y) = (r <= 9 && r >= 4) || (x >= 34 && y >= 20);  // ring, and a corner block on the edge
+    }
+  m(25, 5) = 1;  // island
+  for (int k = 0; k < 6; ++k) m(26 + k, 8 + k) = 1;  // diagonal line (8-connected)
+  const auto loops = traced_loops(m);
+  // Ring: 2 loops; corner block, island, diagonal: 1 each.
+  EXPECT_EQ(loops.size(), 5u);
+  expect_same_pixels(loops_inside(loops, m.width, m.height), m, "traced loops");
+}
+
+TEST(ImageSections, EmptyMaskHasNoLoop) { EXPECT_TRUE(traced_loops(Grid2u8(8, 8, 0)).empty()); }
+
+// Two touching labels: each label's section holds its own pixels, in mm.
+TEST(ImageSections, TracedSectionIsPerLabelInMillimetres) {
+  Section s;
+  s.labels = Grid2u32(20, 10, 0);
+  for (int y = 2; y < 8; ++y)
+    for (int x = 2; x < 18; ++x) s.labels(x, y) = x < 10 ? 3 : 5;
+  s.pixel_size = 0.5;
+  s.source = "labels.nrrd, slice k=4";
+  for (const std::uint32_t l : {3u, 5u}) {
+    const Section t = traced_section(s, l);
+    EXPECT_FALSE(t.is_image());
+    EXPECT_EQ(t.source, s.source);
+    std::vector<std::vector<Vec2d>> px;
+    for (const SectionContour& c : t.contours) {
+      EXPECT_EQ(c.label, l);
+      px.push_back(c.points);
+      for (Vec2d& p : px.back()) p /= s.pixel_size;
+    }
+    Grid2u8 want(20, 10, 0);
+    for (std::size_t i = 0; i < want.size(); ++i) want.data[i] = s.labels.data[i] == l;
+    expect_same_pixels(loops_inside(px, 20, 10), want, "label " + std::to_string(l));
+  }
+  s.pixel_size = 0;
+  EXPECT_THROW(traced_section(s, 3), InputError);
+}
+
+/// A torus (major radius 14 px, tube 6 px, axis z) in a 48^3 px label
+/// volume, cut into label images along all three axes.
+struct TorusCuts {
+  static constexpr int kSize = 48;
+  std::unique_ptr<Shape> shape =
+      shape_from_json({{"type", "torus"}, {"center", {23.6, 23.3, 23.8}}, {"major_radius", 14}, {"minor_radius", 6}});
+  std::vector<Section> sections;
+  std::vector<Grid2u8> drawn;  ///< per section, label 1's pixels
+
+  void cut(int axis, int index) {
+    Section s;
+    s.pixel_size = 1;
+    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;  // volume_sections.h's in-plane axes
+    s.pose.origin = Vec3d::Zero();
+    s.pose.origin[axis] = index;
+    s.pose.u = Vec3d::Unit(a1);
+    s.pose.v = Vec3d::Unit(a2);
+    s.labels = Grid2u32(kSize, kSize, 0);
+    Grid2u8 d(kSize, kSize, 0);
+    for (int y = 0; y < kSize; ++y)
+      for (int x = 0; x < kSize; ++x) d(x, y) = s.labels(x, y) = shape->value(s.pose.to_world({x, y})) > 0 ? 1 : 0;
+    s.source = "torus, slice " + std::string(1, "ijk"[axis]) + "=" + std::to_string(index);
+    sections.push_back(std::move(s));
+    drawn.push_back(std::move(d));
+  }
+};
+
+// The torus annotated on 3 axial slices and 2 each along i and j (ITK's
+// axis = -1 use): one closed surface of genus 1, drawing every input slice's
+// pixels (Dice >= 0.999), near the torus.
+TEST(ImageSections, TorusAnnotatedAlongThreeAxes) {
+  TorusCuts t;
+  for (const int k : {20, 24, 28}) t.cut(2, k);
+  for (const int i : {14, 33}) t.cut(0, i);
+  for (const int j : {10, 24}) t.cut(1, j);
+  const std::vector<Section> traced = traced_sections(t.sections, 1);
+  const Field3dParams fp = pixel_params(traced, 1, 1.0, Field3dParams{});
+  EXPECT_GE(fp.resolution, 40);  // the torus spans 40 px: at least a cell per pixel
+  const Field3dResult r = reconstruct_sections(traced, 1, fp);
+  EXPECT_TRUE(r.check.closed);
+  EXPECT_TRUE(r.check.oriented);
+  EXPECT_TRUE(r.check.manifold);
+  EXPECT_EQ(r.check.components, 1);
+  EXPECT_EQ((2 - r.check.euler) / 2, 1);
+  for (std::size_t i = 0; i < t.sections.size(); ++i) {
+    const Section& s = t.sections[i];
+    const double d = dice(section_pixels(r.mesh, s.pose, s.pixel_size, TorusCuts::kSize, TorusCuts::kSize), t.drawn[i]);
+    EXPECT_GE(d, kMinInputDice) << "section " << i << " (" << s.source << ")";
+  }
+}
+
+/// A sphere of radius 16 px as a mask stack every 4 px, through reconstruct().
+SliceStack sphere_stack(InputKind kind, std::uint32_t value) {
+  SliceStack st;
+  st.width = st.height = 48;
+  st.kind = kind;
+  st.max_value = kind == InputKind::Labels ? 0xFFFFFFFFu : 255;
+  const Vec3d c(23.4, 23.7, 17.9);
+  for (int k = 0; k < 10; ++k) {
+    Slice s;
+    s.z = 4.0 * k;
+    s.image = Grid2u32(48, 48, 0);
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 48; ++x) s.image(x, y) = (Vec3d(x, y, s.z) - c).norm() < 16 ? value : 0;
+    s.source = "slice" + std::to_string(k) + ".png";
+    st.slices.push_back(std::move(s));
+  }
+  return st;
+}
+
+// A mask stack and a label stack through the method: one closed object, the
+// label kept, every input slice's pixels drawn.
+TEST(ImageSections, MethodReadsMaskAndLabelStacks) {
+  for (const auto& [kind, value] : {std::pair{InputKind::Masks, 255u}, std::pair{InputKind::Labels, 7u}}) {
+    const SliceStack st = sphere_stack(kind, value);
+    const ReconstructResult r = reconstruct(st, method_defaults(Method::Field3d));
+    ASSERT_EQ(r.objects.size(), 1u);
+    const ObjectResult& ob = r.objects[0];
+    EXPECT_EQ(ob.label, kind == InputKind::Labels ? 7u : 0u);
+    EXPECT_TRUE(ob.check.closed);
+    EXPECT_EQ(ob.check.components, 1);
+    EXPECT_EQ(ob.slices_with_contours, 8);  // z = 0 and 36 lie beyond the sphere (centre 17.9, radius 16)
+    for (std::size_t k = 0; k < st.slices.size(); ++k) {
+      PlanePose pose;
+      pose.origin = Vec3d(0, 0, st.slices[k].z);
+      Grid2u8 want(48, 48, 0);
+      for (std::size_t i = 0; i < want.size(); ++i) want.data[i] = st.slices[k].image.data[i] != 0;
+      EXPECT_GE(dice(section_pixels(ob.mesh, pose, 1.0, 48, 48), want), kMinInputDice) << "slice " << k;
+    }
+  }
+}
+
+// Contour images are refused by name (their inside is the even-odd fill of
+// 1-pixel curves, not drawn pixels).
+TEST(ImageSections, MethodRefusesContourImages) {
+  SliceStack st = sphere_stack(InputKind::Masks, 255);
+  st.kind = InputKind::Contours;
+  try {
+    reconstruct(st, method_defaults(Method::Field3d));
+    FAIL() << "contour images accepted";
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("--input masks"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace isoloft
