@@ -13,7 +13,9 @@
 // With --csl FILE --ref MESH (the CSL reader, io/csl.h): the same against a reference mesh.
 //
 // usage: field3d_kit [--out FILE.csv] [--threads N] [--resolution R] [--smoothness S] [--contour-weight W]
-//                    [--band B] [--csl FILE --ref MESH --name NAME [--allow-self-intersections]]
+//                    [--band B] [--plane-weight P] [--refinement R] [--refine-width W] [--reweight-passes P] [--reweight-factor F]
+//                    [--reweight-tolerance T] [--no-prune]
+//                    [--csl FILE --ref MESH --name NAME [--allow-self-intersections] [--write MESH]]
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -80,17 +82,22 @@ Score score(const std::vector<double>& ab, const std::vector<double>& ba, double
 
 void header(std::ostream& os) {
   os << "shape,set,planes,chamfer,hausdorff,plane_max,components,genus,closed,iterations,residual,grid,seconds,"
-        "conflicts\n";
+        "conflicts,band_unknowns,band_iterations,reweighted,pruned,mesh_to_drawn,drawn_to_mesh\n";
 }
 
 void row(std::ostream& os, const std::string& shape, const std::string& set, std::size_t planes, const Score& s,
          const Field3dResult& r, double diag) {
-  double pm = 0;
-  for (const auto& p : r.planes) pm = std::max(pm, p.max());
+  double pm = 0, md = 0, dm = 0;
+  for (const auto& p : r.planes) {
+    pm = std::max(pm, p.max());
+    md = std::max(md, p.mesh_to_drawn);
+    dm = std::max(dm, p.drawn_to_mesh);
+  }
   os << shape << ',' << set << ',' << planes << ',' << std::setprecision(5) << s.chamfer << ',' << s.hausdorff << ','
      << pm / diag << ',' << r.check.components << ',' << (2 - r.check.euler) / 2 << ',' << r.check.closed << ','
      << r.iterations << ',' << r.residual << ',' << r.nx << 'x' << r.ny << 'x' << r.nz << ',' << r.seconds << ','
-     << r.conflicts.size() << '\n';
+     << r.conflicts.size() << ',' << r.band_unknowns << ',' << r.band_iterations << ',' << r.reweighted << ','
+     << r.pruned_components << ',' << md / diag << ',' << dm / diag << '\n';
   os.flush();
 }
 
@@ -98,7 +105,7 @@ void row(std::ostream& os, const std::string& shape, const std::string& set, std
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string out = "field3d_kit.csv", csl, ref, name;
+  std::string out = "field3d_kit.csv", csl, ref, name, mesh_out;
   int threads = 2;
   Field3dParams params;
   CslParams csl_params;
@@ -114,6 +121,14 @@ int main(int argc, char** argv) {
     else if (a == "--smoothness") params.smoothness = std::stod(next());
     else if (a == "--contour-weight") params.contour_weight = std::stod(next());
     else if (a == "--band") params.band = std::stod(next());
+    else if (a == "--plane-weight") params.plane_weight = std::stod(next());
+    else if (a == "--refinement") params.refinement = std::stoi(next());
+    else if (a == "--refine-width") params.refine_width = std::stod(next());
+    else if (a == "--reweight-passes") params.reweight_passes = std::stoi(next());
+    else if (a == "--reweight-factor") params.reweight_factor = std::stod(next());
+    else if (a == "--reweight-tolerance") params.reweight_tolerance = std::stod(next());
+    else if (a == "--no-prune") params.prune = false;
+    else if (a == "--write") mesh_out = next();
     else if (a == "--csl") csl = next();
     else if (a == "--ref") ref = next();
     else if (a == "--name") name = next();
@@ -130,6 +145,7 @@ int main(int argc, char** argv) {
   if (!csl.empty()) {
     const std::vector<Section> sections = read_csl(csl, csl_params).sections;
     const Field3dResult r = reconstruct_sections(sections, 1, params);
+    if (!mesh_out.empty()) write_mesh(mesh_out, r.mesh);
     // Without a reference (armadillo: none stored) only the run's own figures; shares of the mesh's diagonal.
     const TriMesh reference = ref.empty() ? r.mesh : read_mesh(ref);
     Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);

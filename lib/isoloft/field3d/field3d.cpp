@@ -26,6 +26,10 @@ namespace {
 using Polyline = std::vector<Vec2d>;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+/// Smallest |grad f| (cells per cell) used to turn f into a distance; a flatter
+/// field counts as a miss at any |f| above tolerance x this.
+constexpr double kFlatGradient = 0.05;
+
 /// Sections whose normals' cross product is shorter than this are parallel
 /// (no common line; 1e-6 rad is far below any drawn angle).
 constexpr double kParallelSine = 1e-6;
@@ -65,7 +69,20 @@ struct Sample {
   Vec3d g;
   double value = 0;
   double weight = 0;
+  bool contour = false;  ///< on a drawn contour (value 0)
 };
+
+/// The transpose of a gather list by counting sort: per node n, the entries
+/// e (8 s + c) with node[e] == n are entry[off[n] .. off[n + 1]).
+void transpose_gather(const std::vector<std::uint32_t>& node, std::size_t N, std::vector<std::uint32_t>& off,
+                      std::vector<std::uint32_t>& entry) {
+  off.assign(N + 1, 0);
+  for (std::uint32_t n : node) ++off[n + 1];
+  for (std::size_t n = 0; n < N; ++n) off[n + 1] += off[n];
+  entry.resize(node.size());
+  std::vector<std::uint32_t> fill(off.begin(), off.end() - 1);
+  for (std::size_t e = 0; e < node.size(); ++e) entry[fill[node[e]]++] = std::uint32_t(e);
+}
 
 /// The normal equations' operator A = (smoothness / H) L^T L + B^T W B + boundary
 /// on one level, matrix-free (B and its transpose as gather lists).
@@ -91,13 +108,7 @@ class Operator {
       }
       sw_[s] = samples[s].weight;
     }
-    // Transpose by counting sort: per node, the entries (8 s + c) touching it.
-    off_.assign(N + 1, 0);
-    for (std::uint32_t n : node_) ++off_[n + 1];
-    for (std::size_t n = 0; n < N; ++n) off_[n + 1] += off_[n];
-    entry_.resize(node_.size());
-    std::vector<std::uint32_t> fill(off_.begin(), off_.end() - 1);
-    for (std::size_t e = 0; e < node_.size(); ++e) entry_[fill[node_[e]]++] = std::uint32_t(e);
+    transpose_gather(node_, N, off_, entry_);
 
     b_ = Eigen::VectorXd::Zero(Eigen::Index(N));
     diag_ = Eigen::VectorXd::Zero(Eigen::Index(N));
@@ -206,7 +217,8 @@ class Operator {
 
 /// Jacobi-preconditioned conjugate gradients from x; returns iterations, sets
 /// the final relative residual.
-int conjugate_gradients(const Operator& A, Eigen::VectorXd& x, double tol, int max_it, double& rel) {
+template <class Op>
+int conjugate_gradients(const Op& A, Eigen::VectorXd& x, double tol, int max_it, double& rel) {
   const Eigen::VectorXd& b = A.rhs();
   const double bnorm = std::max(b.norm(), std::numeric_limits<double>::min());
   const Eigen::VectorXd inv = A.diagonal().cwiseInverse();
@@ -315,7 +327,422 @@ std::vector<double> line_crossings(const std::vector<Polyline>& polys, const Vec
   return ts;
 }
 
+/// f at a point of the base grid (q in base cells from node 0), trilinear;
+/// clamped into the grid.
+double base_value(const Level& lv, const Eigen::VectorXd& x, const Vec3d& q) {
+  const int i = std::clamp(int(std::floor(q.x())), 0, lv.nx - 2), j = std::clamp(int(std::floor(q.y())), 0, lv.ny - 2),
+            k = std::clamp(int(std::floor(q.z())), 0, lv.nz - 2);
+  const double fx = std::clamp(q.x() - i, 0.0, 1.0), fy = std::clamp(q.y() - j, 0.0, 1.0),
+               fz = std::clamp(q.z() - k, 0.0, 1.0);
+  double v = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int dx = c & 1, dy = c >> 1 & 1, dz = c >> 2 & 1;
+    v += (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz) * x[Eigen::Index(lv.index(i + dx, j + dy, k + dz))];
+  }
+  return v;
+}
+
+/// Box dilation by w cells of a byte mask over cx x cy x cz cells (separable).
+void dilate(std::vector<std::uint8_t>& m, int cx, int cy, int cz, int w) {
+  const std::array<int, 3> dims{cx, cy, cz};
+  const std::array<std::size_t, 3> stride{1, std::size_t(cx), std::size_t(cx) * std::size_t(cy)};
+  for (int ax = 0; ax < 3; ++ax) {
+    std::vector<std::uint8_t> out(m.size(), 0);
+    for (std::size_t n = 0; n < m.size(); ++n) {
+      if (!m[n]) continue;
+      const int c = int(n / stride[ax] % std::size_t(dims[ax]));
+      for (int d = std::max(0, c - w); d <= std::min(dims[ax] - 1, c + w); ++d) out[n + (d - c) * stride[ax]] = 1;
+    }
+    m.swap(out);
+  }
+}
+
+/// The narrow band of the refined grid (spacing 1/r base cells): base cells near
+/// the zero set, each storing the r^3 fine nodes it owns (local offsets 0..r-1
+/// per axis). Nodes owned by the inner cells are unknowns; those owned by the
+/// outer ring of cells are fixed (Dirichlet) at the base field prolonged, and
+/// hold the two rings of neighbours the bi-Laplacian of an unknown reads.
+/// Storage grows with the surface's area, not the box's volume.
+struct Band {
+  int r = 2, shift = 1;
+  int cx = 0, cy = 0, cz = 0;             ///< base cells per axis
+  std::vector<std::int32_t> block;        ///< per base cell: its block of r^3 nodes, or -1
+  std::vector<std::array<int, 3>> cells;  ///< base cell of each block
+  std::vector<std::uint8_t> unknown;      ///< per stored node
+  std::vector<std::int32_t> nbr;          ///< per stored node, its 6 neighbours (or -1)
+
+  [[nodiscard]] std::size_t per_block() const { return std::size_t(r) * std::size_t(r) * std::size_t(r); }
+  [[nodiscard]] std::size_t size() const { return cells.size() * per_block(); }
+  /// Stored index of fine node (I, J, K), or -1.
+  [[nodiscard]] std::int64_t node(int I, int J, int K) const {
+    if (I < 0 || J < 0 || K < 0) return -1;
+    const int a = I >> shift, b = J >> shift, c = K >> shift;
+    if (a >= cx || b >= cy || c >= cz) return -1;
+    const std::int32_t bl = block[std::size_t(a) + std::size_t(cx) * (std::size_t(b) + std::size_t(cy) * std::size_t(c))];
+    if (bl < 0) return -1;
+    const int m = r - 1;
+    return std::int64_t(bl) * std::int64_t(per_block()) + (I & m) + r * ((J & m) + r * (K & m));
+  }
+  [[nodiscard]] std::array<int, 3> coords(std::size_t n) const {
+    const std::size_t b = n / per_block(), l = n % per_block();
+    return {cells[b][0] * r + int(l % std::size_t(r)), cells[b][1] * r + int(l / std::size_t(r) % std::size_t(r)),
+            cells[b][2] * r + int(l / std::size_t(r * r))};
+  }
+  [[nodiscard]] bool has_lap(std::size_t n) const {
+    for (int o = 0; o < 6; ++o)
+      if (nbr[6 * n + std::size_t(o)] < 0) return false;
+    return true;
+  }
+};
+
+/// The band around the base field's zero set and every drawn contour (the
+/// cells holding a contour sample: a thin part the base grid lost is re-solved
+/// too), dilated by `width` cells; cells touching the box's faces stay fixed.
+Band make_band(const Level& lv, const Eigen::VectorXd& x, const std::vector<Sample>& samples, int r, int width) {
+  Band b;
+  b.r = r;
+  b.shift = r == 4 ? 2 : (r == 2 ? 1 : 0);
+  b.cx = lv.nx - 1;
+  b.cy = lv.ny - 1;
+  b.cz = lv.nz - 1;
+  const std::size_t C = std::size_t(b.cx) * std::size_t(b.cy) * std::size_t(b.cz);
+  const auto cell = [&](int a, int bb, int c) {
+    return std::size_t(a) + std::size_t(b.cx) * (std::size_t(bb) + std::size_t(b.cy) * std::size_t(c));
+  };
+  std::vector<std::uint8_t> inner(C, 0);
+  tbb::parallel_for(0, b.cz, [&](int c) {
+    for (int bb = 0; bb < b.cy; ++bb)
+      for (int a = 0; a < b.cx; ++a) {
+        bool pos = false, neg = false;
+        for (int q = 0; q < 8; ++q) {
+          const double v = x[Eigen::Index(lv.index(a + (q & 1), bb + (q >> 1 & 1), c + (q >> 2 & 1)))];
+          (v > 0 ? pos : neg) = true;
+        }
+        inner[cell(a, bb, c)] = pos && neg;
+      }
+  });
+  for (const Sample& s : samples) {
+    if (!s.contour) continue;
+    const int a = std::clamp(int(std::floor(s.g.x())), 0, b.cx - 1), bb = std::clamp(int(std::floor(s.g.y())), 0, b.cy - 1),
+              c = std::clamp(int(std::floor(s.g.z())), 0, b.cz - 1);
+    inner[cell(a, bb, c)] = 1;
+  }
+  dilate(inner, b.cx, b.cy, b.cz, width);
+  for (int c = 0; c < b.cz; ++c)
+    for (int bb = 0; bb < b.cy; ++bb)
+      for (int a = 0; a < b.cx; ++a)
+        if (a == 0 || bb == 0 || c == 0 || a >= b.cx - 1 || bb >= b.cy - 1 || c >= b.cz - 1) inner[cell(a, bb, c)] = 0;
+  std::vector<std::uint8_t> stored = inner;
+  dilate(stored, b.cx, b.cy, b.cz, 1);
+  b.block.assign(C, -1);
+  for (int c = 0; c < b.cz; ++c)
+    for (int bb = 0; bb < b.cy; ++bb)
+      for (int a = 0; a < b.cx; ++a)
+        if (stored[cell(a, bb, c)]) {
+          b.block[cell(a, bb, c)] = std::int32_t(b.cells.size());
+          b.cells.push_back({a, bb, c});
+        }
+  const std::size_t n = b.size();
+  b.unknown.resize(n);
+  b.nbr.resize(6 * n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& rg) {
+    for (std::size_t m = rg.begin(); m < rg.end(); ++m) {
+      const auto [I, J, K] = b.coords(m);
+      const auto& ce = b.cells[m / b.per_block()];
+      b.unknown[m] = inner[cell(ce[0], ce[1], ce[2])];
+      const std::array<std::array<int, 3>, 6> o{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
+      for (int q = 0; q < 6; ++q) b.nbr[6 * m + std::size_t(q)] = std::int32_t(b.node(I + o[q][0], J + o[q][1], K + o[q][2]));
+    }
+  });
+  return b;
+}
+
+/// The base field prolonged to the band's nodes (the warm start and the fixed values).
+Eigen::VectorXd band_prolong(const Band& b, const Level& lv, const Eigen::VectorXd& x) {
+  Eigen::VectorXd z(Eigen::Index(b.size()));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, b.size(), 4096), [&](const auto& rg) {
+    for (std::size_t m = rg.begin(); m < rg.end(); ++m) {
+      const auto [I, J, K] = b.coords(m);
+      z[Eigen::Index(m)] = base_value(lv, x, Vec3d(I, J, K) / b.r);
+    }
+  });
+  return z;
+}
+
+/// The normal equations on the band's unknowns, the fixed nodes' values held:
+/// apply() gives A x on unknowns and 0 on fixed nodes, so conjugate gradients
+/// over the stored vector (fixed entries never move: the residual and the
+/// search directions are 0 there) solve A_UU x_U = b_U - A_UF x_F.
+class BandOperator {
+ public:
+  BandOperator(const Band& band, const std::vector<Sample>& samples, const Field3dParams& p)
+      : b_(band), lam_(p.smoothness * band.r) {
+    const std::size_t N = band.size();
+    for (std::size_t s = 0; s < samples.size(); ++s) {
+      const Vec3d q = samples[s].g * band.r;
+      const int i = int(std::floor(q.x())), j = int(std::floor(q.y())), k = int(std::floor(q.z()));
+      std::array<std::int64_t, 8> nd{};
+      bool all = true, any_unknown = false;
+      for (int c = 0; c < 8 && all; ++c) {
+        nd[std::size_t(c)] = band.node(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1));
+        all = nd[std::size_t(c)] >= 0;
+        if (all) any_unknown = any_unknown || band.unknown[std::size_t(nd[std::size_t(c)])];
+      }
+      if (!all || !any_unknown) continue;
+      const double fx = q.x() - i, fy = q.y() - j, fz = q.z() - k;
+      for (int c = 0; c < 8; ++c) {
+        const int dx = c & 1, dy = c >> 1 & 1, dz = c >> 2 & 1;
+        node_.push_back(std::uint32_t(nd[std::size_t(c)]));
+        bw_.push_back((dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz));
+      }
+      sw_.push_back(samples[s].weight);
+      val_.push_back(samples[s].value);
+      index_.push_back(s);
+    }
+    transpose_gather(node_, N, off_, entry_);
+    rhs_ = Eigen::VectorXd::Zero(Eigen::Index(N));
+    diag_ = Eigen::VectorXd::Ones(Eigen::Index(N));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 4096), [&](const auto& rg) {
+      for (std::size_t n = rg.begin(); n < rg.end(); ++n) {
+        if (!b_.unknown[n]) continue;
+        double d = 0, rhs = 0;
+        for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) {
+          const std::uint32_t e = entry_[a];
+          d += sw_[e / 8] * bw_[e] * bw_[e];
+          rhs += sw_[e / 8] * bw_[e] * val_[e / 8];
+        }
+        int inner = 0;
+        for (int o = 0; o < 6; ++o) inner += b_.has_lap(std::size_t(b_.nbr[6 * n + std::size_t(o)]));
+        diag_[Eigen::Index(n)] = d + lam_ * ((b_.has_lap(n) ? 36 : 0) + inner);
+        rhs_[Eigen::Index(n)] = rhs;
+      }
+    });
+  }
+
+  [[nodiscard]] const Eigen::VectorXd& rhs() const { return rhs_; }
+  [[nodiscard]] const Eigen::VectorXd& diagonal() const { return diag_; }
+  /// Samples seen by the band (indices into the caller's samples), and f at them.
+  [[nodiscard]] const std::vector<std::size_t>& sample_index() const { return index_; }
+  [[nodiscard]] double at_sample(std::size_t k, const Eigen::VectorXd& x) const {
+    double v = 0;
+    for (int c = 0; c < 8; ++c) v += bw_[8 * k + std::size_t(c)] * x[node_[8 * k + std::size_t(c)]];
+    return v;
+  }
+
+  void apply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    const std::size_t N = b_.size();
+    lap_.resize(x.size());
+    r_.resize(Eigen::Index(sw_.size()));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 4096), [&](const auto& rg) {
+      for (std::size_t n = rg.begin(); n < rg.end(); ++n) {
+        double l = -6 * x[Eigen::Index(n)];
+        bool full = true;
+        for (int o = 0; o < 6 && full; ++o) {
+          const std::int32_t m = b_.nbr[6 * n + std::size_t(o)];
+          full = m >= 0;
+          if (full) l += x[m];
+        }
+        lap_[Eigen::Index(n)] = full ? l : 0.0;
+      }
+    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sw_.size(), 4096), [&](const auto& rg) {
+      for (std::size_t s = rg.begin(); s < rg.end(); ++s) r_[Eigen::Index(s)] = sw_[s] * at_sample(s, x);
+    });
+    y.resize(x.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 4096), [&](const auto& rg) {
+      for (std::size_t n = rg.begin(); n < rg.end(); ++n) {
+        if (!b_.unknown[n]) {
+          y[Eigen::Index(n)] = 0;
+          continue;
+        }
+        double l = -6 * lap_[Eigen::Index(n)];
+        for (int o = 0; o < 6; ++o) l += lap_[b_.nbr[6 * n + std::size_t(o)]];  // unknowns' neighbours are stored
+        double v = lam_ * l;
+        for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) v += bw_[entry_[a]] * r_[entry_[a] / 8];
+        y[Eigen::Index(n)] = v;
+      }
+    });
+  }
+
+  /// The twin: A_UU assembled over the unknowns (compact numbering `col`).
+  [[nodiscard]] Eigen::SparseMatrix<double> assemble(const std::vector<std::int64_t>& col, Eigen::Index nu) const {
+    const std::size_t N = b_.size();
+    std::vector<Eigen::Triplet<double>> lt, bt;
+    for (std::size_t n = 0; n < N; ++n) {
+      if (!b_.has_lap(n)) continue;
+      if (col[n] >= 0) lt.emplace_back(Eigen::Index(n), col[n], -6.0);
+      for (int o = 0; o < 6; ++o) {
+        const auto m = std::size_t(b_.nbr[6 * n + std::size_t(o)]);
+        if (col[m] >= 0) lt.emplace_back(Eigen::Index(n), col[m], 1.0);
+      }
+    }
+    for (std::size_t s = 0; s < sw_.size(); ++s)
+      for (int c = 0; c < 8; ++c) {
+        const std::uint32_t m = node_[8 * s + std::size_t(c)];
+        if (col[m] >= 0) bt.emplace_back(Eigen::Index(s), col[m], std::sqrt(sw_[s]) * bw_[8 * s + std::size_t(c)]);
+      }
+    Eigen::SparseMatrix<double> L(Eigen::Index(N), nu), B(Eigen::Index(sw_.size()), nu);
+    L.setFromTriplets(lt.begin(), lt.end());
+    B.setFromTriplets(bt.begin(), bt.end());
+    Eigen::SparseMatrix<double> A = lam_ * Eigen::SparseMatrix<double>(L.transpose() * L);
+    A += Eigen::SparseMatrix<double>(B.transpose() * B);
+    return A;
+  }
+
+ private:
+  const Band& b_;
+  double lam_;
+  std::vector<std::uint32_t> node_;
+  std::vector<double> bw_, sw_, val_;
+  std::vector<std::size_t> index_;
+  std::vector<std::uint32_t> off_, entry_;
+  Eigen::VectorXd rhs_, diag_;
+  mutable Eigen::VectorXd lap_, r_;
+};
+
+/// The band's system solved directly (SimplicialLDLT on A_UU; the twin of the
+/// band's conjugate gradients). Returns the relative residual.
+double band_direct(const BandOperator& A, const Band& b, Eigen::VectorXd& z) {
+  std::vector<std::int64_t> col(b.size(), -1);
+  Eigen::Index nu = 0;
+  for (std::size_t n = 0; n < b.size(); ++n)
+    if (b.unknown[n]) col[n] = nu++;
+  if (std::size_t(nu) > kMaxDirectNodes)
+    throw ParamError("field3d.direct: the band has " + std::to_string(nu) + " unknowns, more than the direct twin's " +
+                     std::to_string(kMaxDirectNodes));
+  Eigen::VectorXd Az;
+  A.apply(z, Az);
+  const Eigen::VectorXd r0 = A.rhs() - Az;
+  Eigen::VectorXd ru(nu);
+  for (std::size_t n = 0; n < b.size(); ++n)
+    if (col[n] >= 0) ru[col[n]] = r0[Eigen::Index(n)];
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble(col, nu));
+  if (ldlt.info() != Eigen::Success) throw Error("field3d: the band's direct factorisation failed");
+  const Eigen::VectorXd du = ldlt.solve(ru);
+  for (std::size_t n = 0; n < b.size(); ++n)
+    if (col[n] >= 0) z[Eigen::Index(n)] += du[col[n]];
+  A.apply(z, Az);
+  return (A.rhs() - Az).norm() / std::max(A.rhs().norm(), std::numeric_limits<double>::min());
+}
+
+/// Multiplies by `factor` the weight of every sample the field `at` misses:
+/// a contour sample where |f| > tol (cells), a plane sample on the wrong side
+/// (f and d of opposite signs, |d| > tol). Returns how many.
+template <class At>
+std::size_t reweight(std::vector<Sample>& samples, const std::vector<std::size_t>& seen, const At& at, double tol,
+                     double factor) {
+  std::size_t raised = 0;
+  for (std::size_t k = 0; k < seen.size(); ++k) {
+    Sample& s = samples[seen[k]];
+    const double f = at(k);
+    const bool missed = s.contour ? std::abs(f) > tol : (std::abs(s.value) > tol && f * s.value < 0);
+    if (!missed) continue;
+    s.weight *= factor;
+    ++raised;
+  }
+  return raised;
+}
+
 }  // namespace
+
+/// Closed components of `mesh` with positive volume that enclose none of
+/// `inside` (points drawn inside) are removed. Returns how many. Inside test:
+/// parity of the crossings of the ray from the point along +x with the
+/// component's triangles.
+std::size_t prune_unsupported(TriMesh& mesh, const std::vector<Vec3d>& inside) {
+  const std::size_t V = mesh.vertices.size(), T = mesh.triangles.size();
+  if (T == 0) return 0;
+  std::vector<std::int32_t> parent(V);
+  for (std::size_t v = 0; v < V; ++v) parent[v] = std::int32_t(v);
+  const auto find = [&](std::int32_t v) {
+    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
+    return v;
+  };
+  for (const auto& t : mesh.triangles)
+    for (int c = 1; c < 3; ++c) {
+      const std::int32_t a = find(t[0]), b = find(t[std::size_t(c)]);
+      if (a != b) parent[std::size_t(a)] = b;
+    }
+  std::vector<std::int32_t> comp_of(V, -1);
+  std::vector<std::vector<std::size_t>> tris;
+  std::vector<std::size_t> comp(T);
+  for (std::size_t t = 0; t < T; ++t) {
+    const std::int32_t root = find(mesh.triangles[t][0]);
+    if (comp_of[std::size_t(root)] < 0) {
+      comp_of[std::size_t(root)] = std::int32_t(tris.size());
+      tris.emplace_back();
+    }
+    comp[t] = std::size_t(comp_of[std::size_t(root)]);
+    tris[comp[t]].push_back(t);
+  }
+  if (tris.size() == 1) return 0;
+  const auto vtx = [&](std::int32_t i) { return mesh.vertices[std::size_t(i)].cast<double>(); };
+  std::vector<std::uint8_t> keep(tris.size(), 1);
+  std::size_t removed = 0;
+  for (std::size_t c = 0; c < tris.size(); ++c) {
+    double vol = 0;
+    Vec3d lo = Vec3d::Constant(kInf), hi = Vec3d::Constant(-kInf);
+    for (std::size_t t : tris[c]) {
+      const auto& tr = mesh.triangles[t];
+      const Vec3d a = vtx(tr[0]), b = vtx(tr[1]), d = vtx(tr[2]);
+      vol += a.dot(b.cross(d)) / 6;
+      lo = lo.cwiseMin(a).cwiseMin(b).cwiseMin(d);
+      hi = hi.cwiseMax(a).cwiseMax(b).cwiseMax(d);
+    }
+    if (vol <= 0) continue;  // a cavity's shell: not an inside component
+    bool supported = false;
+    // Points on an axis-aligned input plane can share a coordinate with
+    // vertices on the grid's lines: nudged off by an irrational-ish 1e-7 of
+    // the component's size (far below any sample's distance to the surface).
+    const Vec3d nudge = Vec3d(0.7071067, 1.7320508, 2.2360679) * 1e-7 * (hi - lo).norm();
+    for (const Vec3d& p0 : inside) {
+      const Vec3d p = p0 + nudge;
+      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+      int crossings = 0;
+      for (std::size_t t : tris[c]) {
+        const auto& tr = mesh.triangles[t];
+        const Vec3d a = vtx(tr[0]), b = vtx(tr[1]), d = vtx(tr[2]);
+        if (std::max({a.x(), b.x(), d.x()}) < p.x()) continue;
+        // (y, z) of p inside the projected triangle: edge functions, half-open ties.
+        const auto edge = [&](const Vec3d& e0, const Vec3d& e1) {
+          return (e1.y() - e0.y()) * (p.z() - e0.z()) - (e1.z() - e0.z()) * (p.y() - e0.y());
+        };
+        const double w0 = edge(b, d), w1 = edge(d, a), w2 = edge(a, b);
+        const bool pos = w0 > 0 && w1 > 0 && w2 > 0, neg = w0 < 0 && w1 < 0 && w2 < 0;
+        if (!pos && !neg) continue;
+        const double s = w0 + w1 + w2;
+        const double x = (w0 * a.x() + w1 * b.x() + w2 * d.x()) / s;
+        if (x > p.x()) ++crossings;
+      }
+      if (crossings % 2 == 1) {
+        supported = true;
+        break;
+      }
+    }
+    if (!supported) {
+      keep[c] = 0;
+      ++removed;
+    }
+  }
+  if (removed == 0) return 0;
+  TriMesh out;
+  std::vector<std::int32_t> remap(V, -1);
+  for (std::size_t t = 0; t < T; ++t) {
+    if (!keep[comp[t]]) continue;
+    std::array<std::int32_t, 3> nt{};
+    for (int c = 0; c < 3; ++c) {
+      const auto v = std::size_t(mesh.triangles[t][std::size_t(c)]);
+      if (remap[v] < 0) {
+        remap[v] = std::int32_t(out.vertices.size());
+        out.vertices.push_back(mesh.vertices[v]);
+      }
+      nt[std::size_t(c)] = remap[v];
+    }
+    out.triangles.push_back(nt);
+  }
+  mesh = std::move(out);
+  return removed;
+}
 
 Field3dPlaneResidual plane_section_distance(const TriMesh& mesh, const PlanePose& pose,
                                             const std::vector<std::vector<Vec2d>>& drawn) {
@@ -428,91 +855,173 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     throw ParamError("field3d.direct: the grid has " + std::to_string(std::size_t(res.nx) * res.ny * res.nz) +
                      " nodes, more than the direct twin's " + std::to_string(kMaxDirectNodes));
 
-  // Samples: every plane's raster inside the box, and along every contour.
-  const double sp = params.sample_spacing * h, band = params.band * h;
-  std::vector<std::vector<Sample>> per(sections.size());
-  tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
-    const PlanePose& pose = sections[i].pose;
-    Vec2d pmin = Vec2d::Constant(kInf), pmax = Vec2d::Constant(-kInf);
-    for (int c = 0; c < 8; ++c) {
-      const Vec3d corner(c & 1 ? box_hi.x() : res.origin.x(), c & 2 ? box_hi.y() : res.origin.y(),
-                         c & 4 ? box_hi.z() : res.origin.z());
-      const Vec2d q = pose.to_plane(corner);
-      pmin = pmin.cwiseMin(q);
-      pmax = pmax.cwiseMax(q);
-    }
-    const int ns = int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, nt = int(std::floor((pmax.y() - pmin.y()) / sp)) + 1;
-    const Grid2d d = signed_distance_raster(polys[i], pmin.x(), pmin.y(), sp, ns, nt, band);
-    const double eps = 1e-9 * h;
-    const double wplane = params.plane_weight * (sp / h) * (sp / h);
-    auto& out = per[i];
-    for (int j = 0; j < nt; ++j)
-      for (int k = 0; k < ns; ++k) {
-        const Vec3d w = pose.to_world({pmin.x() + k * sp, pmin.y() + j * sp});
-        if ((w.array() < res.origin.array() - eps).any() || (w.array() > box_hi.array() + eps).any()) continue;
-        out.push_back({(w - res.origin) / h, d(k, j) / h, wplane});
+  // Samples: every plane's raster inside the box, and along every contour, at
+  // spacing sp (mm); positions in base cells; `keep` filters them (the band).
+  const double band = params.band * h;
+  const auto make_samples = [&](double sp, const auto& keep) {
+    std::vector<std::vector<Sample>> per(sections.size());
+    tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
+      const PlanePose& pose = sections[i].pose;
+      Vec2d pmin = Vec2d::Constant(kInf), pmax = Vec2d::Constant(-kInf);
+      for (int c = 0; c < 8; ++c) {
+        const Vec3d corner(c & 1 ? box_hi.x() : res.origin.x(), c & 2 ? box_hi.y() : res.origin.y(),
+                           c & 4 ? box_hi.z() : res.origin.z());
+        const Vec2d q = pose.to_plane(corner);
+        pmin = pmin.cwiseMin(q);
+        pmax = pmax.cwiseMax(q);
       }
-    if (params.contour_weight > 0)
-      for (const auto& poly : polys[i])
-        for (std::size_t e = 0; e < poly.size(); ++e) {
-          const Vec2d& a = poly[e];
-          const Vec2d& b = poly[(e + 1) % poly.size()];
-          const double len = (b - a).norm();
-          const int pieces = std::max(1, int(std::ceil(len / sp)));
-          for (int q = 0; q < pieces; ++q) {
-            const Vec3d w = pose.to_world(a + (b - a) * ((q + 0.5) / pieces));
-            out.push_back({(w - res.origin) / h, 0.0, params.contour_weight * len / pieces / h});
-          }
+      const int ns = int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, nt = int(std::floor((pmax.y() - pmin.y()) / sp)) + 1;
+      const Grid2d d = signed_distance_raster(polys[i], pmin.x(), pmin.y(), sp, ns, nt, band);
+      const double eps = 1e-9 * h;
+      const double wplane = params.plane_weight * (sp / h) * (sp / h);
+      auto& out = per[i];
+      for (int j = 0; j < nt; ++j)
+        for (int k = 0; k < ns; ++k) {
+          const Vec3d w = pose.to_world({pmin.x() + k * sp, pmin.y() + j * sp});
+          if ((w.array() < res.origin.array() - eps).any() || (w.array() > box_hi.array() + eps).any()) continue;
+          const Vec3d g = (w - res.origin) / h;
+          if (keep(g)) out.push_back({g, d(k, j) / h, wplane, false});
         }
-  });
-  std::vector<Sample> samples;
-  for (auto& v : per) samples.insert(samples.end(), v.begin(), v.end());
-  per.clear();
+      if (params.contour_weight > 0)
+        for (const auto& poly : polys[i])
+          for (std::size_t e = 0; e < poly.size(); ++e) {
+            const Vec2d& a = poly[e];
+            const Vec2d& b = poly[(e + 1) % poly.size()];
+            const double len = (b - a).norm();
+            const int pieces = std::max(1, int(std::ceil(len / sp)));
+            for (int q = 0; q < pieces; ++q) {
+              const Vec3d g = (pose.to_world(a + (b - a) * ((q + 0.5) / pieces)) - res.origin) / h;
+              if (keep(g)) out.push_back({g, 0.0, params.contour_weight * len / pieces / h, true});
+            }
+          }
+    });
+    std::vector<Sample> all;
+    for (auto& v : per) all.insert(all.end(), v.begin(), v.end());
+    return all;
+  };
+  std::vector<Sample> samples = make_samples(params.sample_spacing * h, [](const Vec3d&) { return true; });
   res.samples = samples.size();
+  const double miss_tol = params.reweight_tolerance * diag / h;  // cells
+  const bool refine = params.refinement > 1;
 
   // Solve: coarse to fine by conjugate gradients, or directly on the finest grid.
   std::vector<Level> levels;
   for (int l = params.levels - 1; l >= 0; --l) {
     const int f = 1 << l;
-    if (params.direct && l > 0) continue;
+    if (params.direct && l > 0 && !refine) continue;
     levels.push_back({cells[0] / f + 1, cells[1] / f + 1, cells[2] / f + 1, double(f)});
   }
   Eigen::VectorXd x;
   for (std::size_t l = 0; l < levels.size(); ++l) {
-    const Operator A(levels[l], samples, params);
-    if (params.direct) {
-      Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
-      if (ldlt.info() != Eigen::Success) throw Error("field3d: the direct factorisation failed");
-      x = ldlt.solve(A.rhs());
-      Eigen::VectorXd Ax;
-      A.apply(x, Ax);
-      res.residual = (Ax - A.rhs()).norm() / A.rhs().norm();
-      continue;
+    // Without a band the base grid is the last: its passes re-weight missed samples.
+    const bool last = l + 1 == levels.size();
+    const int passes = last && !refine ? params.reweight_passes : 0;
+    for (int pass = 0; pass <= passes; ++pass) {
+      const Operator A(levels[l], samples, params);
+      if (params.direct && !refine) {
+        Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
+        if (ldlt.info() != Eigen::Success) throw Error("field3d: the direct factorisation failed");
+        x = ldlt.solve(A.rhs());
+        Eigen::VectorXd Ax;
+        A.apply(x, Ax);
+        res.residual = (Ax - A.rhs()).norm() / A.rhs().norm();
+      } else {
+        if (pass == 0)  // later passes start from the previous solution
+          x = l == 0 ? Eigen::VectorXd::Constant(Eigen::Index(levels[l].size()), -params.band)
+                     : prolong(levels[l - 1], x, levels[l]);
+        const int it = conjugate_gradients(A, x, params.tolerance, params.max_iterations, res.residual);
+        res.iterations += it;
+        res.finest_iterations = it;
+      }
+      if (pass == passes) break;
+      std::vector<std::size_t> all(samples.size());
+      for (std::size_t s = 0; s < all.size(); ++s) all[s] = s;
+      // A contour sample's distance to the zero set: |f| over |grad f| (f is
+      // no distance where the field is flat: |f| alone hid misses of 0.6 cells).
+      const std::size_t raised = reweight(
+          samples, all,
+          [&](std::size_t k) {
+            const Vec3d& g = samples[k].g;
+            const double f = base_value(levels[l], x, g);
+            if (!samples[k].contour) return f;
+            Vec3d grad;
+            for (int a = 0; a < 3; ++a)
+              grad[a] = base_value(levels[l], x, g + 0.5 * Vec3d::Unit(a)) - base_value(levels[l], x, g - 0.5 * Vec3d::Unit(a));
+            return f / std::max(grad.norm(), kFlatGradient);
+          },
+          miss_tol, params.reweight_factor);
+      res.reweighted += raised;
+      if (raised == 0) break;
     }
-    if (l == 0)
-      x = Eigen::VectorXd::Constant(Eigen::Index(levels[l].size()), -params.band);
-    else
-      x = prolong(levels[l - 1], x, levels[l]);
-    const int it = conjugate_gradients(A, x, params.tolerance, params.max_iterations, res.residual);
-    res.iterations += it;
-    res.finest_iterations = it;
   }
   res.field.assign(x.data(), x.data() + x.size());
+  const Level& base = levels.back();
 
-  // Mesh: the field padded with a layer of outside samples, so the surface closes.
+  // The band: re-solved on the grid `refinement` times finer near the surface.
+  Band bd;
+  Eigen::VectorXd z;
+  if (refine) {
+    const int r = params.refinement;
+    if (r != 2 && r != 4) throw ParamError("field3d.refinement: must be 1, 2 or 4, got " + std::to_string(r));
+    bd = make_band(base, x, samples, r, int(std::ceil(params.refine_width)));
+    z = band_prolong(bd, base, x);
+    std::vector<Sample> fine = make_samples(params.sample_spacing * h / r, [&](const Vec3d& g) {
+      const Vec3d q = g * r;
+      const std::int64_t n = bd.node(int(std::floor(q.x())), int(std::floor(q.y())), int(std::floor(q.z())));
+      return n >= 0;
+    });
+    res.band_nodes = bd.size();
+    res.band_unknowns = std::size_t(std::count(bd.unknown.begin(), bd.unknown.end(), std::uint8_t(1)));
+    for (int pass = 0; pass <= params.reweight_passes; ++pass) {
+      const BandOperator A(bd, fine, params);
+      if (params.direct) {
+        res.residual = band_direct(A, bd, z);
+      } else {
+        const int it = conjugate_gradients(A, z, params.tolerance, params.max_iterations, res.residual);
+        res.band_iterations += it;
+      }
+      if (pass == params.reweight_passes) break;
+      const std::size_t raised = reweight(
+          fine, A.sample_index(), [&](std::size_t k) { return A.at_sample(k, z); }, miss_tol, params.reweight_factor);
+      res.reweighted += raised;
+      if (raised == 0) break;
+    }
+  }
+
+  // Mesh: the field padded with a layer of outside samples, so the surface
+  // closes; on the band's grid, the band's values where stored and the base
+  // field prolonged elsewhere (no zero there: those cells hold no sign change).
   {
-    const int W = res.nx + 2, Hh = res.ny + 2;
+    const int r = refine ? params.refinement : 1;
+    const int fx = r * (res.nx - 1) + 1, fy = r * (res.ny - 1) + 1, fz = r * (res.nz - 1) + 1;
+    const int W = fx + 2, Hh = fy + 2;
     MarchingCubes mc(W, Hh, -1, -1);
-    for (int k = -1; k <= res.nz; ++k) {
+    for (int k = -1; k <= fz; ++k) {
       Grid2f plane(W, Hh, float(-params.band));
-      if (k >= 0 && k < res.nz)
-        for (int j = 0; j < res.ny; ++j)
-          for (int i = 0; i < res.nx; ++i)
-            plane(i + 1, j + 1) = float(x[Eigen::Index(i + std::size_t(res.nx) * (j + std::size_t(res.ny) * k))]);
+      if (k >= 0 && k < fz)
+        tbb::parallel_for(0, fy, [&](int j) {
+          for (int i = 0; i < fx; ++i) {
+            double v = 0;
+            if (!refine) {
+              v = x[Eigen::Index(i + std::size_t(res.nx) * (j + std::size_t(res.ny) * k))];
+            } else {
+              const std::int64_t n = bd.node(i, j, k);
+              v = n >= 0 ? z[Eigen::Index(n)] : base_value(base, x, Vec3d(i, j, k) / r);
+            }
+            plane(i + 1, j + 1) = float(v);
+          }
+        });
       mc.add_plane(std::move(plane), k);
     }
     res.mesh = mc.finish();
-    for (Vec3f& v : res.mesh.vertices) v = (res.origin + h * v.cast<double>()).cast<float>();
+    const double hf = h / r;
+    for (Vec3f& v : res.mesh.vertices) v = (res.origin + hf * v.cast<double>()).cast<float>();
+  }
+  if (params.prune) {
+    std::vector<Vec3d> inside;
+    for (const Sample& s : samples)
+      if (!s.contour && s.value > 0) inside.push_back(res.origin + h * s.g);
+    res.pruned_components = prune_unsupported(res.mesh, inside);
   }
   res.check = check_mesh(res.mesh);
 
