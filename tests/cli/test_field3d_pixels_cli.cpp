@@ -126,3 +126,28 @@ TEST_F(Cli, AnnotatedFlagsRefusedWhereTheyCannotApply) {
   EXPECT_NE(both.err.find("--axis"), std::string::npos) << both.err;
   EXPECT_FALSE(fs::exists(p("a.ply")));
 }
+
+// The annotation mask's own data file (a MetaImage header and its .raw) is
+// read with the input: an output naming it is refused and it is left as it was.
+TEST_F(Cli, AnnotationMaskDataFileIsNeverAnOutput) {
+  write_volume(p("seg.nrrd"), sphere_labels());
+  const Volume v = sphere_labels();
+  std::string bytes(std::size_t(v.nx) * v.ny * v.nz, '\0');
+  for (int k = 0; k < v.nz; ++k)
+    for (int j = 0; j < v.ny; ++j)
+      for (int i = 0; i < v.nx; ++i)
+        if (k == 10 || k == 16 || k == 22 || i == 15 || j == 16) bytes[v.index(i, j, k)] = 1;
+  std::ofstream(p("mask.raw"), std::ios::binary) << bytes;
+  std::ofstream(p("mask.mhd")) << "ObjectType = Image\nNDims = 3\nDimSize = 32 32 32\nElementType = MET_UCHAR\n"
+                               << "ElementSpacing = 1 1 1\nOffset = " << kOrigin.x() << " " << kOrigin.y() << " "
+                               << kOrigin.z() << "\nElementDataFile = mask.raw\n";
+  const std::string cmd = "reconstruct " + p("seg.nrrd") + " --method field3d --annotated-mask " + p("mask.mhd") +
+                          " -o " + p("m.ply") + " --report ";
+  const CliRun ok = run(cmd + p("ok.json"));
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  const CliRun r = run(cmd + p("mask.raw"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--report " + p("mask.raw")), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("an output never replaces a file the run reads"), std::string::npos) << r.err;
+  EXPECT_EQ(fs::file_size(p("mask.raw")), bytes.size());
+}

@@ -183,9 +183,12 @@ Inputs read_annotated_volume(const InputRequest& r) {
     }
   } else {
     detail::check_regular_file(r.annotated_mask);
-    const Volume mask = read_volume(r.annotated_mask, {.allow_external_data = r.allow_external_data});
+    // ro: the mask's read is budgeted like the volume's, and its header's data files collected.
+    const Volume mask = read_volume(r.annotated_mask, ro);
     slices = annotated_slices_from_mask(mask, *in.volume, r.annotated_mask);
-    in.data_files.push_back(r.annotated_mask);  // read with the input: no output may replace it
+    // Read with the input, the mask and its data files: no output may replace them.
+    in.data_files.push_back(r.annotated_mask);
+    in.data_files.insert(in.data_files.end(), data_files.begin(), data_files.end());
   }
   std::vector<Section> sections = label_volume_sections(*in.volume, slices, path);
   std::vector<std::uint32_t> labels;
