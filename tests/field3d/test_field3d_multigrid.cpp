@@ -28,25 +28,25 @@ Field3dParams one_system(int resolution) {
   return p;
 }
 
-/// The V-cycle (two grids here: 24 cells, ~16k nodes, coarsened once to
-/// below 8000) preconditions the same SPD system the twin factorises.
+/// The V-cycle (two grids here: 16 cells, ~4.9k nodes, coarsened once to
+/// below kCoarsestNodes, 1000) preconditions the same SPD system the twin
+/// factorises (16 cells: the twin's LDLT in ~1 s; 24 took 8 s).
 TEST(Field3dMultigrid, MatchesDirectTwin) {
   const std::vector<Section> sections = sphere_sections(6);
-  Field3dParams p = one_system(24);
+  Field3dParams p = one_system(16);
   const Field3dResult mg = reconstruct_sections(sections, 1, p);
   p.direct = true;
   const Field3dResult direct = reconstruct_sections(sections, 1, p);
   ASSERT_EQ(mg.field.size(), direct.field.size());
   EXPECT_GE(mg.multigrid_levels, 2);
   /// CG stopped at 1e-12 relative residual on a system whose condition is
-  /// about 1e6 (a 24-cell bi-Laplacian): fields agree far below a grid cell.
+  /// about 1e6 (a 16- to 24-cell bi-Laplacian): fields agree far below a grid cell.
   constexpr double kTwinTol = 1e-5;
   for (std::size_t i = 0; i < mg.field.size(); ++i) ASSERT_NEAR(mg.field[i], direct.field[i], kTwinTol) << "node " << i;
 }
 
-/// Twice the cells per axis (8x the nodes of a 32-cell grid, three
-/// multigrid levels against two; a 16-cell grid is below the coarsest
-/// level's size and solved directly): the iterations to 1e-8 stay flat,
+/// Twice the cells per axis (8x the nodes of a 32-cell grid, four
+/// multigrid levels against three): the iterations to 1e-8 stay flat,
 /// where Jacobi-preconditioned CG needed O(h^-2) of them.
 TEST(Field3dMultigrid, IterationsDoNotGrowWithTheGrid) {
   const std::vector<Section> sections = sphere_sections(8);

@@ -324,8 +324,9 @@ Eigen::VectorXd restrict_to(const Level& coarse, const Eigen::VectorXd& rf, cons
 }
 
 /// Multigrid levels below a grid: coarsened while above this many nodes; the
-/// coarsest is factorised (LDLT of a 20^3 bi-Laplacian: a few ms).
-constexpr std::size_t kCoarsestNodes = 8000;
+/// coarsest is factorised (LDLT of a 10^3 bi-Laplacian: ~1 ms; 20^3 took ~0.5 s
+/// per hierarchy, which made small grids 5-10x slower than Jacobi-PCG).
+constexpr std::size_t kCoarsestNodes = 1000;
 /// Most levels of one hierarchy (a 1024-cell axis reaches 4 cells in 8 halvings).
 constexpr int kMaxMultigridLevels = 9;
 /// Chebyshev smoothing steps before and after the coarse correction.
