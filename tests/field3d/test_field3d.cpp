@@ -174,9 +174,10 @@ double one_sided_max(const TriMesh& a, const TriMesh& b) {
 TEST(Field3d, BandMatchesDirectTwinAndDenseFineGrid) {
   const std::vector<Section> sections = twin_sections();
   // The direct twin factors the band's system, whose fill grows fast with
-  // its unknowns: a 12-cell base and a 1-cell band (7,488 unknowns, the
-  // sphere's core left out) factor in ~1 s, the 16-cell base and the default
-  // 2-cell band (21,368) took 38 s. The band keeps a hole and a fixed ring.
+  // its unknowns: with a 12-cell base and a 1-cell band (7,488 unknowns, the
+  // sphere's core left out) this test runs 1.9 s on the quiet machine, with
+  // the 16-cell base and the default 2-cell band (21,368) 26 s. The band
+  // keeps a hole and a fixed ring.
   Field3dParams p = twin_params(2);
   p.resolution = 12;
   p.refine_width = 1;
