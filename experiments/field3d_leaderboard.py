@@ -13,7 +13,7 @@ those of any system rerun with it) and the leaderboard's CSV
 CSV's for the same case and system. Prints per group (k = 8 or 2-4, truth)
 how many cases meet each target, then one line per case.
 
-usage: field3d_leaderboard.py ROWS.jsonl [--csv paper/real_anatomy.csv] [--out table.md]
+usage: field3d_leaderboard.py ROWS.jsonl [--csv paper/real_anatomy.csv] [--out table.md] [--at COMMIT]
 e.g.   experiments/real_anatomy.py --out OUT --systems field3d,isoloft-default --no-ablation
        experiments/field3d_leaderboard.py OUT/rows.jsonl
 """
@@ -56,6 +56,7 @@ def main():
     ap.add_argument("rows")
     ap.add_argument("--csv", default=os.path.join(HERE, "..", "paper", "real_anatomy.csv"))
     ap.add_argument("--out")
+    ap.add_argument("--at", help="the isoloft commit the rows were made at (named in the output)")
     a = ap.parse_args()
     cases = load(a.rows, a.csv)
     groups = collections.defaultdict(collections.Counter)
@@ -85,7 +86,8 @@ def main():
                      f"| {f['normal']:.2f} | {d['normal']:.2f} | {bn[1]['normal']:.2f} ({bn[0]}) | {f['dice']:.4f} "
                      f"| {f['terrace']:.2f} | {f['seconds']:.1f} |")
     fresh = sorted({n for s in cases.values() for n, v in s.items() if v["fresh"]})
-    out = [f"field3d on the real-anatomy leaderboard: {len(cases)} cases; rows rerun: {', '.join(fresh)}; "
+    at = f" at isoloft {a.at}" if a.at else ""
+    out = [f"field3d on the real-anatomy leaderboard: {len(cases)} cases; rows rerun{at}: {', '.join(fresh)}; "
            f"the other systems from {os.path.relpath(a.csv)}.", "",
            "| group | " + " | ".join(next(iter(groups.values())).keys()) + " |",
            "|" + "---|" * (1 + len(next(iter(groups.values()))))]
