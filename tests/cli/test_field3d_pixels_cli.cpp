@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kRadius = 10.0;  // mm (1 mm voxels)
+constexpr double kBallRadius = 10.0;  // mm (1 mm voxels)
 const Vec3d kOrigin(-20.0, 15.0, 40.0);
 const Vec3d kCentreVoxel(15.3, 15.6, 16.2);
 
@@ -37,7 +37,7 @@ Volume sphere_labels() {
   for (int k = 0; k < v.nz; ++k)
     for (int j = 0; j < v.ny; ++j)
       for (int i = 0; i < v.nx; ++i)
-        if ((Vec3d(i, j, k) - kCentreVoxel).norm() < kRadius) v.data[v.index(i, j, k)] = 3;
+        if ((Vec3d(i, j, k) - kCentreVoxel).norm() < kBallRadius) v.data[v.index(i, j, k)] = 3;
   return v;
 }
 
@@ -53,7 +53,7 @@ void expect_sphere(const TriMesh& m) {
   double worst = 0;
   std::size_t at = 0;
   for (std::size_t i = 0; i < m.vertices.size(); ++i) {
-    const double d = std::abs((m.vertices[i].cast<double>() - c).norm() - kRadius);
+    const double d = std::abs((m.vertices[i].cast<double>() - c).norm() - kBallRadius);
     if (d > worst) worst = d, at = i;
   }
   EXPECT_LE(worst, kRadialSlack) << "vertex " << at;
