@@ -94,6 +94,20 @@ TEST_F(Cli, Field3dReadsALabelVolumeAnnotatedAlongSeveralAxes) {
   expect_sphere(read_mesh(p("b.ply")));
 }
 
+// Pixel input raises field3d's grid to one cell per pixel, up to 1024 per
+// axis: that grid is estimated before it is made, and one over the budget
+// stops naming the label and the file; exit 1, nothing written.
+TEST_F(Cli, Field3dPixelGridOverTheMemoryBudgetIsRefused) {
+  write_volume(p("seg.nrrd"), sphere_labels());
+  std::ofstream(p("fine.json")) << R"({"field3d": {"resolution": 1024}})";
+  const CliRun r = run("reconstruct " + p("seg.nrrd") + " --method field3d --annotated 'k:10,16,22;i:15;j:16' -o " +
+                       p("a.ply") + " --params " + p("fine.json"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--max-memory: label 3 of " + p("seg.nrrd") + " (field3d: a "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("over the budget of 4 GiB"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p("a.ply")));
+}
+
 // Masks as PNG slices through field3d: one closed surface.
 TEST_F(Cli, Field3dReadsAMaskStack) {
   fs::create_directories(p("masks"));

@@ -186,6 +186,26 @@ struct Field3dResult {
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
                                    const Field3dParams& params = {});
 
+/// What reconstruct_sections() will build for `label`, from the sections
+/// alone, before any sample or grid is made: the input to a memory budget
+/// (ReconstructOptions::on_estimate). An estimate, not a bound: its measured
+/// ratio to peak RSS is in docs/decisions.md (field3d work estimate).
+struct Field3dWork {
+  int nx = 0, ny = 0, nz = 0;  ///< finest grid nodes per axis
+  double samples = 0;          ///< plane and contour samples
+  double triangles = 0;        ///< Marching Cubes triangles (the contours' box as an ellipsoid)
+  double solve_bytes = 0;      ///< held at the finest solve: grid vectors, samples, operators, multigrid
+  double field_bytes = 0;      ///< the finished field (Field3dResult::field)
+  double mesh_bytes = 0;       ///< the mesh, its checks and per-plane residuals
+  [[nodiscard]] double nodes() const { return double(nx) * double(ny) * double(nz); }
+};
+
+/// The work of reconstruct_sections(sections, label, params), counted (grid
+/// and samples exactly; bytes per node, sample and triangle from the
+/// solver's data structures). Time and memory O(sections' rows and vertices).
+/// \throw as reconstruct_sections() for bad params and sections.
+Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params = {});
+
 namespace detail {
 /// Largest distances between the section of `mesh` by `pose`'s plane and the
 /// closed polylines `drawn` (in-plane mm): {mesh -> drawn, drawn -> mesh}; +inf
