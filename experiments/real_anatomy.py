@@ -79,6 +79,7 @@ ISOLOFT_SYSTEMS = {
     "marker2006-no-filter": ["--method", "marker2006", "--no-filter"],
     "levin-monotone": ["--method", "levin", "--spline", "monotone"],
     "levin-linear": ["--method", "levin", "--spline", "linear"],
+    "field3d": ["--method", "field3d"],  # one 3D field from every input slice (issue 35)
 }
 PEER_SYSTEMS = ["nearest", "vtk", "mci", "slicerrt"]
 # Ablation variants of marker2006 (defaults otherwise; the spline, filter and

@@ -9,13 +9,15 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SECS="${1:-60}"; shift || true
 TARGETS=("$@")
-((${#TARGETS[@]})) || TARGETS=(png polylines params nifti nrrd metaimage rtstruct roi_names label_names csl manifest)
-for p in clang-14 libclang-rt-14-dev; do  # as setup.sh --full installs them
+GOALS=("${TARGETS[@]/#/fuzz_}")
+# All of them: one goal (make builds the goals of one call one at a time).
+((${#TARGETS[@]})) || { TARGETS=(png polylines params nifti nrrd metaimage rtstruct roi_names label_names csl manifest); GOALS=(isoloft_fuzzers); }
+for p in clang-14 libclang-rt-14-dev lld-14; do  # as setup.sh --full installs them
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" ||
     { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$p"; }
 done
 B="$ROOT/build-asan"
-"$ROOT/scripts/sanitize_build.sh" "${TARGETS[@]/#/fuzz_}"
+"$ROOT/scripts/sanitize_build.sh" "${GOALS[@]}"
 cd "$B"
 # Targets run side by side, one per core (each fuzzer is one process).
 JOBS="${ISOLOFT_JOBS:-$(nproc)}"

@@ -22,11 +22,11 @@ CLI_PACKAGES=(build-essential cmake git pkg-config time
 # read, the Python packages of the pytest suite (images: nibabel; meshes: meshio,
 # VTK; progress bars: tqdm; cohorts: dask, distributed; RT Structure Sets read back:
 # pydicom, and dciodvfy from dicom3tools) and the real-anatomy
-# metrics test, and clang-14 + its runtimes for the sanitizer build and the
+# metrics test, and clang-14 + its runtimes and linker (lld-14) for the sanitizer build and the
 # libFuzzer targets (test.sh, fuzz.sh).
 DEV_PACKAGES=(libcgal-dev libceres-dev libopenmesh-dev librapidcheck-dev libgtest-dev libgmock-dev libbenchmark-dev
   mricron-data python3-pytest python3-meshio python3-vtk9 python3-scipy python3-nibabel python3-tqdm
-  python3-dask python3-distributed clang-14 libclang-rt-14-dev python3-pydicom dicom3tools)
+  python3-dask python3-distributed clang-14 libclang-rt-14-dev lld-14 python3-pydicom dicom3tools)
 PACKAGES=("${CLI_PACKAGES[@]}")
 ((FULL)) && PACKAGES+=("${DEV_PACKAGES[@]}")
 # Scripts that need more (reproduce.sh: plotting, DICOM) name it here.

@@ -70,7 +70,9 @@ PyInput from_volume(const py::array& data, const std::array<double, 3>& spacing,
                     const std::string& name, const std::string& kind, const std::string& axis, const std::string& space,
                     const std::string& label_names);
 /// A list of sections {origin, u, v, contours: [{points, label, hole}]}
-/// (world units, N x 2 in-plane or N x 3 world points) as a Sections input
+/// (world units, N x 2 in-plane or N x 3 world points), or with a label
+/// image {image, affine} / {image, origin, u, v, pixel_size} (image[a, b]
+/// at origin + pixel_size (a u + b v)), as a Sections input
 /// (run/inputs.h, sections_input). \throw InputError naming "sections[i]...".
 PyInput from_sections(const py::object& sections);
 /// What `isoloft reconstruct` reads, from paths.

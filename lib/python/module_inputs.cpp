@@ -400,6 +400,54 @@ SectionContour section_contour(const py::handle& o, const PlanePose& pose, const
   return c;
 }
 
+/// An affine's pixels must be square within this share (a Section has one
+/// pixel size; float32 affines are off by ~1e-7 of a spacing).
+constexpr double kSectionSquarePixelShare = 1e-6;
+
+/// A label image on a section {image: (n_u, n_v) integers, image[a, b] the
+/// pixel at origin + a pixel_size u + b pixel_size v} into `s` (pose set).
+void section_image(const py::handle& o, Section& s, const std::string& where) {
+  const py::array a = py::array::ensure(o);
+  if (!a || a.ndim() != 2 || a.shape(0) < 1 || a.shape(1) < 1)
+    throw InputError(where, "expected a 2D integer array (labels, 0 outside)");
+  const char kind = a.dtype().kind();
+  if (kind != 'u' && kind != 'i' && kind != 'b')
+    throw InputError(where, "expected integer labels (0 outside), got dtype " + std::string(py::str(a.dtype())));
+  const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  const int nu = int(v.shape(0)), nv = int(v.shape(1));
+  s.labels = Grid2u32(nu, nv, 0);
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nv; ++j) {
+      const std::int64_t l = v.at(i, j);
+      if (l < 0 || l > std::int64_t(std::numeric_limits<std::uint32_t>::max()))
+        throw InputError(where, "label " + std::to_string(l) + " at [" + std::to_string(i) + ", " + std::to_string(j) +
+                                    "] is out of 0 .. 2^32 - 1");
+      s.labels(i, j) = std::uint32_t(l);
+    }
+}
+
+/// A 4 x 4 affine mapping (a, b, 0, 1), the image's indices, to world
+/// points: the pose (origin, u, v) and the pixel size.
+void section_affine(const py::handle& o, Section& s, const std::string& where) {
+  const auto m = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(o);
+  if (!m || m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4) throw InputError(where, "expected a 4 x 4 array");
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (!std::isfinite(m.at(r, c))) throw InputError(where, "not finite");
+  if (m.at(3, 0) != 0 || m.at(3, 1) != 0 || m.at(3, 2) != 0 || m.at(3, 3) != 1)
+    throw InputError(where, "the last row must be 0 0 0 1");
+  const Vec3d cu(m.at(0, 0), m.at(1, 0), m.at(2, 0)), cv(m.at(0, 1), m.at(1, 1), m.at(2, 1));
+  const double su = cu.norm(), sv = cv.norm();
+  if (!(su > 0) || !(sv > 0)) throw InputError(where, "a pixel axis (column 0 or 1) is zero");
+  if (std::abs(su - sv) > kSectionSquarePixelShare * std::max(su, sv))
+    throw InputError(where, "pixels must be square (spacing " + detail::shortest_text(su) + " along the first axis, " +
+                                detail::shortest_text(sv) + " along the second)");
+  s.pose.origin = Vec3d(m.at(0, 3), m.at(1, 3), m.at(2, 3));
+  s.pose.u = cu / su;
+  s.pose.v = cv / sv;
+  s.pixel_size = su;
+}
+
 }  // namespace
 
 PyInput from_sections(const py::object& sections) {
@@ -412,19 +460,46 @@ PyInput from_sections(const py::object& sections) {
     if (!py::isinstance<py::dict>(o)) throw InputError(where, "expected a dict {origin, u, v, contours}");
     const py::dict d = o.cast<py::dict>();
     for (auto [k, v] : d)
-      if (const std::string key = py::str(k); key != "origin" && key != "u" && key != "v" && key != "contours")
-        throw InputError(where, "unknown key '" + key + "' (expected origin, u, v, contours)");
-    for (const char* key : {"origin", "u", "v", "contours"})
-      if (!d.contains(key)) throw InputError(where, std::string("no '") + key + "'");
+      if (const std::string key = py::str(k); key != "origin" && key != "u" && key != "v" && key != "contours" &&
+                                              key != "image" && key != "affine" && key != "pixel_size")
+        throw InputError(where, "unknown key '" + key + "' (expected origin, u, v, contours; or image with affine, or "
+                                "with origin, u, v, pixel_size)");
     Section s;
     s.source = where;
+    const bool image = d.contains("image");
+    if (image && d.contains("contours")) throw InputError(where, "give contours or an image, not both");
+    if (image && d.contains("affine")) {
+      for (const char* key : {"origin", "u", "v", "pixel_size"})
+        if (d.contains(key)) throw InputError(where, std::string("'") + key + "' with 'affine' (the affine holds the pose)");
+      section_affine(d["affine"], s, where + ".affine");
+      section_image(d["image"], s, where + ".image");
+      out.push_back(std::move(s));
+      continue;
+    }
+    if (d.contains("affine")) throw InputError(where, "'affine' without 'image'");
+    if (!image && d.contains("pixel_size")) throw InputError(where, "'pixel_size' without 'image'");
+    for (const char* key : {"origin", "u", "v", image ? "pixel_size" : "contours"})
+      if (!d.contains(key)) throw InputError(where, std::string("no '") + key + "'");
     s.pose.origin = vec3(d["origin"], where + ".origin");
     s.pose.u = vec3(d["u"], where + ".u");
     s.pose.v = vec3(d["v"], where + ".v");
+    if (image) {
+      const py::object ps = d["pixel_size"];
+      if (!py::isinstance<py::float_>(ps) && !(py::isinstance<py::int_>(ps) && !py::isinstance<py::bool_>(ps)))
+        throw InputError(where + ".pixel_size", "expected a number");
+      s.pixel_size = ps.cast<double>();
+      if (!(s.pixel_size > 0) || !std::isfinite(s.pixel_size))
+        throw InputError(where + ".pixel_size", "must be positive and finite");
+    }
     if (!s.pose.orthonormal(kSectionAxesTolerance))
       throw InputError(where, "u and v must be unit and orthogonal (|u| = " + detail::shortest_text(s.pose.u.norm()) +
                                   ", |v| = " + detail::shortest_text(s.pose.v.norm()) +
                                   ", u.v = " + detail::shortest_text(s.pose.u.dot(s.pose.v)) + ")");
+    if (image) {
+      section_image(d["image"], s, where + ".image");
+      out.push_back(std::move(s));
+      continue;
+    }
     const py::handle cs = d["contours"];
     if (!py::isinstance<py::sequence>(cs) || py::isinstance<py::str>(cs))
       throw InputError(where + ".contours", "expected a list of dicts {points, label, hole}");

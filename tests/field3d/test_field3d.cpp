@@ -173,7 +173,14 @@ double one_sided_max(const TriMesh& a, const TriMesh& b) {
 /// against the dense solve of the same fine grid.
 TEST(Field3d, BandMatchesDirectTwinAndDenseFineGrid) {
   const std::vector<Section> sections = twin_sections();
+  // The direct twin factors the band's system, whose fill grows fast with
+  // its unknowns: with a 12-cell base and a 1-cell band (7,488 unknowns, the
+  // sphere's core left out) this test runs 1.9 s on the quiet machine, with
+  // the 16-cell base and the default 2-cell band (21,368) 26 s. The band
+  // keeps a hole and a fixed ring.
   Field3dParams p = twin_params(2);
+  p.resolution = 12;
+  p.refine_width = 1;
   const Field3dResult cg = reconstruct_sections(sections, 1, p);
   p.direct = true;
   const Field3dResult direct = reconstruct_sections(sections, 1, p);
@@ -189,13 +196,14 @@ TEST(Field3d, BandMatchesDirectTwinAndDenseFineGrid) {
   // The dense solve on the fine grid everywhere (twice the resolution, no band).
   Field3dParams d = p;
   d.direct = false;
-  d.resolution = 32;
+  d.resolution = 2 * p.resolution;
   d.refinement = 1;
   const Field3dResult dense = reconstruct_sections(sections, 1, d);
   ASSERT_NEAR(dense.spacing, cg.spacing / 2, 1e-9 * cg.spacing);
   /// The band differs from the dense solve only through its fixed ring (the
-  /// coarse field, 2 coarse cells from the surface) and the coarse grid's box
-  /// term: measured 0.39 mm, about 0.15 of a fine cell (2.5 mm); a quarter cell bounds it.
+  /// coarse field, a coarse cell from the surface) and the coarse grid's box
+  /// term: measured 0.06 of a fine cell here (0.15 with the 2-cell band on
+  /// the 16-cell base); a quarter cell bounds it.
   const double kBandVsDense = 0.25 * dense.spacing;
   EXPECT_LE(std::max(one_sided_max(cg.mesh, dense.mesh), one_sided_max(dense.mesh, cg.mesh)), kBandVsDense);
 }
@@ -203,7 +211,9 @@ TEST(Field3d, BandMatchesDirectTwinAndDenseFineGrid) {
 /// Components no inside sample supports are dropped; cavities are kept.
 TEST(Field3d, PruneUnsupportedComponents) {
   const auto s = sphere();
-  const Field3dResult r = reconstruct_sections(analytic_sections(*s, orthogonal_poses(*s), kSectionPixel), 1);
+  Field3dParams p;
+  p.resolution = 32;  // any closed sphere serves; the default 96 took 6 s
+  const Field3dResult r = reconstruct_sections(analytic_sections(*s, orthogonal_poses(*s), kSectionPixel), 1, p);
   ASSERT_EQ(r.check.components, 1);
   TriMesh m = r.mesh;
   const auto add_copy = [&](const Vec3f& shift, float scale, bool flip) {
@@ -265,9 +275,9 @@ TEST(Field3d, BadInputNamesTheSection) {
   auto few = good;
   few[2].contours[0].points.resize(2);
   expect_input_error(few, 1, "analytic plane 2");
-  auto image = good;
+  auto image = good;  // a label image (pixel input) is accepted, with a positive, finite pixel size only
   image[0].labels = Grid2u32(4, 4, 1);
-  image[0].pixel_size = 1;
+  image[0].pixel_size = 0;
   expect_input_error(image, 1, "analytic plane 0");
   expect_input_error(good, 7, "label 7");
   Field3dParams p;

@@ -121,7 +121,8 @@ TEST(ImageSections, TorusAnnotatedAlongThreeAxes) {
   for (const int k : {20, 24, 28}) t.cut(2, k);
   for (const int i : {14, 33}) t.cut(0, i);
   for (const int j : {10, 24}) t.cut(1, j);
-  const std::vector<Section> traced = traced_sections(t.sections, 1);
+  // As the method traces pixel input: the smoothed boundary, the image kept for the sign constraints.
+  const std::vector<Section> traced = traced_sections(t.sections, 1, {}, pixel_boundary(Field3dParams{}));
   const Field3dParams fp = pixel_params(traced, 1, 1.0, Field3dParams{});
   EXPECT_GE(fp.resolution, 40);  // the torus spans 40 px: at least a cell per pixel
   const Field3dResult r = reconstruct_sections(traced, 1, fp);
@@ -161,7 +162,9 @@ SliceStack sphere_stack(InputKind kind, std::uint32_t value) {
 TEST(ImageSections, MethodReadsMaskAndLabelStacks) {
   for (const auto& [kind, value] : {std::pair{InputKind::Masks, 255u}, std::pair{InputKind::Labels, 7u}}) {
     const SliceStack st = sphere_stack(kind, value);
-    const ReconstructResult r = reconstruct(st, method_defaults(Method::Field3d));
+    ReconstructParams params = method_defaults(Method::Field3d);
+    params.field3d.resolution = 16;  // a floor: the pixel rule's one cell per pixel (the default 96 is 2.5 per pixel here)
+    const ReconstructResult r = reconstruct(st, params);
     ASSERT_EQ(r.objects.size(), 1u);
     const ObjectResult& ob = r.objects[0];
     EXPECT_EQ(ob.label, kind == InputKind::Labels ? 7u : 0u);

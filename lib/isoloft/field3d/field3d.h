@@ -11,9 +11,9 @@
 // inside and outside is constrained while crossing planes, whose in-plane
 // distances differ away from the contours, fight at most by the band; samples
 // on the contours themselves (d = 0) weigh contour_weight per length. The
-// normal equations are SPD; they are solved by Jacobi-preconditioned conjugate
-// gradients warm-started coarse to fine (the grid halved `levels - 1` times),
-// matrix-free; a direct SimplicialLDLT on the assembled matrix is the twin
+// normal equations are SPD; they are solved by conjugate gradients
+// preconditioned by a geometric multigrid V-cycle, warm-started coarse to fine
+// (the grid halved `levels - 1` times), matrix-free; a direct SimplicialLDLT on the assembled matrix is the twin
 // (Field3dParams::direct, small grids only). The zero set is meshed by Marching
 // Cubes (mesh/marching_cubes.h) on the grid padded with outside samples, so the
 // mesh is closed and oriented.
@@ -205,6 +205,7 @@ struct Field3dResult {
   std::size_t samples = 0;       ///< data samples (plane and contour)
   int iterations = 0;            ///< conjugate-gradient iterations over all levels (0 for direct)
   int finest_iterations = 0;     ///< of which on the finest grid
+  int multigrid_levels = 0;      ///< grids of the finest solve's multigrid preconditioner (0 for direct)
   double residual = 0;           ///< final relative residual |A f - b| / |b| on the finest grid
   std::vector<Field3dPlaneResidual> planes;  ///< one per section
   std::vector<Field3dConflict> conflicts;    ///< larger than conflict_tolerance

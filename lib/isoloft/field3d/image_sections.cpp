@@ -130,14 +130,24 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
           lo = lo.cwiseMin(w);
           hi = hi.cwiseMax(w);
         }
+  params = pixel_rows(params);
+  params.resolution = pixel_resolution({lo, hi}, pixel_size, params);
+  return params;
+}
+
+Field3dParams pixel_rows(Field3dParams params) {
   params.band = params.pixel_band;
   params.contour_weight = params.pixel_contour_weight;
-  if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params;
+  return params;
+}
+
+int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params) {
+  const auto& [lo, hi] = box;
+  if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params.resolution;
   // The box as reconstruct_sections() sizes it: the contours' extent plus the margin on each side.
   const double longest = ((hi - lo).array() + 2 * params.margin * (hi - lo).norm()).maxCoeff();
   const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
-  params.resolution = std::clamp(needed, params.resolution, std::max(params.resolution, kMaxResolution));
-  return params;
+  return std::clamp(needed, params.resolution, std::max(params.resolution, kMaxResolution));
 }
 
 Grid2u8 section_pixels(const TriMesh& mesh, const PlanePose& pose, double pixel_size, int width, int height) {

@@ -14,6 +14,7 @@
 // the solver then takes the whole plane as outside (what the image says).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -81,6 +82,16 @@ inline PixelBoundary pixel_boundary(const Field3dParams& params) { return {param
 /// contour). docs/decisions.md: field3d pixel input: sign constraints at pixel centres.
 Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t label, double pixel_size,
                            Field3dParams params);
+
+/// `params` with the pixel input's rows in place of the general ones: band
+/// from pixel_band, contour_weight from pixel_contour_weight (the grid's
+/// resolution is pixel_resolution()'s).
+Field3dParams pixel_rows(Field3dParams params);
+
+/// pixel_params()'s resolution for a grid over `box` (world mm, low and high
+/// corners, before the margin): params.resolution raised to
+/// kImageCellsPerPixel cells per `pixel_size` (at most 1024).
+int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params);
 
 /// The pixels of a `width` x `height` image on `pose` (pixel (x, y)'s centre
 /// at pose.to_world({x pixel_size, y pixel_size})) whose centres lie inside

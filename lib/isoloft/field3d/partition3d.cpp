@@ -11,6 +11,7 @@
 #include <numeric>
 
 #include "isoloft/core/error.h"
+#include "isoloft/field3d/image_sections.h"
 #include "isoloft/mesh/marching_cubes.h"
 
 namespace isoloft {
@@ -132,7 +133,7 @@ std::vector<std::vector<std::size_t>> overlapping_labels(const std::vector<Secti
 }  // namespace detail
 
 Partition3dResult reconstruct_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
-                                        const Field3dParams& params) {
+                                        const Field3dParams& params, double pixel) {
   using namespace detail;
   const auto start = std::chrono::steady_clock::now();
   if (labels.empty()) throw ParamError("field3d partition: no label to reconstruct");
@@ -155,6 +156,12 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
       }
       p.box = box;
     }
+    // Pixel input: the pixel rows (band, contour weight) and pixel cells over the group's box (the label's own
+    // box when alone), as pixel_params() sizes one label's grid.
+    if (pixel > 0) {
+      p = pixel_rows(p);
+      p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, p);
+    }
     std::vector<Field3dResult> fields;
     for (std::size_t i : group) {
       res.groups[g].push_back(labels[i]);
@@ -173,7 +180,7 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
         ob.planes = std::move(fields[k].planes);
         continue;
       }
-      ob.mesh = partition_mesh(fields, k, params.band);
+      ob.mesh = partition_mesh(fields, k, p.band);
       ob.check = check_mesh(ob.mesh);
       const auto polys = label_polylines(sections, ob.label);
       ob.planes.resize(sections.size());
@@ -188,13 +195,13 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
 }
 
 Partition3dObject SharedPartition::take(const std::vector<Section>& sections, std::uint32_t label,
-                                        const Field3dParams& params, double& seconds) {
+                                        const Field3dParams& params, double pixel, double& seconds) {
   const auto at = std::find(labels_.begin(), labels_.end(), label);
   if (at == labels_.end()) throw ParamError("field3d partition: label " + std::to_string(label) + " is not in it");
   const std::lock_guard lock(mutex_);
   seconds = 0;
   if (!result_) {
-    result_ = reconstruct_partition(sections, labels_, params);  // an error leaves it unset: the next taker throws too
+    result_ = reconstruct_partition(sections, labels_, params, pixel);  // an error leaves it unset: the next taker throws too
     taken_.assign(labels_.size(), false);
     seconds = result_->seconds;
   }

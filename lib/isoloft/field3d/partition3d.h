@@ -54,11 +54,14 @@ struct Partition3dResult {
 };
 
 /// The surfaces of `labels` (distinct, each drawn on some section) as one
-/// partition of space.
+/// partition of space. `pixel` > 0: the contours were traced from label
+/// images whose finest pixel is `pixel` mm, and each group's grid gets cells
+/// of at most kImageCellsPerPixel per pixel (field3d/image_sections.h,
+/// pixel_params() over the group's box) instead of params.resolution alone.
 /// \throw ParamError, InputError as reconstruct_sections(); ParamError for
 ///        an empty or repeated label list, or params.box given (it is set per group).
 Partition3dResult reconstruct_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
-                                        const Field3dParams& params = {});
+                                        const Field3dParams& params = {}, double pixel = 0);
 
 /// One input's partition shared by its jobs, one job per label (a CSL
 /// file's, run/inputs.cpp): the first job that asks solves every label, each
@@ -67,12 +70,15 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
 class SharedPartition {
  public:
   explicit SharedPartition(std::vector<std::uint32_t> labels) : labels_(std::move(labels)) {}
+  /// Every label of the partition, ascending as given.
+  [[nodiscard]] const std::vector<std::uint32_t>& labels() const { return labels_; }
   /// Label `label`'s object (moved out: each label once); `seconds` the
-  /// partition's wall time for the first taker, 0 for the others.
+  /// partition's wall time for the first taker, 0 for the others; `pixel`
+  /// as reconstruct_partition()'s.
   /// \throw as reconstruct_partition() (every taker, the first error);
   ///        ParamError for a label not in the list or taken twice.
   Partition3dObject take(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params,
-                         double& seconds);
+                         double pixel, double& seconds);
 
  private:
   std::vector<std::uint32_t> labels_;

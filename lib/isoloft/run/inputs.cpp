@@ -539,11 +539,14 @@ void check_float_precision(const Inputs& in) {
 Inputs sections_input(std::vector<Section> sections, const std::string& name) {
   Inputs in;
   std::vector<std::uint32_t> labels;
-  for (const Section& s : sections)
+  for (const Section& s : sections) {
     for (const SectionContour& c : s.contours) labels.push_back(c.label);
+    labels.insert(labels.end(), s.labels.data.begin(), s.labels.data.end());
+  }
   std::sort(labels.begin(), labels.end());
   labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
-  if (labels.empty()) throw InputError(name, "no plane has a contour: nothing to reconstruct");
+  labels.erase(std::remove(labels.begin(), labels.end(), 0u), labels.end());  // an image's outside
+  if (labels.empty()) throw InputError(name, "no plane has a contour or a labelled pixel: nothing to reconstruct");
   // Labels drawn on one input partition its space: touching ones share their boundary.
   const auto partition = std::make_shared<SharedPartition>(labels);
   for (const std::uint32_t l : labels) {

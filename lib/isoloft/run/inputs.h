@@ -130,10 +130,11 @@ InputFormat detect_input(const std::vector<std::string>& paths);
 /// a folder nor a regular file (a FIFO, a device) is refused before it is
 /// opened; a volume's size is checked against max_memory from its header,
 /// before its voxels are read.
-/// Sections in world space (a CSL file's, or Python's list of plane poses)
-/// as an input: one job per label drawn on some section, the labels one
+/// Sections in world space (a CSL file's, or Python's list of plane poses
+/// with polylines or label images) as an input: one job per label drawn on
+/// some section (a contour's, or a pixel's other than 0), the labels one
 /// partition (Job::partition); format Sections, `name` standing for the file.
-/// \throw InputError naming `name` when no section has a contour.
+/// \throw InputError naming `name` when no section has a contour or a labelled pixel.
 Inputs sections_input(std::vector<Section> sections, const std::string& name);
 
 /// \throw InputError / ParamError naming the file or the option; InputError

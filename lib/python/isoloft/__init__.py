@@ -254,7 +254,11 @@ def reconstruct(slices, *, input=None, z_spacing=None, slice_z=None, pixel_size=
       plane), label (default 1), hole (default False)}}; each label is one
       object, the labels one partition (touching ones share their
       boundary); the meshes are in the sections' world units. They need
-      method="field3d" (as a CSL file does).
+      method="field3d" (as a CSL file does). A section may hold a label
+      image instead of contours: {image: 2D integers (0 outside), affine:
+      4 x 4, (a, b, 0, 1) of image[a, b] to the world} or {image, origin, u,
+      v, pixel_size} (image[a, b] at origin + a pixel_size u + b pixel_size
+      v); each label's pixels are traced to their sub-pixel boundary.
     - an Input from read() or synth().
     method: isoloft (default), marker2006 or levin; labels: only these;
     threads: worker threads (default: all cores); progress(p) is called with

@@ -138,11 +138,38 @@ std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const Re
   return out;
 }
 
+// Every label of a partition traced on each image section (polyline
+// sections as they are): the partition solves every label from the same
+// sections, and a label's neighbours bound it only where their contours are.
+// The label image, when `boundary` keeps it, is carried once (the first
+// label's traced section; the others add their contours).
+std::vector<Section> partition_sections(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
+                                        const MaskCurveParams& mask_curve, const PixelBoundary& boundary) {
+  params_table<MaskCurveParams>().validate(mask_curve);
+  std::vector<Section> out(sections.size());
+  tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
+    if (!sections[i].is_image()) {
+      out[i] = sections[i];
+      return;
+    }
+    for (const std::uint32_t l : labels) {
+      Section t = traced_section(sections[i], l, mask_curve, boundary);
+      if (out[i].contours.empty()) out[i] = std::move(t);
+      else out[i].contours.insert(out[i].contours.end(), t.contours.begin(), t.contours.end());
+    }
+  });
+  return out;
+}
+
 // The objects the method reconstructs for one input: the reader's sections
 // (label images traced), or the stack's slices as sections.
 std::vector<ObjectSections> input_objects(const MethodInput& in, const ReconstructParams& params) {
   if (!in.sections.empty()) {
-    ObjectSections o{in.section_label, in.section_label, traced_sections(in.sections, in.section_label, params.mask_curve, pixel_boundary(params.field3d)), 0};
+    const PixelBoundary boundary = pixel_boundary(params.field3d);
+    ObjectSections o{in.section_label, in.section_label,
+                     in.partition ? partition_sections(in.sections, in.partition->labels(), params.mask_curve, boundary)
+                                  : traced_sections(in.sections, in.section_label, params.mask_curve, boundary),
+                     0};
     double pixel = std::numeric_limits<double>::infinity();
     for (const Section& s : in.sections)
       if (s.is_image()) pixel = std::min(pixel, s.pixel_size);
@@ -160,15 +187,15 @@ ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructPa
   params_table<ReconstructParams>().validate(params);
   ReconstructResult r;
   for (const ObjectSections& o : input_objects(in, params)) {
-    const Field3dParams fp = o.pixel > 0 ? pixel_params(o.sections, o.label, o.pixel, params.field3d) : params.field3d;
     ObjectResult ob;
     ob.label = o.object;
-    if (in.partition && !in.sections.empty()) {  // the labels of one input as one partition
-      Partition3dObject p = in.partition->take(o.sections, o.label, fp, r.times.interp);
+    if (in.partition && !in.sections.empty()) {  // the labels of one input as one partition (pixel cells per group)
+      Partition3dObject p = in.partition->take(o.sections, o.label, params.field3d, o.pixel, r.times.interp);
       ob.mesh = std::move(p.mesh);
       ob.check = p.check;
       for (auto& w : p.warnings) r.warnings.push_back(std::move(w));
     } else {
+      const Field3dParams fp = o.pixel > 0 ? pixel_params(o.sections, o.label, o.pixel, params.field3d) : params.field3d;
       Field3dResult f = reconstruct_sections(o.sections, o.label, fp);
       ob.mesh = std::move(f.mesh);
       ob.check = f.check;
