@@ -162,9 +162,7 @@ SliceStack sphere_stack(InputKind kind, std::uint32_t value) {
 TEST(ImageSections, MethodReadsMaskAndLabelStacks) {
   for (const auto& [kind, value] : {std::pair{InputKind::Masks, 255u}, std::pair{InputKind::Labels, 7u}}) {
     const SliceStack st = sphere_stack(kind, value);
-    ReconstructParams params = method_defaults(Method::Field3d);
-    params.field3d.resolution = 16;  // a floor: the pixel rule's one cell per pixel (the default 96 is 2.5 per pixel here)
-    const ReconstructResult r = reconstruct(st, params);
+    const ReconstructResult r = reconstruct(st, method_defaults(Method::Field3d));  // one cell per pixel
     ASSERT_EQ(r.objects.size(), 1u);
     const ObjectResult& ob = r.objects[0];
     EXPECT_EQ(ob.label, kind == InputKind::Labels ? 7u : 0u);

@@ -18,10 +18,9 @@ N = 33  # pixels per side: the disc of RADIUS and a rim of outside pixels
 # of radius: 3 x 0.5 / 12 = 12.5 %. Measured: -5.6 % (three planes only;
 # the field rounds off between them).
 VOLUME_SHARE = 0.125
-# field3d's resolution row is a floor the pixel rule raises (one cell per
-# pixel: ~34 cells over the ball's box and margin); the default 96 would
-# give 3 cells per pixel and 20x the nodes for the same properties.
-FIELD3D = {"resolution": 16}
+# field3d's defaults: pixel input gets one cell per pixel (~34 cells over
+# the ball's box and margin; field3d.resolution is for polylines).
+FIELD3D = {}
 # The two labels' volumes in the partition against each solved alone:
 # the partition's grid spans both labels' box (each alone: its own), and
 # the groove along the rim of the shared face counts as outside (2-3 % on

@@ -25,6 +25,9 @@ namespace {
 /// smoothing's reach (sigma 0.7 px) the same as beyond-the-grid zeros.
 constexpr int kPad = 2;
 
+/// Fewest cells the pixel rule gives a grid: the coarse-to-fine solve halves
+/// it twice (field3d.levels 3), and 16 cells leave 4, the resolution row's least.
+constexpr int kMinPixelResolution = 16;
 /// Largest field3d.resolution its row accepts (field3d/field3d.h).
 constexpr int kMaxResolution = 1024;
 
@@ -143,11 +146,12 @@ Field3dParams pixel_rows(Field3dParams params) {
 
 int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params) {
   const auto& [lo, hi] = box;
+  if (params.pixel_resolution > 0) return params.pixel_resolution;
   if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params.resolution;
   // The box as reconstruct_sections() sizes it: the contours' extent plus the margin on each side.
   const double longest = ((hi - lo).array() + 2 * params.margin * (hi - lo).norm()).maxCoeff();
   const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
-  return std::clamp(needed, params.resolution, std::max(params.resolution, kMaxResolution));
+  return std::clamp(needed, kMinPixelResolution, kMaxResolution);
 }
 
 Grid2u8 section_pixels(const TriMesh& mesh, const PlanePose& pose, double pixel_size, int width, int height) {

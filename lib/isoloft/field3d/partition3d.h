@@ -55,9 +55,9 @@ struct Partition3dResult {
 
 /// The surfaces of `labels` (distinct, each drawn on some section) as one
 /// partition of space. `pixel` > 0: the contours were traced from label
-/// images whose finest pixel is `pixel` mm, and each group's grid gets cells
-/// of at most kImageCellsPerPixel per pixel (field3d/image_sections.h,
-/// pixel_params() over the group's box) instead of params.resolution alone.
+/// images whose finest pixel is `pixel` mm, and each group's grid and rows
+/// are the pixel input's (field3d/image_sections.h pixel_rows(),
+/// pixel_resolution() over the group's box) instead of params.resolution.
 /// \throw ParamError, InputError as reconstruct_sections(); ParamError for
 ///        an empty or repeated label list, or params.box given (it is set per group).
 Partition3dResult reconstruct_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
