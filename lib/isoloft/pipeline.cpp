@@ -193,6 +193,7 @@ ReconstructResult reconstruct(const MethodInput& in, const ReconstructParams& pa
   if (m && m->reconstruct) {
     MethodInput with_labels = in;
     with_labels.labels = options.labels;
+    with_labels.on_estimate = options.on_estimate;
     return m->reconstruct(with_labels, params);
   }
   return reconstruct_columns(in.stack, params, options);

@@ -29,12 +29,19 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// "ROI 'Heart': label 3 (40 z planes of 120x96 px, ~51234 triangles)": the
-// object a budget error or the activity names.
-std::string object_text(const Job& job, const WorkEstimate& e) {
+// "ROI 'Heart': label 3 (40 z planes of 120x96 px, ~51234 triangles)", or
+// for field3d "label 3 of seg.nrrd (field3d: a 97x89x81 grid, 412345
+// samples, ~51234 triangles)": the object a budget error or the activity names.
+std::string object_text(const Inputs& in, const Job& job, const WorkEstimate& e) {
   std::ostringstream what;
-  what << (job.name.empty() ? "" : "ROI '" + job.name + "': ") << (e.label ? "label " + std::to_string(e.label) : "the object")
-       << " (" << e.planes << " z planes of " << e.box.width() << "x" << e.box.height() << " px, ~" << e.triangles
+  what << (job.name.empty() ? "" : "ROI '" + job.name + "': ") << (e.label ? "label " + std::to_string(e.label) : "the object");
+  if (e.grid[0] > 0) {
+    if (!in.files.empty()) what << " of " << in.files.front();
+    what << " (field3d: a " << e.grid[0] << "x" << e.grid[1] << "x" << e.grid[2] << " grid, " << std::llround(e.samples)
+         << " samples, ~" << std::llround(e.triangles) << " triangles)";
+    return what.str();
+  }
+  what << " (" << e.planes << " z planes of " << e.box.width() << "x" << e.box.height() << " px, ~" << e.triangles
        << " triangles)";
   return what.str();
 }
@@ -365,7 +372,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   std::vector<double> job_fields(in.jobs.size(), 0.0);
   std::mutex held_mutex;
   auto check_object = [&](const Job& job, const WorkEstimate& e) {
-    const std::string what = object_text(job, e);
+    const std::string what = object_text(in, job, e);
     check_budget(option_name("--max-memory"), what, in_bytes + e.field_bytes + e.mesh_bytes, o.budget.max_memory);
     {
       std::lock_guard lock(held_mutex);

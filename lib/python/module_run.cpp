@@ -33,8 +33,7 @@ void make_arrays(PyObjectResult& o) {
   const RunObject& r = o.object();
   const MeshWriteOptions& mo = o.data->mesh_options;
   // What save() writes: the writer's own float arithmetic.
-  const TriMesh placed = mo.frame ? in_patient_space(r.mesh, *mo.frame, mo.ras) : TriMesh{};
-  const detail::Scaled scaled{mo.frame ? placed : r.mesh, mo.frame ? 1.0 : mo.scale};
+  const detail::Scaled scaled{r.mesh, mo.scale, mo.frame ? &*mo.frame : nullptr, mo.ras};
   py::array_t<double> v({py::ssize_t(r.mesh.vertices.size()), py::ssize_t(3)});
   double* p = v.mutable_data();
   for (std::size_t i = 0; i < r.mesh.vertices.size(); ++i) {

@@ -77,4 +77,7 @@ class Cli : public ::testing::Test {
   fs::path dir_;
 };
 
+/// The shared RT Structure Set (data/rtstruct).
+inline const std::string kRtss = std::string(ISOLOFT_SOURCE_DIR) + "/data/rtstruct/rtss.dcm";
+
 }  // namespace isoloft::test

@@ -581,7 +581,7 @@ TEST_F(BadInput, ThePartitionsFieldsAreCountedTogetherAgainstTheBudget) {
 
 namespace {
 
-const std::string kRtss = std::string(ISOLOFT_SOURCE_DIR) + "/data/rtstruct/rtss.dcm";
+using isoloft::test::kRtss;
 
 bool is_char_device(const std::string& path) {
   struct stat st {};

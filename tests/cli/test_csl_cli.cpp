@@ -93,3 +93,26 @@ TEST_F(Cli, RefusesWhatTheField3dMethodCannotDo) {
   EXPECT_EQ(z.code, 1);
   EXPECT_NE(z.err.find("--z-spacing"), std::string::npos) << z.err;
 }
+
+// field3d's grid is estimated before it is made (issue 35 hostile input): a
+// grid over the budget stops with an error naming the flag, the label, the
+// file, the grid and both sizes; exit 1, nothing written.
+TEST_F(Cli, Field3dOverTheMemoryBudgetIsRefusedBeforeTheSolve) {
+  write_sphere_csl(p("sphere.csl"));
+  // 1024 cells along the longest side: ~1.1e9 nodes, ~100 GiB estimated, over the default 4 GiB.
+  std::ofstream(p("fine.json")) << R"({"field3d": {"resolution": 1024}})";
+  const CliRun fine = run("reconstruct " + p("sphere.csl") + " --method field3d --params " + p("fine.json") + " -o " +
+                          p("a.ply") + " --report " + p("a.json"));
+  EXPECT_EQ(fine.code, 1);
+  EXPECT_NE(fine.err.find("--max-memory: label 1 of " + p("sphere.csl") + " (field3d: a 1025x"), std::string::npos)
+      << fine.err;
+  EXPECT_NE(fine.err.find("over the budget of 4 GiB"), std::string::npos) << fine.err;
+  EXPECT_FALSE(fs::exists(p("a.ply")));
+  EXPECT_FALSE(fs::exists(p("a.json")));
+  // The default grid (96 cells, ~0.1 GiB estimated) under a 1 MiB budget.
+  const CliRun small = run("reconstruct " + p("sphere.csl") + " --method field3d --max-memory 1M -o " + p("b.ply"));
+  EXPECT_EQ(small.code, 1);
+  EXPECT_NE(small.err.find("--max-memory: label 1 of"), std::string::npos) << small.err;
+  EXPECT_NE(small.err.find("over the budget of 1 MiB"), std::string::npos) << small.err;
+  EXPECT_FALSE(fs::exists(p("b.ply")));
+}

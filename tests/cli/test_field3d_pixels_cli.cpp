@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kRadius = 10.0;  // mm (1 mm voxels)
+constexpr double kBallRadius = 10.0;  // mm (1 mm voxels)
 const Vec3d kOrigin(-20.0, 15.0, 40.0);
 const Vec3d kCentreVoxel(15.3, 15.6, 16.2);
 
@@ -37,7 +37,7 @@ Volume sphere_labels() {
   for (int k = 0; k < v.nz; ++k)
     for (int j = 0; j < v.ny; ++j)
       for (int i = 0; i < v.nx; ++i)
-        if ((Vec3d(i, j, k) - kCentreVoxel).norm() < kRadius) v.data[v.index(i, j, k)] = 3;
+        if ((Vec3d(i, j, k) - kCentreVoxel).norm() < kBallRadius) v.data[v.index(i, j, k)] = 3;
   return v;
 }
 
@@ -53,7 +53,7 @@ void expect_sphere(const TriMesh& m) {
   double worst = 0;
   std::size_t at = 0;
   for (std::size_t i = 0; i < m.vertices.size(); ++i) {
-    const double d = std::abs((m.vertices[i].cast<double>() - c).norm() - kRadius);
+    const double d = std::abs((m.vertices[i].cast<double>() - c).norm() - kBallRadius);
     if (d > worst) worst = d, at = i;
   }
   EXPECT_LE(worst, kRadialSlack) << "vertex " << at;
@@ -88,6 +88,20 @@ TEST_F(Cli, Field3dReadsALabelVolumeAnnotatedAlongSeveralAxes) {
                        " -o " + p("b.ply"));
   ASSERT_EQ(m.code, 0) << m.err;
   expect_sphere(read_mesh(p("b.ply")));
+}
+
+// Pixel input's grid (field3d.pixel_resolution, up to 1024 cells per axis)
+// is estimated before it is made, and one over the budget stops naming the
+// label and the file; exit 1, nothing written.
+TEST_F(Cli, Field3dPixelGridOverTheMemoryBudgetIsRefused) {
+  write_volume(p("seg.nrrd"), sphere_labels());
+  std::ofstream(p("fine.json")) << R"({"field3d": {"pixel_resolution": 1024}})";
+  const CliRun r = run("reconstruct " + p("seg.nrrd") + " --method field3d --annotated 'k:10,16,22;i:15;j:16' -o " +
+                       p("a.ply") + " --params " + p("fine.json"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--max-memory: label 3 of " + p("seg.nrrd") + " (field3d: a "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("over the budget of 4 GiB"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(p("a.ply")));
 }
 
 // Masks as PNG slices through field3d: one closed surface.

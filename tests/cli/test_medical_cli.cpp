@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kRtss = std::string(ISOLOFT_SOURCE_DIR) + "/data/rtstruct/rtss.dcm";
+using isoloft::test::kRtss;
 
 // Two labels drawn on every other axial slice, 1 x 1 x 2 mm voxels, rotated.
 Volume sparse_labels() {

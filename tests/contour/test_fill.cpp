@@ -8,6 +8,7 @@
 
 #include "isoloft/contour/fill.h"
 #include "isoloft/core/error.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -15,7 +16,6 @@ namespace {
 constexpr int kW = 64, kH = 64;  // slice size of the hand-made cases
 constexpr int kPad = 24;         // margin for curves drawn beyond the slice, then cropped
 
-std::string at(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 /// Compares two 0/1 grids, one failure per differing pixel (at most 10).
 void expect_grid_eq(const Grid2u8& got, const Grid2u8& want, const std::string& what) {
@@ -25,7 +25,7 @@ void expect_grid_eq(const Grid2u8& got, const Grid2u8& want, const std::string& 
   for (int y = 0; y < got.height; ++y)
     for (int x = 0; x < got.width; ++x)
       if (got(x, y) != want(x, y) && failures++ < 10)
-        ADD_FAILURE() << what << " at " << at(x, y) << ": got " << int(got(x, y)) << ", want "
+        ADD_FAILURE() << what << " at " << pixel_at(x, y) << ": got " << int(got(x, y)) << ", want "
                       << int(want(x, y));
 }
 
@@ -114,7 +114,7 @@ TEST(ContourFill, IslandInsideHoleHasDepthThree) {
 TEST(ContourFill, ClosedCircleTouchingTheBorderIsFilled) {
   // Centre 12 px from the left edge, radius 12: the curve runs along x = 0.
   const Grid2u8 c = circle(12, 30, 12);
-  ASSERT_TRUE(c(0, 30)) << "test setup: the circle should touch the border at " << at(0, 30);
+  ASSERT_TRUE(c(0, 30)) << "test setup: the circle should touch the border at " << pixel_at(0, 30);
   const FillResult r = fill_even_odd(c);
   expect_grid_eq(r.inside, disk(12, 30, 12), "inside");
   EXPECT_EQ(r.max_depth, 1);
@@ -292,8 +292,8 @@ TEST(ContourFill, StaircaseCurveEndsAreFoundAndRepaired) {
   constexpr int c = 32, r = 20;
   const auto l1 = [&](int x, int y) { return std::abs(x - c) + std::abs(y - c); };
   const Grid2u8 cut = make(kW, kH, [&](int x, int y) { return l1(x, y) >= r - 1 && l1(x, y) <= r && x - c < r - 2; });
-  EXPECT_TRUE(detail::is_endpoint(cut, c + r - 3, c - 2)) << at(c + r - 3, c - 2);
-  EXPECT_TRUE(detail::is_endpoint(cut, c + r - 3, c + 2)) << at(c + r - 3, c + 2);
+  EXPECT_TRUE(detail::is_endpoint(cut, c + r - 3, c - 2)) << pixel_at(c + r - 3, c - 2);
+  EXPECT_TRUE(detail::is_endpoint(cut, c + r - 3, c + 2)) << pixel_at(c + r - 3, c + 2);
   FillParams p;
   p.max_gap = 4;
   const FillResult res = fill_even_odd(cut, p);
@@ -310,7 +310,7 @@ TEST(ContourFill, EndpointRule) {
   for (const auto& p : path) g(p[0], p[1]) = 1;
   for (const auto& p : path) {
     const bool end = (p[0] == 1 && p[1] == 1) || (p[0] == 4 && p[1] == 3);
-    EXPECT_EQ(detail::is_endpoint(g, p[0], p[1]), end) << at(p[0], p[1]);
+    EXPECT_EQ(detail::is_endpoint(g, p[0], p[1]), end) << pixel_at(p[0], p[1]);
   }
 }
 
@@ -334,8 +334,8 @@ TEST(ContourFill, MaskBoundaryOfDiskIsClosedAndRefills) {
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx)
           n += (dx || dy) && b.contains(x + dx, y + dy) && b(x + dx, y + dy);
-      EXPECT_GE(n, 2) << "curve end at " << at(x, y);
-      EXPECT_FALSE(detail::is_endpoint(b, x, y)) << at(x, y);
+      EXPECT_GE(n, 2) << "curve end at " << pixel_at(x, y);
+      EXPECT_FALSE(detail::is_endpoint(b, x, y)) << pixel_at(x, y);
     }
   const FillResult r = fill_even_odd(b);
   expect_grid_eq(r.inside, d, "refilled disk");

@@ -15,6 +15,7 @@
 #include "isoloft/contour/fill.h"
 #include "isoloft/contour/normals.h"
 #include "isoloft/core/error.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -32,7 +33,6 @@ constexpr double kUnitTol = 1e-12;
 
 using Sdf = std::function<double(const Vec2d&)>;  // > 0 inside
 
-std::string at(const Vec2d& p) { return "point (" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ")"; }
 
 /// The region sdf > 0 sampled at pixel centres, and its boundary: mask pixels
 /// with a 4-neighbour outside the mask (an 8-connected closed curve).
@@ -68,11 +68,11 @@ TEST(ContourNormals, CircleNormalsAreRadial) {
     double sum = 0.0;
     for (std::size_t i = 0; i < op.size(); ++i) {
       const Vec2d& p = op.points[i];
-      EXPECT_EQ(contour(static_cast<int>(p.x()), static_cast<int>(p.y())), 1) << at(p) << " is not a contour pixel";
-      EXPECT_NEAR(op.normals[i].norm(), 1.0, kUnitTol) << at(p);
+      EXPECT_EQ(contour(static_cast<int>(p.x()), static_cast<int>(p.y())), 1) << point_at(p) << " is not a contour pixel";
+      EXPECT_NEAR(op.normals[i].norm(), 1.0, kUnitTol) << point_at(p);
       const double a = angle_deg(op.normals[i], p - c);
       sum += a;
-      EXPECT_LE(a, kMaxNormalAngleDeg) << "radius " << r << ", " << at(p);
+      EXPECT_LE(a, kMaxNormalAngleDeg) << "radius " << r << ", " << point_at(p);
     }
     EXPECT_LE(sum / static_cast<double>(op.size()), kMeanNormalAngleDeg) << "radius " << r;
   }
@@ -92,7 +92,7 @@ TEST(ContourNormals, EllipseNormalsFollowTheImplicitGradient) {
   for (std::size_t i = 0; i < op.size(); ++i) {
     const Vec2d d = op.points[i] - c;
     const Vec2d outward(d.x() / (a * a), d.y() / (b * b));  // -grad of the implicit
-    EXPECT_LE(angle_deg(op.normals[i], outward), kMaxNormalAngleDeg) << at(op.points[i]);
+    EXPECT_LE(angle_deg(op.normals[i], outward), kMaxNormalAngleDeg) << point_at(op.points[i]);
   }
 }
 
@@ -113,7 +113,7 @@ TEST(ContourNormals, HoleNormalsPointIntoTheHole) {
     // Inner contour: outward = out of the material = towards the centre.
     const Vec2d want = is_inner ? Vec2d(-radial) : radial;
     EXPECT_LE(angle_deg(op.normals[i], want), kMaxNormalAngleDeg)
-        << (is_inner ? "hole " : "outer ") << at(op.points[i]);
+        << (is_inner ? "hole " : "outer ") << point_at(op.points[i]);
     (is_inner ? inner : outer)++;
   }
   EXPECT_GT(inner, 100);
@@ -136,7 +136,7 @@ TEST(ContourNormals, WorksWithEvenOddFillOfTheContour) {
   for (std::size_t i = 0; i < op.size(); ++i) {
     const Vec2d radial = op.points[i] - c;
     const Vec2d want = radial.norm() < 30.0 ? Vec2d(-radial) : radial;
-    EXPECT_LE(angle_deg(op.normals[i], want), kMaxNormalAngleDeg) << at(op.points[i]);
+    EXPECT_LE(angle_deg(op.normals[i], want), kMaxNormalAngleDeg) << point_at(op.points[i]);
   }
 }
 
@@ -152,7 +152,7 @@ TEST(ContourNormals, LineWithoutInsideHasNoNormal) {
   ASSERT_EQ(op.size(), 10u);
   for (std::size_t i = 0; i < op.size(); ++i) {
     const Vec2d want = op.points[i].x() < 20 ? Vec2d(-1.0, 0.0) : Vec2d(1.0, 0.0);
-    EXPECT_LE(angle_deg(op.normals[i], want), 1e-6) << at(op.points[i]);
+    EXPECT_LE(angle_deg(op.normals[i], want), 1e-6) << point_at(op.points[i]);
   }
 }
 
@@ -217,7 +217,7 @@ TEST(PolygonPoints, NestedSquaresAreOrientedByEvenOdd) {
       // Corner samples take the normal of their edge: check only edge interiors.
       const bool corner = (std::fmod(p.x(), 20.0) == 0.0) && (std::fmod(p.y(), 20.0) == 0.0);
       if (corner) continue;
-      EXPECT_LE(angle_deg(op.normals[i], want), 1e-9) << (ccw ? "ccw " : "cw ") << at(p);
+      EXPECT_LE(angle_deg(op.normals[i], want), 1e-9) << (ccw ? "ccw " : "cw ") << point_at(p);
     }
   }
 }
@@ -230,11 +230,11 @@ TEST(PolygonPoints, SamplesAreDenseAndIncludeVertices) {
   for (const Vec2d& v : tri.points) {
     bool found = false;
     for (const Vec2d& p : op.points) found = found || (p - v).norm() < 1e-12;
-    EXPECT_TRUE(found) << "vertex " << at(v) << " is not a sample";
+    EXPECT_TRUE(found) << "vertex " << point_at(v) << " is not a sample";
   }
   for (std::size_t i = 0; i < op.size(); ++i) {
     const Vec2d& next = op.points[(i + 1) % op.size()];
-    EXPECT_LE((next - op.points[i]).norm(), spacing + 1e-12) << "gap after sample " << i << " " << at(op.points[i]);
+    EXPECT_LE((next - op.points[i]).norm(), spacing + 1e-12) << "gap after sample " << i << " " << point_at(op.points[i]);
   }
 }
 
@@ -354,7 +354,7 @@ RC_GTEST_PROP(PolygonPoints, ConvexPolygonNormalsPointAwayFromCentroid, ()) {
     RC_ASSERT(std::abs(op.normals[i].norm() - 1.0) < kUnitTol);
     // Strictly positive for a convex polygon containing its vertex centroid.
     if (!(op.normals[i].dot(op.points[i] - centroid) > 0.0))
-      RC_FAIL("inward normal at sample " + std::to_string(i) + " " + at(op.points[i]));
+      RC_FAIL("inward normal at sample " + std::to_string(i) + " " + point_at(op.points[i]));
   }
 }
 

@@ -13,6 +13,7 @@
 #include "isoloft/contour/fill.h"
 #include "isoloft/contour/rasterize.h"
 #include "isoloft/core/error.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -22,7 +23,6 @@ namespace {
 /// are 8-adjacent (centres <= sqrt(2) apart): 2 * 0.71 + 1.41 < 3.
 constexpr double kSeparation = 3.0;
 
-std::string at(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 /// Crossing-number point-in-polygon test (W. R. Franklin's PNPOLY), the
 /// naive twin of the scanline fill, over all polygons (even-odd).
@@ -54,7 +54,7 @@ std::string check(const std::vector<Polygon>& polys, int w, int h, bool check_fi
     for (int x = 0; x < w; ++x) {
       const bool want = contour(x, y) || pnpoly(polys, x, y);
       if (bool(inside(x, y)) != want)
-        fail("inside at " + at(x, y) + " is " + std::to_string(inside(x, y)) + (contour(x, y) ? " on" : " off") +
+        fail("inside at " + pixel_at(x, y) + " is " + std::to_string(inside(x, y)) + (contour(x, y) ? " on" : " off") +
              " the contour");
     }
   for (std::size_t k = 0; k < polys.size(); ++k) {
@@ -64,7 +64,7 @@ std::string check(const std::vector<Polygon>& polys, int w, int h, bool check_fi
       const auto run = detail::segment_pixels(v[i], v[(i + 1) % v.size()], w, h);
       if (!loop.empty() && loop.back() != run.front())
         fail("polygon " + std::to_string(k) + " edge " + std::to_string(i) + " does not start at the previous end " +
-             at(loop.back()[0], loop.back()[1]));
+             pixel_at(loop.back()[0], loop.back()[1]));
       loop.insert(loop.end(), run.begin(), run.end());
     }
     if (loop.front() != loop.back()) fail("polygon " + std::to_string(k) + " loop is not closed");
@@ -72,9 +72,9 @@ std::string check(const std::vector<Polygon>& polys, int w, int h, bool check_fi
       const auto& a = loop[i];
       const auto& b = loop[i + 1];
       if (std::abs(a[0] - b[0]) > 1 || std::abs(a[1] - b[1]) > 1)
-        fail("polygon " + std::to_string(k) + ": " + at(a[0], a[1]) + " and " + at(b[0], b[1]) +
+        fail("polygon " + std::to_string(k) + ": " + pixel_at(a[0], a[1]) + " and " + pixel_at(b[0], b[1]) +
              " are consecutive but not 8-adjacent");
-      if (!contour(a[0], a[1])) fail("loop " + at(a[0], a[1]) + " not marked in the contour");
+      if (!contour(a[0], a[1])) fail("loop " + pixel_at(a[0], a[1]) + " not marked in the contour");
     }
   }
   if (check_fill) {
@@ -82,7 +82,7 @@ std::string check(const std::vector<Polygon>& polys, int w, int h, bool check_fi
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x)
         if (f.inside(x, y) != inside(x, y))
-          fail("fill_even_odd(contour) disagrees with the rasterised inside at " + at(x, y));
+          fail("fill_even_odd(contour) disagrees with the rasterised inside at " + pixel_at(x, y));
     Grid2i labels;
     const int comps = detail::label_components(contour, true, true, labels);
     if (comps != int(polys.size()))
@@ -112,8 +112,8 @@ TEST(ContourRasterize, PolygonWithHole) {
   rasterize_polygons(polys, 64, 64, contour, inside);
   const FillResult f = fill_even_odd(contour);
   EXPECT_EQ(f.max_depth, 2);
-  EXPECT_FALSE(inside(18, 34)) << "hole centre " << at(18, 34);
-  EXPECT_TRUE(inside(40, 12)) << at(40, 12);
+  EXPECT_FALSE(inside(18, 34)) << "hole centre " << pixel_at(18, 34);
+  EXPECT_TRUE(inside(40, 12)) << pixel_at(40, 12);
 }
 
 // even_odd_inside is rasterize_polygons' inside without the contour pixels: a
@@ -128,12 +128,12 @@ TEST(ContourRasterize, EvenOddInsideLeavesOutContourPixelsWhoseCentreIsOutside) 
   int contour_outside = 0;
   for (int y = 0; y < 24; ++y)
     for (int x = 0; x < 24; ++x) {
-      ASSERT_EQ(inside(x, y), centres(x, y) | contour(x, y)) << at(x, y);
+      ASSERT_EQ(inside(x, y), centres(x, y) | contour(x, y)) << pixel_at(x, y);
       contour_outside += contour(x, y) && !centres(x, y);
     }
   EXPECT_GT(contour_outside, 0) << "no contour pixel with its centre outside: the case is not exercised";
-  EXPECT_TRUE(centres(10, 8)) << at(10, 8);
-  EXPECT_FALSE(centres(3, 3)) << at(3, 3);
+  EXPECT_TRUE(centres(10, 8)) << pixel_at(10, 8);
+  EXPECT_FALSE(centres(3, 3)) << pixel_at(3, 3);
 }
 
 TEST(ContourRasterize, NestedIslandAndAxisAlignedEdges) {
@@ -153,7 +153,7 @@ TEST(ContourRasterize, PolygonBeyondTheBorderIsClipped) {
   for (int y = 0; y < 48; ++y)
     for (int x = 0; x < 32; ++x)
       if (!contour(x, y)) {
-        EXPECT_EQ(bool(inside(x, y)), pnpoly({p}, x, y)) << at(x, y);
+        EXPECT_EQ(bool(inside(x, y)), pnpoly({p}, x, y)) << pixel_at(x, y);
       }
   EXPECT_TRUE(contour(0, 0) || inside(0, 0)) << "the corner lies inside the triangle";
 }

@@ -11,13 +11,13 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
 
 constexpr int kMaxSide = 40;  // brute force is O(N^2): 40x40 keeps a property run well under a second
 
-std::string at(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 /// Exact float comparison: fast and brute force map the same integer squared
 /// distance through the same float expression, so no tolerance is needed.
@@ -31,7 +31,7 @@ std::string grid_diff(const Grid2f& got, const Grid2f& want, const char* what) {
   for (int y = 0; y < got.height; ++y)
     for (int x = 0; x < got.width; ++x)
       if (!(got(x, y) == want(x, y)) && failures++ < 5)
-        msg += std::string(what) + " at " + at(x, y) + ": got " + std::to_string(got(x, y)) + ", want " +
+        msg += std::string(what) + " at " + pixel_at(x, y) + ": got " + std::to_string(got(x, y)) + ", want " +
                std::to_string(want(x, y)) + "\n";
   return msg;
 }
@@ -96,7 +96,7 @@ RC_GTEST_PROP(FieldEdt, NearestLabelIsAtTheNearestDistance, ()) {
     for (int x = 0; x < mask.width; ++x) {
       const int l = near(x, y);
       if (std::isinf(want(x, y))) {
-        if (l != -1) RC_FAIL("label without features at " + at(x, y) + "\n" + ascii(mask));
+        if (l != -1) RC_FAIL("label without features at " + pixel_at(x, y) + "\n" + ascii(mask));
         continue;
       }
       double best = std::numeric_limits<double>::infinity();
@@ -104,7 +104,7 @@ RC_GTEST_PROP(FieldEdt, NearestLabelIsAtTheNearestDistance, ()) {
         for (int fx = 0; fx < mask.width; ++fx)
           if (labels(fx, fy) == l) best = std::min(best, double((fx - x) * (fx - x) + (fy - y) * (fy - y)));
       if (best != double(want(x, y)))
-        RC_FAIL("label " + std::to_string(l) + " at " + at(x, y) + " is " + std::to_string(best) + " px^2 away, the nearest " +
+        RC_FAIL("label " + std::to_string(l) + " at " + pixel_at(x, y) + " is " + std::to_string(best) + " px^2 away, the nearest " +
                 std::to_string(want(x, y)) + "\n" + ascii(mask));
     }
 }
@@ -138,14 +138,14 @@ TEST(FieldEdt, SingleFeatureGivesSquaredPixelDistances) {
   const Grid2f d = squared_edt(f);
   for (int y = 0; y < 7; ++y)
     for (int x = 0; x < 10; ++x)
-      EXPECT_EQ(d(x, y), float((x - 3) * (x - 3) + (y - 4) * (y - 4))) << at(x, y);
+      EXPECT_EQ(d(x, y), float((x - 3) * (x - 3) + (y - 4) * (y - 4))) << pixel_at(x, y);
 }
 
 TEST(FieldEdt, EmptyFeatureSetsAreDocumentedConstants) {
   const Grid2u8 empty(6, 5);
   const Grid2f sq = squared_edt(empty);
   for (int y = 0; y < 5; ++y)
-    for (int x = 0; x < 6; ++x) EXPECT_TRUE(std::isinf(sq(x, y)) && sq(x, y) > 0) << at(x, y);
+    for (int x = 0; x < 6; ++x) EXPECT_TRUE(std::isinf(sq(x, y)) && sq(x, y) > 0) << pixel_at(x, y);
 
   // Empty contour: outside everywhere unless marked inside.
   Grid2u8 inside(6, 5);
@@ -153,14 +153,14 @@ TEST(FieldEdt, EmptyFeatureSetsAreDocumentedConstants) {
   const Grid2f c = distance_to_contour_signed(empty, inside);
   for (int y = 0; y < 5; ++y)
     for (int x = 0; x < 6; ++x)
-      EXPECT_EQ(c(x, y), (x == 2 && y == 2) ? kNoSurfaceDistance : -kNoSurfaceDistance) << at(x, y);
+      EXPECT_EQ(c(x, y), (x == 2 && y == 2) ? kNoSurfaceDistance : -kNoSurfaceDistance) << pixel_at(x, y);
 
   const Grid2f m0 = distance_to_mask_edge_signed(empty);
   const Grid2f m1 = distance_to_mask_edge_signed(Grid2u8(6, 5, 1));
   for (int y = 0; y < 5; ++y)
     for (int x = 0; x < 6; ++x) {
-      EXPECT_EQ(m0(x, y), -kNoSurfaceDistance) << "empty mask at " << at(x, y);
-      EXPECT_EQ(m1(x, y), kNoSurfaceDistance) << "full mask at " << at(x, y);
+      EXPECT_EQ(m0(x, y), -kNoSurfaceDistance) << "empty mask at " << pixel_at(x, y);
+      EXPECT_EQ(m1(x, y), kNoSurfaceDistance) << "full mask at " << pixel_at(x, y);
     }
 }
 
@@ -177,7 +177,7 @@ TEST(FieldEdt, MaskEdgeLiesHalfwayBetweenPixelCentres) {
     for (int x = 0; x <= 4; ++x) mask(x, y) = 1;
   const Grid2f d = distance_to_mask_edge_signed(mask);
   for (int y = 0; y < 6; ++y)
-    for (int x = 0; x < 12; ++x) EXPECT_EQ(d(x, y), float(4.5 - x)) << at(x, y);
+    for (int x = 0; x < 12; ++x) EXPECT_EQ(d(x, y), float(4.5 - x)) << pixel_at(x, y);
 }
 
 TEST(FieldEdt, ContourDistanceSignConvention) {
@@ -189,7 +189,7 @@ TEST(FieldEdt, ContourDistanceSignConvention) {
   }
   const Grid2f d = distance_to_contour_signed(contour, inside);
   for (int y = 0; y < 4; ++y)
-    for (int x = 0; x < 11; ++x) EXPECT_EQ(d(x, y), float(5 - x)) << at(x, y);
+    for (int x = 0; x < 11; ++x) EXPECT_EQ(d(x, y), float(5 - x)) << pixel_at(x, y);
 }
 
 TEST(FieldEdt, SizeMismatchThrows) {

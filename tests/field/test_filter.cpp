@@ -14,6 +14,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/field/filter.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -25,7 +26,6 @@ constexpr double kSigmaTol = 1e-12;
 // by u: 24 FLT_EPSILON covers r <= 9 (sigma_max = 3) with room.
 double float_sum_tol(double max_abs) { return 24.0 * FLT_EPSILON * max_abs; }
 
-std::string px(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 double max_abs(const Grid2f& g) {
   double m = 0.0;
@@ -65,7 +65,7 @@ TEST(DistanceFilter, LinearFieldIsUnchangedAwayFromTheBorder) {
   const int margin = int(std::ceil(3.0 * FilterParams{}.sigma_max));
   const double tol = float_sum_tol(max_abs(d));
   for (int y = margin; y < n - margin; ++y)
-    for (int x = margin; x < n - margin; ++x) ASSERT_NEAR(out(x, y), d(x, y), tol) << px(x, y);
+    for (int x = margin; x < n - margin; ++x) ASSERT_NEAR(out(x, y), d(x, y), tol) << pixel_at(x, y);
 }
 
 TEST(DistanceFilter, ReducesTheMedialAxisCrease) {
@@ -107,7 +107,7 @@ TEST(DistanceFilter, DisabledAndNoSurfaceFieldsPassThrough) {
   const Grid2f empty(20, 10, -kNoSurfaceDistance);
   const Grid2f out = distance_filter(empty);
   for (int y = 0; y < 10; ++y)
-    for (int x = 0; x < 20; ++x) ASSERT_NEAR(out(x, y), -kNoSurfaceDistance, float_sum_tol(kNoSurfaceDistance)) << px(x, y);
+    for (int x = 0; x < 20; ++x) ASSERT_NEAR(out(x, y), -kNoSurfaceDistance, float_sum_tol(kNoSurfaceDistance)) << pixel_at(x, y);
 }
 
 TEST(DistanceFilter, RejectsBadInput) {
@@ -147,13 +147,13 @@ RC_GTEST_PROP(DistanceFilter, KeepsSignsAndTheInnerBand, ()) {
       const float in = d(x, y), o = out(x, y);
       if (std::abs(double(in)) <= p.d_min) {
         if (std::bit_cast<std::uint32_t>(o) != std::bit_cast<std::uint32_t>(in))
-          RC_FAIL("value within d_min changed at " + px(x, y));
+          RC_FAIL("value within d_min changed at " + pixel_at(x, y));
         continue;
       }
-      if ((o > 0.0f) != (in > 0.0f) || o == 0.0f) RC_FAIL("sign flipped at " + px(x, y));
-      if (std::abs(double(o)) < float(p.d_min)) RC_FAIL("pulled inside d_min at " + px(x, y));
+      if ((o > 0.0f) != (in > 0.0f) || o == 0.0f) RC_FAIL("sign flipped at " + pixel_at(x, y));
+      if (std::abs(double(o)) < float(p.d_min)) RC_FAIL("pulled inside d_min at " + pixel_at(x, y));
       if (std::abs(double(o) - twin(x, y)) > tol)
-        RC_FAIL("fast " + std::to_string(o) + " vs naive twin " + std::to_string(twin(x, y)) + " at " + px(x, y));
+        RC_FAIL("fast " + std::to_string(o) + " vs naive twin " + std::to_string(twin(x, y)) + " at " + pixel_at(x, y));
     }
 }
 

@@ -13,6 +13,7 @@
 #include "isoloft/field/fast_sweeping.h"
 #include "isoloft/field/marching.h"
 #include "isoloft/field/narrow_band.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -46,7 +47,6 @@ const char* name(ExtendMethod m) {
   return "?";
 }
 
-std::string px(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 Grid2f sample(const ImplicitFn& f, int w, int h) {
   Grid2f g(w, h);
@@ -73,9 +73,9 @@ TEST(Extend, ClosestPointMatchesAnalyticCircle) {
       const Grid2f d = extend_distance(band, {m, ExtendUpdate::ClosestPoint});
       for (int y = 0; y < cc.n; ++y)
         for (int x = 0; x < cc.n; ++x) {
-          ASSERT_NEAR(d(x, y), cc.analytic(x, y), kTol) << name(m) << " " << px(x, y);
+          ASSERT_NEAR(d(x, y), cc.analytic(x, y), kTol) << name(m) << " " << pixel_at(x, y);
           if (band.known(x, y)) {
-            ASSERT_EQ(d(x, y), band.distance(x, y)) << name(m) << " band " << px(x, y);
+            ASSERT_EQ(d(x, y), band.distance(x, y)) << name(m) << " band " << pixel_at(x, y);
           }
         }
     }
@@ -91,9 +91,9 @@ TEST(Extend, EikonalMethodsSolveTheSameDiscreteProblem) {
   const Grid2f fsw = extend_fast_sweeping(band, ExtendUpdate::Eikonal);
   for (int y = 0; y < cc.n; ++y)
     for (int x = 0; x < cc.n; ++x) {
-      ASSERT_NEAR(mcc(x, y), fmm(x, y), kFloatTol) << "MCC vs FMM " << px(x, y);
-      ASSERT_NEAR(fsw(x, y), fmm(x, y), kFloatTol) << "sweeping vs FMM " << px(x, y);
-      ASSERT_NEAR(fmm(x, y), cc.analytic(x, y), kEikonalTol) << "FMM vs analytic " << px(x, y);
+      ASSERT_NEAR(mcc(x, y), fmm(x, y), kFloatTol) << "MCC vs FMM " << pixel_at(x, y);
+      ASSERT_NEAR(fsw(x, y), fmm(x, y), kFloatTol) << "sweeping vs FMM " << pixel_at(x, y);
+      ASSERT_NEAR(fmm(x, y), cc.analytic(x, y), kEikonalTol) << "FMM vs analytic " << pixel_at(x, y);
     }
 }
 
@@ -103,7 +103,7 @@ TEST(Extend, EmptyBandGivesNoSurfaceDistance) {
     for (const ExtendUpdate u : {ExtendUpdate::ClosestPoint, ExtendUpdate::Eikonal}) {
       const Grid2f d = extend_distance(band, {m, u});
       for (int y = 0; y < 7; ++y)
-        for (int x = 0; x < 9; ++x) ASSERT_EQ(d(x, y), -kNoSurfaceDistance) << name(m) << " " << px(x, y);
+        for (int x = 0; x < 9; ++x) ASSERT_EQ(d(x, y), -kNoSurfaceDistance) << name(m) << " " << pixel_at(x, y);
     }
 }
 
@@ -153,9 +153,9 @@ RC_GTEST_PROP(Extend, MethodsAgreeWithBruteForceOnRandomShapes, ()) {
         const double excess = std::abs(double(d(x, y))) - brute(x, y);
         if (excess < -kFloatTol || excess > kPropagationTol)
           RC_FAIL(std::string(name(m)) + ": |d| " + std::to_string(d(x, y)) + " vs brute " +
-                  std::to_string(brute(x, y)) + " at " + px(x, y));
+                  std::to_string(brute(x, y)) + " at " + pixel_at(x, y));
         if (d(x, y) != 0.0f && (d(x, y) > 0.0f) != bool(band.inside(x, y)))
-          RC_FAIL(std::string(name(m)) + ": sign differs from f at " + px(x, y));
+          RC_FAIL(std::string(name(m)) + ": sign differs from f at " + pixel_at(x, y));
       }
   }
 }
@@ -178,8 +178,8 @@ RC_GTEST_PROP(Extend, ExtendedFieldIsOneLipschitz, ()) {
           if (!d.contains(x + dx, y + dy)) continue;
           const double jump = std::abs(double(d(x, y)) - d(x + dx, y + dy));
           if (jump > std::hypot(dx, dy) + tol)
-            RC_FAIL(std::string(name(m)) + ": jump " + std::to_string(jump) + " between " + px(x, y) + " and " +
-                    px(x + dx, y + dy));
+            RC_FAIL(std::string(name(m)) + ": jump " + std::to_string(jump) + " between " + pixel_at(x, y) + " and " +
+                    pixel_at(x + dx, y + dy));
         }
   }
 }
@@ -202,11 +202,11 @@ RC_GTEST_PROP(Extend, MarchingCorrectnessIsAFixedPoint, ()) {
     for (int x = 0; x < shape.n; ++x) {
       const std::size_t i = std::size_t(y) * shape.n + x;
       if (std::abs(double(mcc(x, y)) - fmm(x, y)) > kFloatTol)
-        RC_FAIL("MCC " + std::to_string(mcc(x, y)) + " vs FMM " + std::to_string(fmm(x, y)) + " at " + px(x, y));
+        RC_FAIL("MCC " + std::to_string(mcc(x, y)) + " vs FMM " + std::to_string(fmm(x, y)) + " at " + pixel_at(x, y));
       if (s.fixed[i]) continue;
       const double u = detail::eikonal_update(s, x, y);
       if (std::abs(u - s.value[i]) > kFloatTol)
-        RC_FAIL("update gives " + std::to_string(u) + ", MCC kept " + std::to_string(s.value[i]) + " at " + px(x, y));
+        RC_FAIL("update gives " + std::to_string(u) + ", MCC kept " + std::to_string(s.value[i]) + " at " + pixel_at(x, y));
     }
 }
 

@@ -12,6 +12,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/field/edt.h"
 #include "isoloft/field/narrow_band.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -38,7 +39,6 @@ Grid2f sample(const ImplicitFn& f, int w, int h) {
   return g;
 }
 
-std::string px(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 // Every known pixel within `tol` of the analytic circle distance, every pixel
 // clearly inside the band known, signs those of f.
@@ -46,13 +46,13 @@ void expect_circle_band(const NarrowBandResult& r, double band_width, double tol
   for (int y = 0; y < kN; ++y) {
     for (int x = 0; x < kN; ++x) {
       const double a = analytic(Vec2d(x, y));
-      ASSERT_EQ(r.inside(x, y), a > 0.0 ? 1 : 0) << px(x, y);
+      ASSERT_EQ(r.inside(x, y), a > 0.0 ? 1 : 0) << pixel_at(x, y);
       if (r.known(x, y)) {
-        ASSERT_NEAR(r.distance(x, y), a, tol) << px(x, y);
+        ASSERT_NEAR(r.distance(x, y), a, tol) << pixel_at(x, y);
       } else {
-        ASSERT_GT(std::abs(a), band_width - tol) << px(x, y) << " should be in the band";
-        ASSERT_EQ(std::abs(r.distance(x, y)), kNoSurfaceDistance) << px(x, y);
-        ASSERT_EQ(r.distance(x, y) > 0.0f, a > 0.0) << px(x, y);
+        ASSERT_GT(std::abs(a), band_width - tol) << pixel_at(x, y) << " should be in the band";
+        ASSERT_EQ(std::abs(r.distance(x, y)), kNoSurfaceDistance) << pixel_at(x, y);
+        ASSERT_EQ(r.distance(x, y) > 0.0f, a > 0.0) << pixel_at(x, y);
       }
     }
   }
@@ -92,7 +92,7 @@ TEST(NarrowBand, SegmentSplitsFollowATightCircle) {
     for (int x = 0; x < kN; ++x)
       if (res.known(x, y)) {
         ++known;
-        ASSERT_NEAR(res.distance(x, y), r - (Vec2d(x, y) - kC).norm(), kTol) << px(x, y);
+        ASSERT_NEAR(res.distance(x, y), r - (Vec2d(x, y) - kC).norm(), kTol) << pixel_at(x, y);
       }
   EXPECT_GT(known, 100);
 }
@@ -107,9 +107,9 @@ TEST(NarrowBand, EdgeZeroLandsOnTheCurve) {
       const double fa = f(a), fb = f(b);
       if ((fa > 0.0) == (fb > 0.0)) continue;
       const Vec2d v = detail::edge_zero(a, fa, b, fb, f, NarrowBandParams{}.refine_iterations);
-      ASSERT_NEAR((v - kC).norm(), kR, kRootTol) << "edge from " << px(x, y);
-      ASSERT_GE(v.x(), a.x()) << "edge from " << px(x, y);
-      ASSERT_LE(v.x(), b.x()) << "edge from " << px(x, y);
+      ASSERT_NEAR((v - kC).norm(), kR, kRootTol) << "edge from " << pixel_at(x, y);
+      ASSERT_GE(v.x(), a.x()) << "edge from " << pixel_at(x, y);
+      ASSERT_LE(v.x(), b.x()) << "edge from " << pixel_at(x, y);
       ++tested;
     }
   }
@@ -155,12 +155,12 @@ TEST(NarrowBand, PolygonBandIsTheExactDistanceToTheDrawnEdges) {
   const Grid2d brute = detail::distance_to_segments_brute(edges, kSize, kSize);
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      ASSERT_EQ(r.inside(x, y), inside(x, y)) << px(x, y);
+      ASSERT_EQ(r.inside(x, y), inside(x, y)) << pixel_at(x, y);
       if (r.known(x, y)) {
-        ASSERT_NEAR(std::abs(r.distance(x, y)), brute(x, y), kFloatTol) << px(x, y);
-        ASSERT_EQ(r.distance(x, y) > 0.0f, inside(x, y) == 1) << px(x, y);
+        ASSERT_NEAR(std::abs(r.distance(x, y)), brute(x, y), kFloatTol) << pixel_at(x, y);
+        ASSERT_EQ(r.distance(x, y) > 0.0f, inside(x, y) == 1) << pixel_at(x, y);
       } else {
-        ASSERT_GT(brute(x, y), params.band_width) << px(x, y) << " should be in the band";
+        ASSERT_GT(brute(x, y), params.band_width) << pixel_at(x, y) << " should be in the band";
       }
     }
   for (std::size_t k = 0; k < r.segments.size(); ++k)
@@ -209,8 +209,8 @@ TEST(NarrowBand, NoZeroCrossingLeavesOnlySigns) {
     const float expected = g->data[0] > 0 ? kNoSurfaceDistance : -kNoSurfaceDistance;
     for (int y = 0; y < g->height; ++y)
       for (int x = 0; x < g->width; ++x) {
-        ASSERT_EQ(r.known(x, y), 0) << px(x, y);
-        ASSERT_EQ(r.distance(x, y), expected) << px(x, y);
+        ASSERT_EQ(r.known(x, y), 0) << pixel_at(x, y);
+        ASSERT_EQ(r.distance(x, y), expected) << pixel_at(x, y);
       }
   }
 }
@@ -255,17 +255,17 @@ RC_GTEST_PROP(NarrowBand, BandIsExactDistanceToAllSegments, ()) {
   const Grid2d brute = detail::distance_to_segments_brute(r.segments, n, n);
   for (int y = 0; y < n; ++y) {
     for (int x = 0; x < n; ++x) {
-      if (r.inside(x, y) != (s(x, y) > 0.0f)) RC_FAIL("inside flag differs from f at " + px(x, y));
+      if (r.inside(x, y) != (s(x, y) > 0.0f)) RC_FAIL("inside flag differs from f at " + pixel_at(x, y));
       if (r.known(x, y)) {
         if (std::abs(std::abs(double(r.distance(x, y))) - brute(x, y)) > kFloatTol)
           RC_FAIL("band " + std::to_string(r.distance(x, y)) + " vs brute " + std::to_string(brute(x, y)) + " at " +
-                  px(x, y));
+                  pixel_at(x, y));
         if ((r.distance(x, y) < 0.0f) == bool(r.inside(x, y)) && r.distance(x, y) != 0.0f)
-          RC_FAIL("sign differs from f at " + px(x, y));
+          RC_FAIL("sign differs from f at " + pixel_at(x, y));
         const std::int32_t k = r.nearest_segment(x, y);
-        if (k < 0 || std::size_t(k) >= r.segments.size()) RC_FAIL("no nearest segment at " + px(x, y));
+        if (k < 0 || std::size_t(k) >= r.segments.size()) RC_FAIL("no nearest segment at " + pixel_at(x, y));
       } else if (brute(x, y) <= params.band_width - kTieTol) {
-        RC_FAIL("pixel at distance " + std::to_string(brute(x, y)) + " missing from the band at " + px(x, y));
+        RC_FAIL("pixel at distance " + std::to_string(brute(x, y)) + " missing from the band at " + pixel_at(x, y));
       }
     }
   }

@@ -285,5 +285,33 @@ TEST(Field3d, BadInputNamesTheSection) {
   EXPECT_THROW((void)reconstruct_sections(good, 1, p), ParamError);
 }
 
+/// The work estimate counts the grid and the samples reconstruct_sections()
+/// makes (random tilted planes: rows crossing the box obliquely), without a
+/// solve; the bytes grow with the grid.
+TEST(Field3d, EstimateCountsTheGridAndSamplesOfTheSolve) {
+  const auto s = torus();
+  const std::vector<Section> sections = analytic_sections(*s, random_poses(*s, 7, 3), kSectionPixel);
+  Field3dParams p;
+  p.resolution = 24;
+  const Field3dWork w = estimate_sections(sections, 1, p);
+  const Field3dResult r = reconstruct_sections(sections, 1, p);
+  EXPECT_EQ(w.nx, r.nx);
+  EXPECT_EQ(w.ny, r.ny);
+  EXPECT_EQ(w.nz, r.nz);
+  /// Raster points on the box's faces: the estimate's per-row interval and
+  /// the solver's per-point test round alike up to a point per row end.
+  constexpr double kSampleSlack = 1e-3;
+  EXPECT_NEAR(w.samples, double(r.samples), kSampleSlack * double(r.samples));
+  EXPECT_GT(w.triangles, 0);
+  // Twice the cells per side: ~8x the nodes (6.8x here: the small grid's
+  // cells are rounded up to multiples of 4 per axis), the bytes at least 2x
+  // (contour samples grow as the cells per side, plane samples as their square).
+  p.resolution = 48;
+  const Field3dWork w2 = estimate_sections(sections, 1, p);
+  EXPECT_GT(w2.nodes(), 6 * w.nodes());
+  EXPECT_GT(w2.solve_bytes, 2 * w.solve_bytes);
+  EXPECT_THROW((void)estimate_sections(sections, 2, p), InputError);  // no contour of label 2
+}
+
 }  // namespace
 }  // namespace isoloft

@@ -126,6 +126,13 @@ TEST(ImageSections, TorusAnnotatedAlongThreeAxes) {
   const Field3dParams fp = pixel_params(traced, 1, 1.0, Field3dParams{});
   EXPECT_GE(fp.resolution, 40);  // the torus spans 40 px: at least a cell per pixel
   const Field3dResult r = reconstruct_sections(traced, 1, fp);
+  // The work estimate counts the sign points the solve makes (every image's
+  // pixel centres inside the grid's box; the i and j cuts cross it across rows).
+  /// Pixel centres on the box's faces: the estimate's per-row interval and
+  /// the solver's per-point test round alike up to a point per row end.
+  constexpr double kSignPointSlack = 1e-3;
+  ASSERT_GT(r.sign_points, 0u);
+  EXPECT_NEAR(estimate_sections(traced, 1, fp).sign_points, double(r.sign_points), kSignPointSlack * double(r.sign_points));
   EXPECT_TRUE(r.check.closed);
   EXPECT_TRUE(r.check.oriented);
   EXPECT_TRUE(r.check.manifold);

@@ -18,6 +18,7 @@
 #include "isoloft/contour/normals.h"
 #include "isoloft/core/error.h"
 #include "isoloft/fit/mpu.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
@@ -40,12 +41,11 @@ constexpr double kFloatRel = 1e-6;
 
 using Sdf = std::function<double(const Vec2d&)>;  // > 0 inside
 
-std::string at(const Vec2d& p) { return "(" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ")"; }
 
 /// A test shape: signed function (> 0 inside), exact unsigned distance to
 /// its curve, and points on the curve with outward normals (for the
 /// "no missing piece" check).
-struct Shape {
+struct CurveShape {
   std::string name;
   Sdf sdf;
   std::function<double(const Vec2d&)> distance;
@@ -53,8 +53,8 @@ struct Shape {
   int width = 0, height = 0;
 };
 
-Shape circle_shape(Vec2d c, double r, int w, int h) {
-  Shape s;
+CurveShape circle_shape(Vec2d c, double r, int w, int h) {
+  CurveShape s;
   s.name = "circle r=" + std::to_string(r);
   s.sdf = [=](const Vec2d& p) { return r - (p - c).norm(); };
   s.distance = [=](const Vec2d& p) { return std::abs(r - (p - c).norm()); };
@@ -91,8 +91,8 @@ double ellipse_distance(const Vec2d& p, const Vec2d& c, double a, double b, doub
   return std::min(best, dist(t));
 }
 
-Shape ellipse_shape(Vec2d c, double a, double b, double phi, int w, int h) {
-  Shape s;
+CurveShape ellipse_shape(Vec2d c, double a, double b, double phi, int w, int h) {
+  CurveShape s;
   s.name = "ellipse " + std::to_string(a) + "x" + std::to_string(b);
   auto local = [=](const Vec2d& p) {
     const Vec2d d = p - c;
@@ -123,8 +123,8 @@ Shape ellipse_shape(Vec2d c, double a, double b, double phi, int w, int h) {
 
 /// Box [c - half, c + half] minus a disk (centre c, radius r): exact signed
 /// distance near both curves (they are >= 20 px apart).
-Shape square_with_hole(Vec2d c, double half, double r, int w, int h) {
-  Shape s;
+CurveShape square_with_hole(Vec2d c, double half, double r, int w, int h) {
+  CurveShape s;
   s.name = "square with hole";
   auto box = [=](const Vec2d& p) {  // exact signed distance to the box, > 0 inside
     const Vec2d q = (p - c).cwiseAbs() - Vec2d(half, half);
@@ -149,8 +149,8 @@ Shape square_with_hole(Vec2d c, double half, double r, int w, int h) {
 }
 
 /// Union of shapes (disjoint curves) and difference (nested): by sdf max / min.
-Shape combine(const std::string& name, const Shape& a, const Shape& b, bool unite) {
-  Shape s;
+CurveShape combine(const std::string& name, const CurveShape& a, const CurveShape& b, bool unite) {
+  CurveShape s;
   s.name = name;
   s.sdf = [=](const Vec2d& p) { return unite ? std::max(a.sdf(p), b.sdf(p)) : std::min(a.sdf(p), -b.sdf(p)); };
   s.distance = [=](const Vec2d& p) { return std::min(a.distance(p), b.distance(p)); };
@@ -162,7 +162,7 @@ Shape combine(const std::string& name, const Shape& a, const Shape& b, bool unit
 }
 
 /// The shape as a digitised contour image -> contour_normals (paper 2.1).
-OrientedPoints image_points(const Shape& s) {
+OrientedPoints image_points(const CurveShape& s) {
   Grid2u8 mask(s.width, s.height), contour(s.width, s.height);
   for (int y = 0; y < s.height; ++y)
     for (int x = 0; x < s.width; ++x) mask(x, y) = s.sdf(Vec2d(x, y)) > 0.0 ? 1 : 0;
@@ -172,7 +172,7 @@ OrientedPoints image_points(const Shape& s) {
   return contour_normals(contour, mask);
 }
 
-MpuParams params_for(const Shape& s) {
+MpuParams params_for(const CurveShape& s) {
   MpuParams p;
   p.domain = Eigen::AlignedBox2d(Vec2d(-0.5, -0.5), Vec2d(s.width - 0.5, s.height - 0.5));
   return p;
@@ -183,7 +183,7 @@ MpuParams params_for(const Shape& s) {
 /// `bound` of the true curve; and every true curve point has a zero within
 /// `bound` along its normal (no piece missing). Returns the largest distance
 /// of a zero from the true curve.
-double check_zeros(const MpuCurve& curve, const Shape& s, double bound) {
+double check_zeros(const MpuCurve& curve, const CurveShape& s, double bound) {
   const Grid2f g = evaluate_on_grid(curve, s.width, s.height);
   double worst = 0.0;
   int failures = 0;
@@ -203,7 +203,7 @@ double check_zeros(const MpuCurve& curve, const Shape& s, double bound) {
     const double d = s.distance(z);
     worst = std::max(worst, d);
     if (d > bound && failures++ < 5)
-      ADD_FAILURE() << s.name << ": zero at " << at(z) << " is " << d << " px from the true curve (bound " << bound
+      ADD_FAILURE() << s.name << ": zero at " << point_at(z) << " is " << d << " px from the true curve (bound " << bound
                     << ")";
   };
   for (int y = 0; y < s.height; ++y)
@@ -222,14 +222,14 @@ double check_zeros(const MpuCurve& curve, const Shape& s, double bound) {
       (curve.value(p) > 0.0 ? pos : neg) = true;
     }
     if (!(pos && neg) && failures++ < 5)
-      ADD_FAILURE() << s.name << ": no zero within " << bound << " px of curve point " << at(q) << " (normal " << at(n)
+      ADD_FAILURE() << s.name << ": no zero within " << bound << " px of curve point " << point_at(q) << " (normal " << point_at(n)
                     << ")";
   }
   return worst;
 }
 
 /// Every pixel farther than kSignMargin from the true curve has the true sign.
-void check_signs(const MpuCurve& curve, const Shape& s) {
+void check_signs(const MpuCurve& curve, const CurveShape& s) {
   const Grid2f g = evaluate_on_grid(curve, s.width, s.height);
   int failures = 0;
   for (int y = 0; y < s.height; ++y)
@@ -253,11 +253,11 @@ void check_tol(const MpuResult& r, const MpuParams& p, const std::string& name) 
 // ------------------------------------------------------------ shapes from images
 
 TEST(Mpu, CircleAndEllipseFromContourImages) {
-  const std::vector<Shape> shapes{circle_shape({150.3, 149.6}, 100.0, 300, 300),
+  const std::vector<CurveShape> shapes{circle_shape({150.3, 149.6}, 100.0, 300, 300),
                                   circle_shape({60.2, 70.7}, 25.0, 140, 140),
                                   ellipse_shape({200.4, 150.2}, 150.0, 80.0, 0.0, 400, 300),
                                   ellipse_shape({150.0, 150.0}, 120.0, 50.0, 0.6, 300, 300)};
-  for (const Shape& s : shapes) {
+  for (const CurveShape& s : shapes) {
     const MpuParams p = params_for(s);
     const MpuResult r = fit_mpu(image_points(s), p);
     check_tol(r, p, s.name);
@@ -267,10 +267,10 @@ TEST(Mpu, CircleAndEllipseFromContourImages) {
 }
 
 TEST(Mpu, LargeDiskAndAnnulusHaveTheTrueSignFarFromTheCurve) {
-  const Shape disk = circle_shape({150.5, 149.5}, 100.0, 300, 300);
-  const Shape annulus = combine("annulus", circle_shape({150.3, 150.6}, 120.0, 300, 300),
+  const CurveShape disk = circle_shape({150.5, 149.5}, 100.0, 300, 300);
+  const CurveShape annulus = combine("annulus", circle_shape({150.3, 150.6}, 120.0, 300, 300),
                                 circle_shape({150.3, 150.6}, 60.0, 300, 300), false);
-  for (const Shape& s : {disk, annulus}) {
+  for (const CurveShape& s : {disk, annulus}) {
     const MpuParams p = params_for(s);
     const MpuResult r = fit_mpu(image_points(s), p);
     check_signs(r.curve, s);
@@ -280,7 +280,7 @@ TEST(Mpu, LargeDiskAndAnnulusHaveTheTrueSignFarFromTheCurve) {
 }
 
 // Fits an image-sampled shape of two pieces and checks tol, zeros and signs.
-void fit_and_check_two_components(const Shape& s) {
+void fit_and_check_two_components(const CurveShape& s) {
   const MpuParams p = params_for(s);
   const MpuResult r = fit_mpu(image_points(s), p);
   EXPECT_EQ(r.components, 2) << s.name;
@@ -290,19 +290,19 @@ void fit_and_check_two_components(const Shape& s) {
 }
 
 TEST(Mpu, TwoDisjointCircles) {
-  const Shape s = combine("two circles", circle_shape({110.4, 150.3}, 60.0, 400, 300),
+  const CurveShape s = combine("two circles", circle_shape({110.4, 150.3}, 60.0, 400, 300),
                           circle_shape({290.6, 149.8}, 70.0, 400, 300), true);
   fit_and_check_two_components(s);
 }
 
 TEST(Mpu, SquareWithHole) {
-  const Shape s = square_with_hole({150.0, 150.0}, 99.5, 40.3, 300, 300);
+  const CurveShape s = square_with_hole({150.0, 150.0}, 99.5, 40.3, 300, 300);
   fit_and_check_two_components(s);
 }
 
 TEST(Mpu, SmallIslandsGetTheirOwnFits) {
   // Islands of fewer than N_min points (component rule), one in a hole.
-  Shape s =
+  CurveShape s =
       combine("islands", circle_shape({60.3, 60.2}, 10.0, 300, 300), circle_shape({200.6, 80.4}, 6.0, 300, 300), true);
   s = combine("islands", s, circle_shape({150.2, 220.7}, 12.0, 300, 300), true);
   const MpuParams p = params_for(s);
@@ -316,7 +316,7 @@ TEST(Mpu, SmallIslandsGetTheirOwnFits) {
 
 // ------------------------------------------------------------ shapes from polygons
 
-Polygon sample_polygon(const Shape& s, bool reverse) {
+Polygon sample_polygon(const CurveShape& s, bool reverse) {
   Polygon poly;
   for (const auto& [q, n] : s.curve) poly.points.push_back(q);
   if (reverse) std::reverse(poly.points.begin(), poly.points.end());
@@ -325,8 +325,8 @@ Polygon sample_polygon(const Shape& s, bool reverse) {
 
 TEST(Mpu, CircleAndEllipseFromPolygons) {
   // Vertices on the curve: the polygon is within its chord sagitta of it.
-  const Shape circle = circle_shape({150.0, 150.0}, 100.0, 300, 300);               // 360 vertices
-  const Shape ellipse = ellipse_shape({200.0, 150.0}, 150.0, 80.0, 0.3, 400, 300);  // 720 vertices
+  const CurveShape circle = circle_shape({150.0, 150.0}, 100.0, 300, 300);               // 360 vertices
+  const CurveShape ellipse = ellipse_shape({200.0, 150.0}, 150.0, 80.0, 0.3, 400, 300);  // 720 vertices
   const double sag_circle = 100.0 * (1.0 - std::cos(M_PI / 360.0));
   // Ellipse: chord <= 2 pi a / 720 * (a / b) at the ends, curvature <= a / b^2.
   const double chord = 2.0 * M_PI * 150.0 / 720.0 * 150.0 / 80.0;
@@ -348,7 +348,7 @@ TEST(Mpu, SquareWithHoleFromPolygons) {
   outer.points = {{50, 50}, {250, 50}, {250, 250}, {50, 250}};
   for (int k = 0; k < 360; ++k)
     hole.points.emplace_back(150 + 40 * std::cos(k * M_PI / 180), 150 + 40 * std::sin(k * M_PI / 180));
-  const Shape s = square_with_hole({150.0, 150.0}, 100.0, 40.0, 300, 300);
+  const CurveShape s = square_with_hole({150.0, 150.0}, 100.0, 40.0, 300, 300);
   const MpuParams p = params_for(s);
   const MpuResult r = fit_mpu(polygon_points({outer, hole}, 0.5), p);
   check_tol(r, p, s.name);
@@ -362,7 +362,7 @@ RC_GTEST_PROP(Mpu, RandomEllipseSignsAndZeros, ()) {
   const double a = *rc::gen::inRange(20, 65), b = *rc::gen::inRange(15, 65);
   const double phi = *rc::gen::inRange(0, 314) / 100.0;
   const Vec2d c(75.0 + *rc::gen::inRange(-50, 50) / 10.0, 75.0 + *rc::gen::inRange(-50, 50) / 10.0);
-  const Shape s = ellipse_shape(c, std::max(a, b), std::min(a, b), phi, 150, 150);
+  const CurveShape s = ellipse_shape(c, std::max(a, b), std::min(a, b), phi, 150, 150);
   RC_TAG(std::max(a, b) / std::min(a, b) > 3.0 ? "eccentric" : "round");
   const MpuParams p = params_for(s);
   const MpuResult r = fit_mpu(polygon_points({sample_polygon(s, false)}, 0.5), p);
@@ -378,7 +378,7 @@ RC_GTEST_PROP(Mpu, RandomEllipseSignsAndZeros, ()) {
       if (x + 1 < s.width && (g(x, y) > 0.0) != (g(x + 1, y) > 0.0)) {
         const double t = g(x, y) / (g(x, y) - g(x + 1, y));
         const Vec2d z(x + t, y);
-        if (s.distance(z) > p.tol + kInterp) RC_FAIL("zero at " + at(z) + " far from the ellipse");
+        if (s.distance(z) > p.tol + kInterp) RC_FAIL("zero at " + point_at(z) + " far from the ellipse");
       }
     }
 }
@@ -433,7 +433,7 @@ RC_GTEST_PROP(Mpu, RandomBlobsHaveNoSpuriousZeros, ()) {
         if (x + dx >= kSide || y + dy >= kSide || (g(x, y) > 0.0) == (g(x + dx, y + dy) > 0.0)) continue;
         const double t = g(x, y) / (g(x, y) - g(x + dx, y + dy));
         const Vec2d z(x + t * dx, y + t * dy);
-        if (to_data(z) > p.tol + kPixelization) RC_FAIL("zero at " + at(z) + " far from the data");
+        if (to_data(z) > p.tol + kPixelization) RC_FAIL("zero at " + point_at(z) + " far from the data");
       }
     }
 }
@@ -441,8 +441,8 @@ RC_GTEST_PROP(Mpu, RandomBlobsHaveNoSpuriousZeros, ()) {
 // ------------------------------------------------------------ properties of the blend
 
 /// A flower: needs subdivision, corners and reduced supports.
-Shape flower_shape() {
-  Shape s;
+CurveShape flower_shape() {
+  CurveShape s;
   s.name = "flower";
   s.sdf = [](const Vec2d& q) {
     const Vec2d d = q - Vec2d(200, 200);
@@ -454,7 +454,7 @@ Shape flower_shape() {
 }
 
 TEST(Mpu, PartitionOfUnity) {
-  const Shape s = flower_shape();
+  const CurveShape s = flower_shape();
   const MpuResult r = fit_mpu(image_points(s), params_for(s));
   ASSERT_GT(r.leaves, 50);
   std::mt19937 rng(20061022);
@@ -464,18 +464,18 @@ TEST(Mpu, PartitionOfUnity) {
     const auto w = r.curve.weights(p);
     double sum = 0.0, blend = 0.0;
     for (const auto& [i, wi] : w) {
-      EXPECT_GT(wi, 0.0) << at(p);
+      EXPECT_GT(wi, 0.0) << point_at(p);
       sum += wi;
       blend += wi * (i < 0 ? r.curve.fallback(p) : r.curve.leaves()[i].fn.value(p));
     }
-    EXPECT_NEAR(sum, 1.0, kUnitySum) << "weights at " << at(p);
-    EXPECT_NEAR(blend, r.curve.value(p), 1e-9 * (1.0 + std::abs(blend))) << "value at " << at(p);
+    EXPECT_NEAR(sum, 1.0, kUnitySum) << "weights at " << point_at(p);
+    EXPECT_NEAR(blend, r.curve.value(p), 1e-9 * (1.0 + std::abs(blend))) << "value at " << point_at(p);
   }
   // Inside the root square the leaves alone cover every point.
   const auto box = r.curve.root_box();
   for (int k = 0; k < 2000; ++k) {
     const Vec2d p = box.sample();
-    for (const auto& [i, wi] : r.curve.weights(p)) EXPECT_GE(i, 0) << "fallback used inside the root at " << at(p);
+    for (const auto& [i, wi] : r.curve.weights(p)) EXPECT_GE(i, 0) << "fallback used inside the root at " << point_at(p);
   }
 }
 
@@ -483,14 +483,14 @@ TEST(Mpu, TolIsHonouredOrReported) {
   // Flower and a thin bar at several settings: a leaf over tol is always one
   // the algorithm may leave (support-bound: stall rule, or max depth), and
   // the report counts them.
-  Shape bar;
+  CurveShape bar;
   bar.name = "thin bar";
   bar.sdf = [](const Vec2d& q) {
     const Vec2d d = (q - Vec2d(150, 150)).cwiseAbs();
     return std::min(4.0 - d.y(), 120.0 - d.x());
   };
   bar.width = bar.height = 300;
-  for (const Shape& s : {flower_shape(), bar}) {
+  for (const CurveShape& s : {flower_shape(), bar}) {
     const OrientedPoints pts = image_points(s);
     for (int max_depth : {0, 2, 10}) {
       MpuParams p = params_for(s);
@@ -504,7 +504,7 @@ TEST(Mpu, TolIsHonouredOrReported) {
         ++over;
         at_max += leaf.depth == max_depth ? 1 : 0;
         EXPECT_TRUE(leaf.support_bound || leaf.depth == max_depth)
-            << s.name << ": leaf at " << at(leaf.centre) << " depth " << leaf.depth << " error " << leaf.error;
+            << s.name << ": leaf at " << point_at(leaf.centre) << " depth " << leaf.depth << " error " << leaf.error;
       }
       EXPECT_EQ(r.leaves_over_tol, over) << s.name;
       EXPECT_EQ(r.leaves_over_tol_at_max_depth, at_max) << s.name;
@@ -520,7 +520,7 @@ TEST(Mpu, TolIsHonouredOrReported) {
 }
 
 TEST(Mpu, GridEvaluationEqualsValue) {
-  const Shape s = flower_shape();
+  const CurveShape s = flower_shape();
   const MpuResult r = fit_mpu(image_points(s), params_for(s));
   // Offset, fractional step, and reaching beyond the root square (fallback).
   const double x0 = -60.25, y0 = -40.5, step = 1.75;
@@ -533,7 +533,7 @@ TEST(Mpu, GridEvaluationEqualsValue) {
 }
 
 TEST(Mpu, GridEvaluationOnlyWhereAsked) {
-  const Shape s = flower_shape();
+  const CurveShape s = flower_shape();
   const MpuResult r = fit_mpu(image_points(s), params_for(s));
   const Grid2f all = evaluate_on_grid(r.curve, s.width, s.height);
   Grid2u8 where(s.width, s.height, 0);
@@ -549,7 +549,7 @@ TEST(Mpu, GridEvaluationOnlyWhereAsked) {
 // MpuParams::domain_distance: cells farther from every point get no local
 // function; within the distance the curve still holds tol and the signs.
 TEST(Mpu, DomainDistanceFitsOnlyNearTheData) {
-  const Shape s = flower_shape();
+  const CurveShape s = flower_shape();
   MpuParams p = params_for(s);
   const MpuResult whole = fit_mpu(image_points(s), p);
   p.domain_distance = 7.0;
@@ -563,7 +563,7 @@ TEST(Mpu, DomainDistanceFitsOnlyNearTheData) {
   for (const auto& leaf : near.curve.leaves()) {
     double d = std::numeric_limits<double>::infinity();
     for (const Vec2d& q : pts.points) d = std::min(d, (q - leaf.centre).norm());
-    EXPECT_LE(d, p.domain_distance + std::sqrt(2.0) * leaf.half_size) << at(leaf.centre);
+    EXPECT_LE(d, p.domain_distance + std::sqrt(2.0) * leaf.half_size) << point_at(leaf.centre);
   }
   // Within the distance of the data: the true sign beyond kSignMargin.
   int failures = 0;
@@ -577,7 +577,7 @@ TEST(Mpu, DomainDistanceFitsOnlyNearTheData) {
 }
 
 TEST(Mpu, GradientMatchesFiniteDifferences) {
-  const Shape s = flower_shape();
+  const CurveShape s = flower_shape();
   const MpuResult r = fit_mpu(image_points(s), params_for(s));
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-100.0, 500.0);
@@ -598,20 +598,20 @@ TEST(Mpu, GradientMatchesFiniteDifferences) {
     if (kink) continue;
     ++checked;
     const Vec2d g = r.curve.gradient(p);
-    EXPECT_LE((g - fd).norm(), 1e-4 * (1.0 + g.norm())) << "gradient at " << at(p);
+    EXPECT_LE((g - fd).norm(), 1e-4 * (1.0 + g.norm())) << "gradient at " << point_at(p);
   }
   EXPECT_GT(checked, 2500);
 }
 
 TEST(Mpu, FarFieldFallbackIsNegativeAndContinuous) {
-  const Shape s = circle_shape({150.0, 150.0}, 100.0, 300, 300);
+  const CurveShape s = circle_shape({150.0, 150.0}, 100.0, 300, 300);
   const MpuResult r = fit_mpu(image_points(s), params_for(s));
   const auto box = r.curve.root_box();
   // Far away: outside, about minus the distance to the data.
   for (const Vec2d& p : {Vec2d(-2000, 150), Vec2d(150, 5000), Vec2d(3000, -3000)}) {
     const double f = r.curve.value(p);
-    EXPECT_LT(f, 0.0) << at(p);
-    EXPECT_NEAR(f, -((p - Vec2d(150, 150)).norm() - 100.0), 1.5) << at(p);
+    EXPECT_LT(f, 0.0) << point_at(p);
+    EXPECT_NEAR(f, -((p - Vec2d(150, 150)).norm() - 100.0), 1.5) << point_at(p);
   }
   // Across the root's edge and the end of the supports: no jump.
   const double step = 0.01;

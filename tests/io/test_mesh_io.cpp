@@ -424,3 +424,41 @@ TEST(MeshIo, VtkFormatsCarryLabelNamesAsFieldData) {
   write_mesh(dir.file("n.vtk"), m, o);
   EXPECT_EQ(isoloft::test::read_text(dir.file("n.vtk")).find("FIELD"), std::string::npos);
 }
+
+// A frame placed while writing (no copy of the mesh) gives the bytes of the
+// mesh placed first by in_patient_space() and written as it is (the header's
+// space name aside): PLY, OBJ, OFF and STL, LPS and RAS, the identity, a
+// rotated frame with an origin and a mirrored one (that one is copied, its
+// triangles reversed), with a -0 coordinate (origin + axes * p makes it +0).
+TEST(MeshIo, FramePlacedWhileWritingGivesThePlacedMeshBytes) {
+  TempDir dir;
+  TriMesh m = octahedron();
+  m.vertices[0].x() = -0.0f;
+  isoloft::PatientFrame rotated;
+  rotated.axes << 0.0, -0.7, 0.1, 0.7, 0.0, 0.0, 0.0, 0.05, 3.0;
+  rotated.origin = {-120.25, 33.5, 0.0};
+  isoloft::PatientFrame mirrored = rotated;
+  mirrored.axes.col(2) *= -1.0;
+  // The file without its space name: PLY's and OBJ's / OFF's comment line, STL's 80-byte header.
+  auto body = [](const std::string& text, const std::string& ext) {
+    if (ext == ".stl") return text.substr(80);
+    const std::size_t at = text.find("SPACE=");
+    if (at == std::string::npos) return text;
+    const std::size_t line = text.rfind('\n', at) + 1, end = text.find('\n', at) + 1;
+    return text.substr(0, line) + text.substr(end);
+  };
+  const std::vector<isoloft::PatientFrame> frames = {isoloft::PatientFrame{}, rotated, mirrored};
+  for (std::size_t f = 0; f < frames.size(); ++f)
+    for (const bool ras : {false, true})
+      for (const std::string ext : {".ply", ".obj", ".off", ".stl"}) {
+        isoloft::MeshWriteOptions framed;
+        framed.frame = frames[f];
+        framed.ras = ras;
+        write_mesh(dir.file("framed" + ext), m, framed);
+        write_mesh(dir.file("placed" + ext), isoloft::in_patient_space(m, frames[f], ras), isoloft::MeshWriteOptions{});
+        const std::string got = isoloft::test::read_text(dir.file("framed" + ext));
+        EXPECT_NE(got.find(ras ? "SPACE=RAS" : "SPACE=LPS"), std::string::npos) << "frame " << f << ' ' << ext;
+        EXPECT_EQ(body(got, ext), body(isoloft::test::read_text(dir.file("placed" + ext)), ext))
+            << "frame " << f << ' ' << ext << " ras " << ras;
+      }
+}

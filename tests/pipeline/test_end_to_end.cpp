@@ -19,16 +19,16 @@ using namespace isoloft;
 
 namespace {
 
-struct Case {
+struct EndToEndCase {
   SynthResult synth;
   ReconstructResult result;
 };
 
-Case run(const std::string& shape, Method method, int size, double ratio) {
+EndToEndCase run(const std::string& shape, Method method, int size, double ratio) {
   SynthParams sp;
   sp.size = size;
   sp.z_spacing = ratio;
-  Case c{synthesize(*make_default_shape(shape, size), sp), {}};
+  EndToEndCase c{synthesize(*make_default_shape(shape, size), sp), {}};
   const ReconstructParams p = method_defaults(method);
   c.result = reconstruct(c.synth.stack, p);
   return c;
@@ -60,7 +60,7 @@ constexpr double kLevinSphereMeanTol = 0.5;  // px, in the slice range
 constexpr double kLevinSphereMaxTol = 2.5;   // px, in the slice range (worst at the last slices, where r(z) bends fastest)
 
 TEST(EndToEnd, LevinSphereAt8To1IsClosedAndNearTheTrueSphere) {
-  const Case c = run("sphere", Method::Levin, 128, 8.0);
+  const EndToEndCase c = run("sphere", Method::Levin, 128, 8.0);
   ASSERT_EQ(c.result.objects.size(), 1u);
   const auto& obj = c.result.objects.front();
   EXPECT_TRUE(obj.check.closed);
@@ -115,8 +115,8 @@ TEST(EndToEnd, EmptyMiddleSliceSplitsTheObject) {
 // surface is closer to the truth, in distance and in normal direction, than
 // the Levin-style reconstruction of the same contour images.
 TEST(EndToEnd, Marker2006BeatsLevinOnATiltedTorusAt8To1) {
-  const Case marker = run("tilted-torus", Method::Marker2006, 128, 8.0);
-  const Case levin = run("tilted-torus", Method::Levin, 128, 8.0);
+  const EndToEndCase marker = run("tilted-torus", Method::Marker2006, 128, 8.0);
+  const EndToEndCase levin = run("tilted-torus", Method::Levin, 128, 8.0);
   ASSERT_EQ(marker.result.objects.size(), 1u);
   ASSERT_EQ(levin.result.objects.size(), 1u);
   const auto& st = marker.synth.stack;

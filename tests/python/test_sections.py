@@ -91,6 +91,20 @@ def test_touching_labels_share_their_boundary():
     assert len(face[0]) > 20 and face[0] == face[1], (len(face[0]), len(face[1]), len(face[0] ^ face[1]))
 
 
+def test_field3d_over_the_memory_budget_is_refused_before_the_solve():
+    """field3d's grid is estimated before it is made: 1024 cells per side
+    (~1.1e9 nodes) is over the default 4 GiB, and a partition of two labels
+    at the test's 48 cells over a 1 MiB budget; the error names the label
+    and the grid."""
+    with pytest.raises(isoloft.ParamError, match=r"max_memory: label 1 of sections \(field3d: a 1025x1025x1025 grid.* over the budget of 4 GiB"):
+        isoloft.reconstruct(orthogonal_sphere_sections(), method="field3d", field3d={"resolution": 1024})
+    sections = [{"origin": (0, 0, z), "u": (1, 0, 0), "v": (0, 1, 0),
+                 "contours": [{"points": half_disc(RADIUS, -1), "label": 1}, {"points": half_disc(RADIUS, 1), "label": 2}]}
+                for z in (-10.0, 0.0, 10.0)]
+    with pytest.raises(isoloft.ParamError, match=r"max_memory: .*label \d of sections \(field3d: a \d+x\d+x\d+ grid.* over the budget of 1 MiB"):
+        isoloft.reconstruct(sections, method="field3d", field3d=FIELD3D, max_memory="1M")
+
+
 def test_column_methods_refuse_sections():
     with pytest.raises(isoloft.ParamError, match="field3d"):
         isoloft.reconstruct(orthogonal_sphere_sections(), method="isoloft")

@@ -17,11 +17,11 @@
 #include "isoloft/field/edt.h"
 #include "isoloft/field/narrow_band.h"
 #include "validation/exact_distance.h"
+#include "test_names.h"
 
 namespace isoloft {
 namespace {
 
-std::string px(int x, int y) { return "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")"; }
 
 // Bitwise equality (NaN == NaN, +0 != -0): the two versions take the minimum
 // of the same exact squared distances and round it once, identically.
@@ -30,7 +30,7 @@ std::string bitwise_diff(const Grid2d& got, const Grid2d& want) {
   for (int y = 0; y < got.height; ++y)
     for (int x = 0; x < got.width; ++x)
       if (std::memcmp(&got(x, y), &want(x, y), sizeof(double)) != 0)
-        return px(x, y) + ": fast " + std::to_string(got(x, y)) + ", brute " + std::to_string(want(x, y));
+        return pixel_at(x, y) + ": fast " + std::to_string(got(x, y)) + ", brute " + std::to_string(want(x, y));
   return "";
 }
 
@@ -97,7 +97,7 @@ TEST(ExactDistance, MatchesAnalyticCircle) {
   for (int y = 0; y < kN; ++y)
     for (int x = 0; x < kN; ++x) {
       const double a = kR - (Vec2d(x, y) - c).norm();
-      ASSERT_NEAR(d(x, y), a, sagitta + kRounding) << px(x, y);
+      ASSERT_NEAR(d(x, y), a, sagitta + kRounding) << pixel_at(x, y);
     }
 }
 
@@ -109,9 +109,9 @@ TEST(ExactDistance, BandLeavesFarPixelsUnset) {
   for (int y = 0; y < 40; ++y)
     for (int x = 0; x < 40; ++x) {
       if (std::abs(full(x, y)) <= kBand) {
-        ASSERT_EQ(d(x, y), full(x, y)) << px(x, y);
+        ASSERT_EQ(d(x, y), full(x, y)) << pixel_at(x, y);
       } else {
-        ASSERT_TRUE(std::isnan(d(x, y))) << px(x, y);
+        ASSERT_TRUE(std::isnan(d(x, y))) << pixel_at(x, y);
       }
     }
 }
@@ -153,8 +153,8 @@ TEST(ExactDistance, AgreesWithEdtOnPixelRectangles) {
   const Grid2f field = distance_to_contour_signed(s.contour, s.inside);
   const FieldErrorReport r = compare_field(field, s.polygons);
   EXPECT_EQ(r.pixels_checked, 64 * 48);
-  EXPECT_LE(r.max_abs_error, kFloatTol) << "worst " << px(r.worst_x, r.worst_y);
-  EXPECT_EQ(r.sign_errors, 0) << "first at " << px(r.first_sign_error_x, r.first_sign_error_y);
+  EXPECT_LE(r.max_abs_error, kFloatTol) << "worst " << pixel_at(r.worst_x, r.worst_y);
+  EXPECT_EQ(r.sign_errors, 0) << "first at " << pixel_at(r.first_sign_error_x, r.first_sign_error_y);
 }
 
 TEST(ExactDistance, CompareFieldFindsInjectedErrors) {
@@ -190,7 +190,7 @@ TEST(ExactDistance, CompareFieldBandSkipsFarPixels) {
   Grid2f field = distance_to_contour_signed(s.contour, s.inside);
   field(31, 24) = 0.0f;  // 19 px from the contour: outside the band, not checked
   const FieldErrorReport r = compare_field(field, s.polygons, 0, 0, kBand);
-  EXPECT_LT(r.max_abs_error, 1e-5) << "worst " << px(r.worst_x, r.worst_y);
+  EXPECT_LT(r.max_abs_error, 1e-5) << "worst " << pixel_at(r.worst_x, r.worst_y);
   EXPECT_LT(r.pixels_checked, 64 * 48);
 }
 
@@ -227,7 +227,7 @@ TEST(ExactDistance, ZeroSetPolygonsOfAnnulus) {
   const double sagitta = 2.0 / (8.0 * kInner);
   const Grid2d d = exact_signed_distance(polys, kN, kN);
   for (int y = 0; y < kN; ++y)
-    for (int x = 0; x < kN; ++x) ASSERT_NEAR(d(x, y), annulus(Vec2d(x, y)), sagitta) << px(x, y);
+    for (int x = 0; x < kN; ++x) ASSERT_NEAR(d(x, y), annulus(Vec2d(x, y)), sagitta) << pixel_at(x, y);
 }
 
 TEST(ExactDistance, ZeroSetPolygonsWithoutRefinementAndSaddles) {
@@ -279,12 +279,12 @@ TEST(ExactDistance, NarrowBandOfCircleIsExact) {
   const double band = params.band_width - kBandEdge;
   const FieldErrorReport own = compare_field(nb.distance, nb.segments, nb.inside, 0, 0, band);
   EXPECT_GT(own.pixels_checked, 1000);
-  EXPECT_LE(own.max_abs_error, kFloatTol) << "worst " << px(own.worst_x, own.worst_y);
-  EXPECT_EQ(own.sign_errors, 0) << "first at " << px(own.first_sign_error_x, own.first_sign_error_y);
+  EXPECT_LE(own.max_abs_error, kFloatTol) << "worst " << pixel_at(own.worst_x, own.worst_y);
+  EXPECT_EQ(own.sign_errors, 0) << "first at " << pixel_at(own.first_sign_error_x, own.first_sign_error_y);
   // Independent vertices (bisection) differ from the band's (Illinois) by ~1e-9 px.
   const FieldErrorReport indep = compare_field(nb.distance, zero_set_polygons(samples, 0, 0, f), 0, 0, band);
-  EXPECT_LE(indep.max_abs_error, kFloatTol) << "worst " << px(indep.worst_x, indep.worst_y);
-  EXPECT_EQ(indep.sign_errors, 0) << "first at " << px(indep.first_sign_error_x, indep.first_sign_error_y);
+  EXPECT_LE(indep.max_abs_error, kFloatTol) << "worst " << pixel_at(indep.worst_x, indep.worst_y);
+  EXPECT_EQ(indep.sign_errors, 0) << "first at " << pixel_at(indep.first_sign_error_x, indep.first_sign_error_y);
 }
 
 TEST(ExactDistance, BadInputThrows) {

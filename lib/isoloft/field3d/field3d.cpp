@@ -87,6 +87,90 @@ void transpose_gather(const std::vector<std::uint32_t>& node, std::size_t N, std
   for (std::size_t e = 0; e < node.size(); ++e) entry[fill[node[e]]++] = std::uint32_t(e);
 }
 
+constexpr std::array<std::array<int, 3>, 6> kNeighbours{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
+
+/// f(i, j, k, n) at every node of the level, z slabs side by side.
+template <class F>
+void for_nodes(const Level& lv, const F& f) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, lv.nz), [&](const auto& rg) {
+    for (int k = rg.begin(); k < rg.end(); ++k)
+      for (int j = 0; j < lv.ny; ++j)
+        for (int i = 0; i < lv.nx; ++i) f(i, j, k, lv.index(i, j, k));
+  });
+}
+
+/// The diagonal of the smoothness and boundary terms, lam L^T L + wb on the
+/// box faces, at node (i, j, k).
+double energy_diagonal(const Level& lv, double lam, double wb, int i, int j, int k) {
+  int inner = 0;  // interior nodes among the six neighbours
+  for (const auto& o : kNeighbours) inner += lv.interior(i + o[0], j + o[1], k + o[2]);
+  return lam * ((lv.interior(i, j, k) ? 36 : 0) + inner) + (lv.boundary(i, j, k) ? wb : 0.0);
+}
+
+/// y = (lam L^T L + wb on the box faces) x + data(i, j, k, n) per node (the
+/// data term's row times x); lap: scratch for L x.
+template <class Data>
+void apply_energy(const Level& lv, double lam, double wb, const Eigen::VectorXd& x, Eigen::VectorXd& lap,
+                  Eigen::VectorXd& y, const Data& data) {
+  lap.resize(x.size());
+  const std::size_t sx = 1, sy = std::size_t(lv.nx), sz = sy * std::size_t(lv.ny);
+  for_nodes(lv, [&](int i, int j, int k, std::size_t n) {
+    lap[Eigen::Index(n)] = lv.interior(i, j, k)
+                               ? x[n - sx] + x[n + sx] + x[n - sy] + x[n + sy] + x[n - sz] + x[n + sz] - 6 * x[n]
+                               : 0.0;
+  });
+  y.resize(x.size());
+  for_nodes(lv, [&](int i, int j, int k, std::size_t n) {
+    double l = -6 * lap[n];
+    if (i > 0) l += lap[n - sx];
+    if (i < lv.nx - 1) l += lap[n + sx];
+    if (j > 0) l += lap[n - sy];
+    if (j < lv.ny - 1) l += lap[n + sy];
+    if (k > 0) l += lap[n - sz];
+    if (k < lv.nz - 1) l += lap[n + sz];
+    double v = lam * l + data(i, j, k, n);
+    if (lv.boundary(i, j, k)) v += wb * x[n];
+    y[Eigen::Index(n)] = v;
+  });
+}
+
+/// lam L^T L + wb on the box faces, assembled.
+Eigen::SparseMatrix<double> energy_matrix(const Level& lv, double lam, double wb) {
+  const auto N = Eigen::Index(lv.size());
+  std::vector<Eigen::Triplet<double>> lt, dt;
+  for (int k = 0; k < lv.nz; ++k)
+    for (int j = 0; j < lv.ny; ++j)
+      for (int i = 0; i < lv.nx; ++i) {
+        const auto n = Eigen::Index(lv.index(i, j, k));
+        if (lv.boundary(i, j, k)) dt.emplace_back(n, n, wb);
+        if (!lv.interior(i, j, k)) continue;
+        lt.emplace_back(n, n, -6.0);
+        for (const auto& o : kNeighbours) lt.emplace_back(n, Eigen::Index(lv.index(i + o[0], j + o[1], k + o[2])), 1.0);
+      }
+  Eigen::SparseMatrix<double> L(N, N), D(N, N);
+  L.setFromTriplets(lt.begin(), lt.end());
+  D.setFromTriplets(dt.begin(), dt.end());
+  Eigen::SparseMatrix<double> A = lam * Eigen::SparseMatrix<double>(L.transpose() * L);
+  A += D;
+  return A;
+}
+
+/// Sample s's cell on a level of spacing H (lower corner, clamped into the
+/// grid) and its eight trilinear weights, corner c = dx + 2 dy + 4 dz.
+std::array<int, 3> sample_cell(const Level& lv, const Sample& s, std::array<double, 8>& w) {
+  const Vec3d q = s.g / lv.H;
+  const int i = std::clamp(int(std::floor(q.x())), 0, lv.nx - 2);
+  const int j = std::clamp(int(std::floor(q.y())), 0, lv.ny - 2);
+  const int k = std::clamp(int(std::floor(q.z())), 0, lv.nz - 2);
+  const double fx = std::clamp(q.x() - i, 0.0, 1.0), fy = std::clamp(q.y() - j, 0.0, 1.0),
+               fz = std::clamp(q.z() - k, 0.0, 1.0);
+  for (int c = 0; c < 8; ++c) {
+    const int dx = c & 1, dy = c >> 1 & 1, dz = c >> 2 & 1;
+    w[std::size_t(c)] = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz);
+  }
+  return {i, j, k};
+}
+
 /// The normal equations' operator A = (smoothness / H) L^T L + B^T W B + boundary
 /// on one level, matrix-free (B and its transpose as gather lists).
 class Operator {
@@ -97,17 +181,12 @@ class Operator {
     node_.resize(8 * S);
     bw_.resize(8 * S);
     sw_.resize(S);
+    std::array<double, 8> w{};
     for (std::size_t s = 0; s < S; ++s) {
-      const Vec3d q = samples[s].g / lv.H;
-      const int i = std::clamp(int(std::floor(q.x())), 0, lv.nx - 2);
-      const int j = std::clamp(int(std::floor(q.y())), 0, lv.ny - 2);
-      const int k = std::clamp(int(std::floor(q.z())), 0, lv.nz - 2);
-      const double fx = std::clamp(q.x() - i, 0.0, 1.0), fy = std::clamp(q.y() - j, 0.0, 1.0),
-                   fz = std::clamp(q.z() - k, 0.0, 1.0);
+      const auto [i, j, k] = sample_cell(lv, samples[s], w);
       for (int c = 0; c < 8; ++c) {
-        const int dx = c & 1, dy = c >> 1 & 1, dz = c >> 2 & 1;
-        node_[8 * s + c] = std::uint32_t(lv.index(i + dx, j + dy, k + dz));
-        bw_[8 * s + c] = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz);
+        node_[8 * s + c] = std::uint32_t(lv.index(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)));
+        bw_[8 * s + c] = w[std::size_t(c)];
       }
       sw_[s] = samples[s].weight;
     }
@@ -115,19 +194,12 @@ class Operator {
 
     b_ = Eigen::VectorXd::Zero(Eigen::Index(N));
     diag_ = Eigen::VectorXd::Zero(Eigen::Index(N));
-    for_nodes([&](int i, int j, int k, std::size_t n) {
-      double d = 0, rhs = 0;
+    for_nodes(lv_, [&](int i, int j, int k, std::size_t n) {
+      double d = energy_diagonal(lv_, lam_, wb_, i, j, k), rhs = lv_.boundary(i, j, k) ? wb_ * outside_ : 0.0;
       for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) {
         const std::uint32_t e = entry_[a];
         d += sw_[e / 8] * bw_[e] * bw_[e];
         rhs += sw_[e / 8] * bw_[e] * samples[e / 8].value;
-      }
-      int inner = 0;  // interior nodes among the six neighbours
-      for (const auto& o : kNeighbours) inner += lv_.interior(i + o[0], j + o[1], k + o[2]);
-      d += lam_ * ((lv_.interior(i, j, k) ? 36 : 0) + inner);
-      if (lv_.boundary(i, j, k)) {
-        d += wb_;
-        rhs += wb_ * outside_;
       }
       diag_[Eigen::Index(n)] = d;
       b_[Eigen::Index(n)] = rhs;
@@ -139,14 +211,7 @@ class Operator {
 
   /// y = A x.
   void apply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
-    lap_.resize(x.size());
     r_.resize(Eigen::Index(sw_.size()));
-    const std::size_t sx = 1, sy = std::size_t(lv_.nx), sz = sy * std::size_t(lv_.ny);
-    for_nodes([&](int i, int j, int k, std::size_t n) {
-      lap_[Eigen::Index(n)] = lv_.interior(i, j, k)
-                                  ? x[n - sx] + x[n + sx] + x[n - sy] + x[n + sy] + x[n - sz] + x[n + sz] - 6 * x[n]
-                                  : 0.0;
-    });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sw_.size(), 4096), [&](const auto& rg) {
       for (std::size_t s = rg.begin(); s < rg.end(); ++s) {
         double v = 0;
@@ -154,86 +219,27 @@ class Operator {
         r_[Eigen::Index(s)] = sw_[s] * v;
       }
     });
-    y.resize(x.size());
-    for_nodes([&](int i, int j, int k, std::size_t n) {
-      double l = -6 * lap_[n];
-      if (i > 0) l += lap_[n - sx];
-      if (i < lv_.nx - 1) l += lap_[n + sx];
-      if (j > 0) l += lap_[n - sy];
-      if (j < lv_.ny - 1) l += lap_[n + sy];
-      if (k > 0) l += lap_[n - sz];
-      if (k < lv_.nz - 1) l += lap_[n + sz];
-      double v = lam_ * l;
+    apply_energy(lv_, lam_, wb_, x, lap_, y, [&](int, int, int, std::size_t n) {
+      double v = 0;
       for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) v += bw_[entry_[a]] * r_[entry_[a] / 8];
-      if (lv_.boundary(i, j, k)) v += wb_ * x[n];
-      y[Eigen::Index(n)] = v;
+      return v;
     });
   }
 
-  /// The same operator assembled (the direct twin: B^T W B as a sparse
-  /// product; gram: summed per node pair instead, memory O(nodes)).
-  [[nodiscard]] Eigen::SparseMatrix<double> assemble(bool gram = false) const {
+  /// The same operator assembled (the direct twin; B^T W B as a sparse product).
+  [[nodiscard]] Eigen::SparseMatrix<double> assemble() const {
     const auto N = Eigen::Index(lv_.size());
-    std::vector<Eigen::Triplet<double>> lt, bt, dt;
-    for (int k = 0; k < lv_.nz; ++k)
-      for (int j = 0; j < lv_.ny; ++j)
-        for (int i = 0; i < lv_.nx; ++i) {
-          const auto n = Eigen::Index(lv_.index(i, j, k));
-          if (lv_.boundary(i, j, k)) dt.emplace_back(n, n, wb_);
-          if (!lv_.interior(i, j, k)) continue;
-          lt.emplace_back(n, n, -6.0);
-          for (const auto& o : kNeighbours) lt.emplace_back(n, Eigen::Index(lv_.index(i + o[0], j + o[1], k + o[2])), 1.0);
-        }
-    Eigen::SparseMatrix<double> L(N, N), D(N, N);
-    L.setFromTriplets(lt.begin(), lt.end());
-    D.setFromTriplets(dt.begin(), dt.end());
-    Eigen::SparseMatrix<double> A = lam_ * Eigen::SparseMatrix<double>(L.transpose() * L);
-    A += D;
-    if (gram) {
-      // B^T W B per node from the transposed gather: <= 27 distinct partners
-      // per node (the nodes sharing a cell with it), so the triplets grow
-      // with the grid, not with the samples (the multigrid's coarsest level).
-      std::vector<std::pair<std::uint32_t, double>> row;
-      for (std::size_t n = 0; n < lv_.size(); ++n) {
-        row.clear();
-        for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) {
-          const std::uint32_t e = entry_[a], s = e / 8;
-          for (std::uint32_t c = 0; c < 8; ++c) {
-            const std::uint32_t m = node_[8 * s + c];
-            const double v = sw_[s] * bw_[e] * bw_[8 * s + c];
-            auto it = std::find_if(row.begin(), row.end(), [&](const auto& q) { return q.first == m; });
-            if (it == row.end()) row.emplace_back(m, v);
-            else it->second += v;
-          }
-        }
-        for (const auto& [m, v] : row) bt.emplace_back(Eigen::Index(n), Eigen::Index(m), v);
-      }
-      Eigen::SparseMatrix<double> G(N, N);
-      G.setFromTriplets(bt.begin(), bt.end());
-      A += G;
-      return A;
-    }
+    std::vector<Eigen::Triplet<double>> bt;
     for (std::size_t s = 0; s < sw_.size(); ++s)
       for (int c = 0; c < 8; ++c) bt.emplace_back(Eigen::Index(s), node_[8 * s + c], std::sqrt(sw_[s]) * bw_[8 * s + c]);
     Eigen::SparseMatrix<double> B(Eigen::Index(sw_.size()), N);
     B.setFromTriplets(bt.begin(), bt.end());
+    Eigen::SparseMatrix<double> A = energy_matrix(lv_, lam_, wb_);
     A += Eigen::SparseMatrix<double>(B.transpose() * B);
     return A;
   }
 
  private:
-  static constexpr std::array<std::array<int, 3>, 6> kNeighbours{
-      {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
-
-  template <class F>
-  void for_nodes(const F& f) const {
-    tbb::parallel_for(tbb::blocked_range<int>(0, lv_.nz), [&](const auto& rg) {
-      for (int k = rg.begin(); k < rg.end(); ++k)
-        for (int j = 0; j < lv_.ny; ++j)
-          for (int i = 0; i < lv_.nx; ++i) f(i, j, k, lv_.index(i, j, k));
-    });
-  }
-
   Level lv_;
   double lam_, wb_, outside_;
   std::vector<std::uint32_t> node_;  // 8 per sample
@@ -242,6 +248,108 @@ class Operator {
   std::vector<std::uint32_t> off_, entry_;
   Eigen::VectorXd b_, diag_;
   mutable Eigen::VectorXd lap_, r_;
+};
+
+/// Index of entry (a, b) of a symmetric 8x8 block stored packed (36 entries).
+constexpr int packed(int a, int b) { return a <= b ? a * (15 - a) / 2 + b : b * (15 - b) / 2 + a; }
+constexpr int kPackedBlock = 36;
+
+/// A multigrid coarse level's operator: Operator's energy on that level with
+/// B^T W B summed per grid cell into a symmetric 8x8 block over the cell's
+/// corners, instead of every sample's 8 node indices and weights (144 bytes
+/// per sample and level). A plane crosses a cell of a grid 2^l times coarser
+/// in ~4^l samples, so the blocks' memory falls by ~4 per level where the
+/// samples' stayed the same (docs/decisions.md: field3d memory). The blocks
+/// are float: they are a preconditioner's coefficients (CG runs on the
+/// finest Operator in double), and the V-cycle stays one fixed symmetric
+/// linear map. No right-hand side (the V-cycle restricts the residual).
+class CellOperator {
+ public:
+  CellOperator(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p)
+      : lv_(lv), lam_(p.smoothness / lv.H), wb_(p.boundary_weight * lv.H * lv.H) {
+    slot_.assign(std::size_t(lv.nx - 1) * std::size_t(lv.ny - 1) * std::size_t(lv.nz - 1), -1);
+    std::array<double, 8> w{};
+    for (const Sample& s : samples) {  // the cells holding a sample, numbered in cell order
+      const auto [i, j, k] = sample_cell(lv, s, w);
+      slot_[cell(i, j, k)] = 0;
+    }
+    std::int32_t used = 0;
+    for (std::int32_t& s : slot_)
+      if (s == 0) s = used++;
+      else s = -1;
+    block_.assign(std::size_t(used) * kPackedBlock, 0.0F);
+    for (const Sample& s : samples) {
+      const auto [i, j, k] = sample_cell(lv, s, w);
+      float* B = &block_[std::size_t(slot_[cell(i, j, k)]) * kPackedBlock];
+      for (int a = 0; a < 8; ++a)
+        for (int b = a; b < 8; ++b) B[packed(a, b)] += float(s.weight * w[std::size_t(a)] * w[std::size_t(b)]);
+    }
+    diag_.resize(Eigen::Index(lv.size()));
+    for_nodes(lv_, [&](int i, int j, int k, std::size_t n) {
+      double d = energy_diagonal(lv_, lam_, wb_, i, j, k);
+      each_cell(i, j, k, [&](const float* B, int c, std::size_t) { d += B[packed(c, c)]; });
+      diag_[Eigen::Index(n)] = d;
+    });
+  }
+
+  [[nodiscard]] const Eigen::VectorXd& diagonal() const { return diag_; }
+
+  /// y = A x.
+  void apply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    apply_energy(lv_, lam_, wb_, x, lap_, y, [&](int i, int j, int k, std::size_t) {
+      double v = 0;
+      each_cell(i, j, k, [&](const float* B, int c, std::size_t n0) {
+        for (int m = 0; m < 8; ++m) v += B[packed(c, m)] * x[Eigen::Index(n0 + corner(m))];
+      });
+      return v;
+    });
+  }
+
+  /// The same operator assembled (the coarsest level's factorisation).
+  [[nodiscard]] Eigen::SparseMatrix<double> assemble() const {
+    const auto N = Eigen::Index(lv_.size());
+    std::vector<Eigen::Triplet<double>> bt;
+    for (int k = 0; k + 1 < lv_.nz; ++k)
+      for (int j = 0; j + 1 < lv_.ny; ++j)
+        for (int i = 0; i + 1 < lv_.nx; ++i) {
+          const std::int32_t s = slot_[cell(i, j, k)];
+          if (s < 0) continue;
+          const float* B = &block_[std::size_t(s) * kPackedBlock];
+          const std::size_t n0 = lv_.index(i, j, k);
+          for (int a = 0; a < 8; ++a)
+            for (int b = 0; b < 8; ++b)
+              bt.emplace_back(Eigen::Index(n0 + corner(a)), Eigen::Index(n0 + corner(b)), double(B[packed(a, b)]));
+        }
+    Eigen::SparseMatrix<double> G(N, N);
+    G.setFromTriplets(bt.begin(), bt.end());
+    Eigen::SparseMatrix<double> A = energy_matrix(lv_, lam_, wb_);
+    A += G;
+    return A;
+  }
+
+ private:
+  [[nodiscard]] std::size_t cell(int i, int j, int k) const {
+    return std::size_t(i) + std::size_t(lv_.nx - 1) * (std::size_t(j) + std::size_t(lv_.ny - 1) * std::size_t(k));
+  }
+  /// Node offset of a cell's corner c from its corner 0.
+  [[nodiscard]] std::size_t corner(int c) const { return lv_.index(c & 1, c >> 1 & 1, c >> 2 & 1); }
+  /// f(block, c, n0) for each cell with samples that holds node (i, j, k), the node as its corner c (n0: its corner 0).
+  template <class F>
+  void each_cell(int i, int j, int k, const F& f) const {
+    for (int c = 0; c < 8; ++c) {
+      const int ci = i - (c & 1), cj = j - (c >> 1 & 1), ck = k - (c >> 2 & 1);
+      if (ci < 0 || cj < 0 || ck < 0 || ci >= lv_.nx - 1 || cj >= lv_.ny - 1 || ck >= lv_.nz - 1) continue;
+      const std::int32_t s = slot_[cell(ci, cj, ck)];
+      if (s >= 0) f(&block_[std::size_t(s) * kPackedBlock], c, lv_.index(ci, cj, ck));
+    }
+  }
+
+  Level lv_;
+  double lam_, wb_;
+  std::vector<std::int32_t> slot_;  // per cell: its block, or -1
+  std::vector<float> block_;        // kPackedBlock per cell with samples
+  Eigen::VectorXd diag_;
+  mutable Eigen::VectorXd lap_;
 };
 
 /// Preconditioned conjugate gradients from x (M.precondition(r, z): z = M^-1 r,
@@ -288,9 +396,9 @@ int conjugate_gradients(const Op& A, Eigen::VectorXd& x, double tol, int max_it,
   return preconditioned_cg(A, JacobiPreconditioner{A.diagonal().cwiseInverse()}, x, tol, max_it, rel);
 }
 
-/// Coarse level's field trilinearly at the finer level's nodes (nested grids).
-Eigen::VectorXd prolong(const Level& coarse, const Eigen::VectorXd& xc, const Level& fine) {
-  Eigen::VectorXd xf(Eigen::Index(fine.size()));
+/// Coarse level's field trilinearly at the finer level's nodes (nested grids), into xf.
+void prolong_into(const Level& coarse, const Eigen::VectorXd& xc, const Level& fine, Eigen::VectorXd& xf) {
+  xf.resize(Eigen::Index(fine.size()));
   tbb::parallel_for(tbb::blocked_range<int>(0, fine.nz), [&](const auto& rg) {
     for (int k = rg.begin(); k < rg.end(); ++k)
       for (int j = 0; j < fine.ny; ++j)
@@ -304,14 +412,20 @@ Eigen::VectorXd prolong(const Level& coarse, const Eigen::VectorXd& xc, const Le
           xf[Eigen::Index(fine.index(i, j, k))] = v / 8;
         }
   });
+}
+
+/// prolong_into() as a new vector.
+Eigen::VectorXd prolong(const Level& coarse, const Eigen::VectorXd& xc, const Level& fine) {
+  Eigen::VectorXd xf;
+  prolong_into(coarse, xc, fine, xf);
   return xf;
 }
 
 /// The transpose of prolong(): the fine residual summed onto the coarse nodes
 /// with the interpolation's weights (restriction R = P^T, so that the coarse
-/// correction keeps the V-cycle symmetric).
-Eigen::VectorXd restrict_to(const Level& coarse, const Eigen::VectorXd& rf, const Level& fine) {
-  Eigen::VectorXd rc = Eigen::VectorXd::Zero(Eigen::Index(coarse.size()));
+/// correction keeps the V-cycle symmetric), into rc.
+void restrict_to(const Level& coarse, const Eigen::VectorXd& rf, const Level& fine, Eigen::VectorXd& rc) {
+  rc.setZero(Eigen::Index(coarse.size()));
   for (int k = 0; k < fine.nz; ++k)
     for (int j = 0; j < fine.ny; ++j)
       for (int i = 0; i < fine.nx; ++i) {
@@ -322,7 +436,6 @@ Eigen::VectorXd restrict_to(const Level& coarse, const Eigen::VectorXd& rf, cons
         for (int c = 0; c < 8; ++c)
           rc[Eigen::Index(coarse.index(c & 1 ? i1 : i0, c >> 1 & 1 ? j1 : j0, c >> 2 & 1 ? k1 : k0))] += v;
       }
-  return rc;
 }
 
 /// Multigrid levels below a grid: coarsened while above this many nodes; the
@@ -347,29 +460,28 @@ constexpr double kLmaxSafety = 1.2;
 /// gradients on one level: the grids halved (nested nodes, the coarse box
 /// covering the fine one; each coarse operator rediscretised from the same
 /// samples at twice the spacing, the energy's scaling kept, so it
-/// approximates P^T A P), Chebyshev smoothing on D^-1 A, restriction P^T,
-/// the coarsest level factorised. Pre- and post-smoothing are one polynomial
-/// and the coarsest solve is exact, so the preconditioner is symmetric,
-/// positive definite and linear (plain CG applies). Jacobi-PCG needs
-/// O(h^-2) iterations on the 4th-order operator; this needs a number nearly
-/// independent of the grid.
+/// approximates P^T A P; its data term summed per cell, CellOperator),
+/// Chebyshev smoothing on D^-1 A, restriction P^T, the coarsest level
+/// factorised. Pre- and post-smoothing are one polynomial and the coarsest
+/// solve is exact, so the preconditioner is symmetric, positive definite and
+/// linear (plain CG applies). Jacobi-PCG needs O(h^-2) iterations on the
+/// 4th-order operator; this needs a number nearly independent of the grid.
+/// Memory: per level three work vectors (smoothing, residual, correction)
+/// kept from one V-cycle to the next, and on coarse levels the restricted
+/// residual and the correction; no copy of the samples.
 class Multigrid {
  public:
-  Multigrid(const Level& top, const Operator& A, const std::vector<Sample>& samples, const Field3dParams& p) {
+  Multigrid(const Level& top, const Operator& A, const std::vector<Sample>& samples, const Field3dParams& p) : top_(&A) {
     lv_.push_back(top);
-    op_.push_back(&A);
     while (lv_.back().size() > kCoarsestNodes && int(lv_.size()) < kMaxMultigridLevels) {
       const Level& f = lv_.back();
       const auto half = [](int n) { return n / 2 + 1; };  // ceil((n - 1) / 2) cells
       lv_.push_back({half(f.nx), half(f.ny), half(f.nz), 2 * f.H});
-      own_.push_back(std::make_unique<Operator>(lv_.back(), samples, p));
-      op_.push_back(own_.back().get());
+      coarse_.push_back(std::make_unique<CellOperator>(lv_.back(), samples, p));
     }
-    for (std::size_t l = 0; l + 1 < lv_.size(); ++l) {
-      inv_.push_back(op_[l]->diagonal().cwiseInverse());
-      lmax_.push_back(kLmaxSafety * largest_eigenvalue(*op_[l], inv_.back()));
-    }
-    coarsest_.compute(op_.back()->assemble(true));
+    work_.resize(lv_.size());
+    for (std::size_t l = 0; l + 1 < lv_.size(); ++l) lmax_.push_back(kLmaxSafety * largest_eigenvalue(l));
+    coarsest_.compute(coarse_.empty() ? CellOperator(top, samples, p).assemble() : coarse_.back()->assemble());
     if (coarsest_.info() != Eigen::Success) throw Error("field3d: the multigrid's coarsest factorisation failed");
   }
 
@@ -379,42 +491,56 @@ class Multigrid {
   void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const { vcycle(0, r, z); }
 
  private:
-  static double largest_eigenvalue(const Operator& A, const Eigen::VectorXd& inv) {
+  /// A level's vectors, kept between V-cycles: b and x (coarse levels: the
+  /// restricted residual and the correction), ax, r and d (smoothing).
+  struct Work {
+    Eigen::VectorXd b, x, ax, r, d;
+  };
+
+  void apply(std::size_t l, const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    if (l == 0) top_->apply(x, y);
+    else coarse_[l - 1]->apply(x, y);
+  }
+  [[nodiscard]] const Eigen::VectorXd& diagonal(std::size_t l) const {
+    return l == 0 ? top_->diagonal() : coarse_[l - 1]->diagonal();
+  }
+
+  [[nodiscard]] double largest_eigenvalue(std::size_t l) const {
     // A pseudo-random start: every mode present (a smooth start holds almost
     // none of the top modes, and the estimate stays far below lmax).
-    Eigen::VectorXd v(inv.size()), Av;
+    Eigen::VectorXd v(Eigen::Index(lv_[l].size())), Av;
     for (Eigen::Index n = 0; n < v.size(); ++n) {
       const double q = std::sin(double(n) * 12.9898 + 78.233) * 43758.5453;
       v[n] = q - std::floor(q) - 0.5;
     }
-    double l = 0;
+    double lmax = 0;
     for (int s = 0; s < kPowerSteps; ++s) {
       v /= v.norm();
-      A.apply(v, Av);
-      Av = inv.cwiseProduct(Av);
-      l = Av.norm();
-      v = Av;
+      apply(l, v, Av);
+      Av = Av.cwiseQuotient(diagonal(l));
+      lmax = Av.norm();
+      v.swap(Av);
     }
-    return l;
+    return lmax;
   }
 
   /// kSmoothingSteps of Chebyshev iteration on D^-1 A x = D^-1 b from x.
   void smooth(std::size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
-    const Operator& A = *op_[l];
+    Work& w = work_[l];
+    const Eigen::VectorXd& D = diagonal(l);
     const double lmax = lmax_[l], lmin = lmax / kChebyshevRatio;
     const double theta = (lmax + lmin) / 2, delta = (lmax - lmin) / 2, sigma = theta / delta;
     double rho = 1 / sigma;
-    Eigen::VectorXd Ax;
-    A.apply(x, Ax);
-    Eigen::VectorXd r = inv_[l].cwiseProduct(b - Ax);
-    Eigen::VectorXd d = r / theta;
+    apply(l, x, w.ax);
+    w.r = (b - w.ax).cwiseQuotient(D);
+    w.d = w.r / theta;
     for (int k = 0; k < kSmoothingSteps; ++k) {
-      x += d;
+      x += w.d;
       if (k + 1 == kSmoothingSteps) break;
-      A.apply(d, Ax);
-      r -= inv_[l].cwiseProduct(Ax);
+      apply(l, w.d, w.ax);
+      w.r -= w.ax.cwiseQuotient(D);
       const double rho_new = 1 / (2 * sigma - rho);
-      d = (rho_new * rho) * d + (2 * rho_new / delta) * r;
+      w.d = (rho_new * rho) * w.d + (2 * rho_new / delta) * w.r;
       rho = rho_new;
     }
   }
@@ -424,21 +550,24 @@ class Multigrid {
       x = coarsest_.solve(b);
       return;
     }
-    x = Eigen::VectorXd::Zero(b.size());
+    Work& w = work_[l];
+    Work& c = work_[l + 1];
+    x.setZero(b.size());
     smooth(l, b, x);
-    Eigen::VectorXd Ax;
-    op_[l]->apply(x, Ax);
-    Eigen::VectorXd xc;
-    vcycle(l + 1, restrict_to(lv_[l + 1], b - Ax, lv_[l]), xc);
-    x += prolong(lv_[l + 1], xc, lv_[l]);
+    apply(l, x, w.ax);
+    w.r = b - w.ax;
+    restrict_to(lv_[l + 1], w.r, lv_[l], c.b);
+    vcycle(l + 1, c.b, c.x);
+    prolong_into(lv_[l + 1], c.x, lv_[l], w.ax);
+    x += w.ax;
     smooth(l, b, x);
   }
 
   std::vector<Level> lv_;
-  std::vector<std::unique_ptr<Operator>> own_;
-  std::vector<const Operator*> op_;
-  std::vector<Eigen::VectorXd> inv_;
+  const Operator* top_;
+  std::vector<std::unique_ptr<CellOperator>> coarse_;  // levels 1, 2, ...
   std::vector<double> lmax_;
+  mutable std::vector<Work> work_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> coarsest_;
 };
 
@@ -1106,17 +1235,20 @@ Field3dPlaneResidual plane_section_distance(const TriMesh& mesh, const PlanePose
   return r;
 }
 
-}  // namespace detail
+/// The label's polylines per section (checked) and the finest grid around
+/// them: cells a multiple of 2^(levels-1) per axis, centred on the box.
+struct SectionGrid {
+  std::vector<std::vector<Polyline>> polys;  ///< per section
+  Vec3d contour_lo = Vec3d::Zero(), contour_hi = Vec3d::Zero();  ///< the label's contours' box, mm
+  double diag = 0;                           ///< the box's diagonal (contours' or Field3dParams::box), mm
+  Vec3d origin = Vec3d::Zero(), box_hi = Vec3d::Zero();  ///< the grid's corners, mm
+  double h = 0;                              ///< finest spacing, mm
+  std::array<int, 3> cells{};                ///< finest cells per axis
+};
 
-Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
-                                   const Field3dParams& params) {
-  using namespace detail;
-  const auto start = std::chrono::steady_clock::now();
-  params_table<Field3dParams>().validate(params);
-  Field3dResult res;
-
-  // The label's polylines per section, checked.
-  std::vector<std::vector<Polyline>> polys(sections.size());
+SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params) {
+  SectionGrid g;
+  g.polys.resize(sections.size());
   Vec3d lo = Vec3d::Constant(kInf), hi = Vec3d::Constant(-kInf);
   for (std::size_t i = 0; i < sections.size(); ++i) {
     const Section& sec = sections[i];
@@ -1136,31 +1268,64 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
         lo = lo.cwiseMin(w);
         hi = hi.cwiseMax(w);
       }
-      polys[i].push_back(con.points);
+      g.polys[i].push_back(con.points);
     }
   }
   if (!(lo.array() <= hi.array()).all())
     throw InputError("", "no section holds a contour of label " + std::to_string(label));
+  g.contour_lo = lo;
+  g.contour_hi = hi;
   if (params.box) {  // a given box: the contours' box replaced (it must hold them; the caller's)
     lo = (*params.box)[0];
     hi = (*params.box)[1];
   }
-  const double diag = (hi - lo).norm();
-  if (!(diag > 0)) throw InputError("", "the contours of label " + std::to_string(label) + " span no extent");
-
-  // The finest grid: cells a multiple of 2^(levels-1) per axis, centred on the box.
-  const Vec3d ext = (hi - lo).array() + 2 * params.margin * diag;
-  const double h = ext.maxCoeff() / params.resolution;
+  g.diag = (hi - lo).norm();
+  if (!(g.diag > 0)) throw InputError("", "the contours of label " + std::to_string(label) + " span no extent");
+  const Vec3d ext = (hi - lo).array() + 2 * params.margin * g.diag;
+  g.h = ext.maxCoeff() / params.resolution;
   const int unit = 1 << (params.levels - 1);
-  std::array<int, 3> cells{};
-  for (int a = 0; a < 3; ++a) cells[a] = std::max(2, int(std::ceil(ext[a] / h / unit))) * unit;
-  const Vec3d centre = (lo + hi) / 2;
+  for (int a = 0; a < 3; ++a) g.cells[a] = std::max(2, int(std::ceil(ext[a] / g.h / unit))) * unit;
+  g.origin = (lo + hi) / 2 - g.h / 2 * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
+  g.box_hi = g.origin + g.h * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
+  return g;
+}
+
+/// A plane's sample raster over the box [lo, hi]: the points pmin + sp (k, j),
+/// k < ns, j < nt, in-plane mm (those outside the box are dropped).
+struct PlaneRaster {
+  Vec2d pmin = Vec2d::Zero();
+  int ns = 0, nt = 0;
+};
+
+PlaneRaster plane_raster(const PlanePose& pose, const Vec3d& lo, const Vec3d& hi, double sp) {
+  Vec2d pmin = Vec2d::Constant(kInf), pmax = Vec2d::Constant(-kInf);
+  for (int c = 0; c < 8; ++c) {
+    const Vec2d q = pose.to_plane(Vec3d(c & 1 ? hi.x() : lo.x(), c & 2 ? hi.y() : lo.y(), c & 4 ? hi.z() : lo.z()));
+    pmin = pmin.cwiseMin(q);
+    pmax = pmax.cwiseMax(q);
+  }
+  return {pmin, int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, int(std::floor((pmax.y() - pmin.y()) / sp)) + 1};
+}
+
+}  // namespace detail
+
+Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
+                                   const Field3dParams& params) {
+  using namespace detail;
+  const auto start = std::chrono::steady_clock::now();
+  params_table<Field3dParams>().validate(params);
+  Field3dResult res;
+
+  const SectionGrid grid = section_grid(sections, label, params);
+  const std::vector<std::vector<Polyline>>& polys = grid.polys;
+  const double diag = grid.diag, h = grid.h;
+  const std::array<int, 3>& cells = grid.cells;
+  const Vec3d box_hi = grid.box_hi;
   res.spacing = h;
-  res.origin = centre - h / 2 * Vec3d(cells[0], cells[1], cells[2]);
+  res.origin = grid.origin;
   res.nx = cells[0] + 1;
   res.ny = cells[1] + 1;
   res.nz = cells[2] + 1;
-  const Vec3d box_hi = res.origin + h * Vec3d(cells[0], cells[1], cells[2]);
   if (params.direct && std::size_t(res.nx) * res.ny * res.nz > kMaxDirectNodes)
     throw ParamError("field3d.direct: the grid has " + std::to_string(std::size_t(res.nx) * res.ny * res.nz) +
                      " nodes, more than the direct twin's " + std::to_string(kMaxDirectNodes));
@@ -1172,15 +1337,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     std::vector<std::vector<Sample>> per(sections.size());
     tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
       const PlanePose& pose = sections[i].pose;
-      Vec2d pmin = Vec2d::Constant(kInf), pmax = Vec2d::Constant(-kInf);
-      for (int c = 0; c < 8; ++c) {
-        const Vec3d corner(c & 1 ? box_hi.x() : res.origin.x(), c & 2 ? box_hi.y() : res.origin.y(),
-                           c & 4 ? box_hi.z() : res.origin.z());
-        const Vec2d q = pose.to_plane(corner);
-        pmin = pmin.cwiseMin(q);
-        pmax = pmax.cwiseMax(q);
-      }
-      const int ns = int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, nt = int(std::floor((pmax.y() - pmin.y()) / sp)) + 1;
+      const auto [pmin, ns, nt] = plane_raster(pose, res.origin, box_hi, sp);
       const Grid2d d = signed_distance_raster(polys[i], pmin.x(), pmin.y(), sp, ns, nt, band);
       const double eps = 1e-9 * h;
       const double wplane = params.plane_weight * (sp / h) * (sp / h);
@@ -1259,6 +1416,17 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   const std::size_t sign_first = samples.size();
   std::optional<SignPoints> signs;
   std::vector<std::int64_t> sign_sample;  // per sign point: its penalty sample, -1 while inactive
+  // One active-set re-solve on the base grid, conjugate gradients warm from the previous solution x.
+  const auto sign_solve = [&](bool direct) {
+    const int before = res.iterations;
+    solve_level(base, samples, params, direct, x, res);
+    res.sign_iterations += res.iterations - before;
+    ++res.sign_passes;
+  };
+  const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
+  const auto signs_start = std::chrono::steady_clock::now();
   if (params.pixel_signs) signs = sign_points(sections, label, res.origin, box_hi, h);
   if (signs && signs->g.empty()) signs.reset();
   if (signs) {
@@ -1269,11 +1437,11 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
       res.sign_violated = violated.size();
       if (violated.empty() || pass == params.sign_passes) break;
       activate_signs(*signs, violated, params, samples, sign_sample);
-      solve_level(base, samples, params, params.direct && !refine, x, res);
-      ++res.sign_passes;
+      sign_solve(params.direct && !refine);
     }
     res.sign_active = samples.size() - sign_first;
   }
+  res.sign_seconds = seconds_since(signs_start);
   res.field.assign(x.data(), x.data() + x.size());
 
   // The band: re-solved on the grid `refinement` times finer near the surface.
@@ -1320,15 +1488,16 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     return m;
   };
   // Pixel input: the pixels the mesh itself draws wrong, put back (the base grid's mesh).
+  const auto mesh_signs_start = std::chrono::steady_clock::now();
   for (int pass = 0; signs && !refine && pass < params.sign_passes; ++pass) {
     const std::vector<std::size_t> missed = mesh_mismatches(*signs, sections, base_mesh());
     res.sign_violated = missed.size();
     if (missed.empty()) break;
     strengthen_signs(*signs, missed, params, samples, sign_sample);
-    solve_level(base, samples, params, params.direct, x, res);
-    ++res.sign_passes;
+    sign_solve(params.direct);
     res.field.assign(x.data(), x.data() + x.size());
   }
+  res.sign_seconds += seconds_since(mesh_signs_start);
   if (signs) res.sign_active = samples.size() - sign_first;
   if (!refine) {
     res.mesh = base_mesh();
@@ -1412,6 +1581,134 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
 
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return res;
+}
+
+namespace {
+
+// field3d's work estimate (estimate_sections()): bytes per item held at the
+// finest solve, counted from the solver's data structures; measured against
+// peak RSS in docs/decisions.md (field3d work estimate).
+/// Per finest node: the solution and CG's r, A p, z, p; the operator's
+/// right-hand side, diagonal and Laplacian; the V-cycle's three work vectors
+/// (doubles), and the transposed gather's offsets (uint32).
+constexpr double kBytesPerNode = 11 * 8 + 4;
+/// Per coarse multigrid node: diagonal, Laplacian, restricted residual,
+/// correction and three work vectors (doubles), and the cell's block slot.
+constexpr double kBytesPerCoarseNode = 7 * 8 + 4;
+/// Per coarse cell holding samples: its packed float block (CellOperator).
+constexpr double kBytesPerBlock = 36 * 4;
+/// Per sample: the Sample (48) and the finest operator's 8 node indices,
+/// 8 weights, weight, 8 transposed entries and residual (144).
+constexpr double kBytesPerSample = 48 + 144;
+/// Marching Cubes triangles per cell^2 of surface (2 on a face-parallel
+/// plane, more on oblique ones): synthetic spheres on 97-185 node grids got
+/// 1.01-1.03 times the estimate; armadillo and frog organs 0.69-0.81 (their
+/// boxes' ellipsoids overstate their area).
+constexpr double kTrianglesPerCellArea = 3;
+/// Per triangle: the mesh (vertices and triangles), the mesh check's edge
+/// map and the pruning's components.
+constexpr double kMeshBytesPerTriangle = 100;
+/// Per stored node of the refined band (refinement > 1, off by default):
+/// neighbours and flag, the band operator's vectors and CG's; counted, not
+/// measured against RSS.
+constexpr double kBytesPerBandNode = 128;
+/// The estimate is this much above the counted bytes: what the count leaves
+/// out (the process's own ~20-30 MiB, allocator rounding, TBB's per-thread
+/// state, the samples' per-section vectors before they are joined). Peak RSS
+/// over the counted bytes was 0.99-1.11 on six cases (three spheres, two
+/// frog organs, armadillo; docs/decisions.md), so 1.25 keeps every measured
+/// case under its estimate (0.79-0.89 of it) with room for the cases not
+/// measured (re-weighting passes, several labels on one grid).
+constexpr double kEstimateSafety = 1.25;
+/// Per sign point (pixel input, Field3dParams::pixel_signs): its position,
+/// sign, section and pixel (SignPoints), its penalty sample's index and
+/// violated flag, and the mesh check's raster of its pixel (1 byte).
+constexpr double kBytesPerSignPoint = 24 + 1 + 4 + 4 + 8 + 1 + 1;
+/// Share of the sign points that become penalty samples (the active set,
+/// each a sample of the solve): 0.19-0.46 % on five mask-kit rows (128 px;
+/// sphere 4:1 804 of 353,648), 0.02 leaves 4x room for rougher masks.
+constexpr double kSignActiveShare = 0.02;
+/// A plane raster this large is counted as its bounding rectangle (an upper
+/// bound) instead of row by row: the row count itself would take seconds.
+constexpr double kRowCountLimit = 1e9;
+
+/// Raster points of `r` inside [lo, hi] (eps-padded), row by row: each row is a line through the box.
+double raster_points_inside(const PlanePose& pose, const detail::PlaneRaster& r, double sp, const Vec3d& lo,
+                            const Vec3d& hi, double eps) {
+  if (double(r.ns) * double(r.nt) > kRowCountLimit) return double(r.ns) * double(r.nt);
+  const Vec3d step = pose.to_world(r.pmin + Vec2d(sp, 0)) - pose.to_world(r.pmin);
+  double n = 0;
+  for (int j = 0; j < r.nt; ++j) {
+    const Vec3d w0 = pose.to_world({r.pmin.x(), r.pmin.y() + j * sp});
+    double k0 = 0, k1 = r.ns - 1;
+    for (int a = 0; a < 3 && k0 <= k1; ++a) {
+      const double below = lo[a] - eps - w0[a], above = hi[a] + eps - w0[a];
+      if (std::abs(step[a]) < 1e-12 * sp) {
+        if (below > 0 || above < 0) k1 = -1;
+        continue;
+      }
+      double t0 = below / step[a], t1 = above / step[a];
+      if (t0 > t1) std::swap(t0, t1);
+      k0 = std::max(k0, std::ceil(t0));
+      k1 = std::min(k1, std::floor(t1));
+    }
+    if (k1 >= k0) n += k1 - k0 + 1;
+  }
+  return n;
+}
+
+}  // namespace
+
+Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params) {
+  using namespace detail;
+  params_table<Field3dParams>().validate(params);
+  const SectionGrid g = section_grid(sections, label, params);
+  Field3dWork w;
+  w.nx = g.cells[0] + 1;
+  w.ny = g.cells[1] + 1;
+  w.nz = g.cells[2] + 1;
+  const double sp = params.sample_spacing * g.h;
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    const PlanePose& pose = sections[i].pose;
+    w.samples += raster_points_inside(pose, plane_raster(pose, g.origin, g.box_hi, sp), sp, g.origin, g.box_hi, 1e-9 * g.h);
+    if (params.contour_weight > 0)
+      for (const Polyline& poly : g.polys[i])
+        for (std::size_t e = 0; e < poly.size(); ++e)
+          w.samples += std::max(1.0, std::ceil((poly[(e + 1) % poly.size()] - poly[e]).norm() / sp));
+  }
+  // Pixel input: every pixel centre of the label images inside the box is a
+  // sign point (sign_points()); the active ones are samples of the solve too.
+  if (params.pixel_signs)
+    for (const Section& s : sections)
+      if (s.is_image())
+        w.sign_points += raster_points_inside(s.pose, PlaneRaster{Vec2d::Zero(), s.labels.width, s.labels.height},
+                                              s.pixel_size, g.origin, g.box_hi, 1e-9 * g.h);
+  const double solve_samples = w.samples + kSignActiveShare * w.sign_points;
+  // The multigrid hierarchy under the finest grid (Multigrid's halving rule):
+  // its nodes, and its cells with samples (a plane crosses a cell of H
+  // finest cells in ~H^2 samples).
+  double coarse_nodes = 0, blocks = 0;
+  Level lv{w.nx, w.ny, w.nz, 1};
+  for (int l = 1; lv.size() > kCoarsestNodes && l < kMaxMultigridLevels; ++l) {
+    lv = {lv.nx / 2 + 1, lv.ny / 2 + 1, lv.nz / 2 + 1, 2 * lv.H};
+    coarse_nodes += double(lv.size());
+    blocks += std::min(double(lv.nx - 1) * double(lv.ny - 1) * double(lv.nz - 1), solve_samples / (lv.H * lv.H));
+  }
+  // The surface: the contours' box as an ellipsoid (Thomsen's area formula), in cells^2.
+  const Vec3d semi = (g.contour_hi - g.contour_lo) / (2 * g.h);
+  constexpr double kThomsen = 1.6075;
+  const auto pw = [](double v) { return std::pow(v, kThomsen); };
+  const double area = 4 * std::acos(-1.0) *
+                      std::pow((pw(semi.x() * semi.y()) + pw(semi.x() * semi.z()) + pw(semi.y() * semi.z())) / 3, 1 / kThomsen);
+  const int r = params.refinement;
+  w.triangles = kTrianglesPerCellArea * area * r * r;
+  const double band_nodes = r > 1 ? area * (2 * params.refine_width + 1) * r * r * r : 0.0;
+  w.solve_bytes = kEstimateSafety * (w.nodes() * kBytesPerNode + coarse_nodes * kBytesPerCoarseNode +
+                                     blocks * kBytesPerBlock + solve_samples * kBytesPerSample +
+                                     w.sign_points * kBytesPerSignPoint + band_nodes * kBytesPerBandNode);
+  w.field_bytes = w.nodes() * sizeof(double);
+  w.mesh_bytes = kEstimateSafety * w.triangles * kMeshBytesPerTriangle;
+  return w;
 }
 
 }  // namespace isoloft

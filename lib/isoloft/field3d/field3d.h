@@ -226,6 +226,8 @@ struct Field3dResult {
   std::size_t sign_active = 0;               ///< of which made penalty samples, all passes
   std::size_t sign_violated = 0;             ///< of which still on the wrong side of the margin at the end
   int sign_passes = 0;                       ///< active-set re-solves run
+  int sign_iterations = 0;                   ///< of `iterations`, those of the active-set re-solves
+  double sign_seconds = 0;                   ///< wall time of the active set (checks and re-solves, field and mesh)
 };
 
 /// The surface of `label` from every section: one field over all planes.
@@ -235,6 +237,27 @@ struct Field3dResult {
 ///        when no section holds a contour of `label`.
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
                                    const Field3dParams& params = {});
+
+/// What reconstruct_sections() will build for `label`, from the sections
+/// alone, before any sample or grid is made: the input to a memory budget
+/// (ReconstructOptions::on_estimate). An estimate, not a bound: its measured
+/// ratio to peak RSS is in docs/decisions.md (field3d work estimate).
+struct Field3dWork {
+  int nx = 0, ny = 0, nz = 0;  ///< finest grid nodes per axis
+  double samples = 0;          ///< plane and contour samples
+  double sign_points = 0;      ///< pixel input: label-image pixel centres inside the box (Field3dResult::sign_points)
+  double triangles = 0;        ///< Marching Cubes triangles (the contours' box as an ellipsoid)
+  double solve_bytes = 0;      ///< held at the finest solve: grid vectors, samples, operators, multigrid
+  double field_bytes = 0;      ///< the finished field (Field3dResult::field)
+  double mesh_bytes = 0;       ///< the mesh, its checks and per-plane residuals
+  [[nodiscard]] double nodes() const { return double(nx) * double(ny) * double(nz); }
+};
+
+/// The work of reconstruct_sections(sections, label, params), counted (grid
+/// and samples exactly; bytes per node, sample and triangle from the
+/// solver's data structures). Time and memory O(sections' rows and vertices).
+/// \throw as reconstruct_sections() for bad params and sections.
+Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params = {});
 
 namespace detail {
 /// Largest distances between the section of `mesh` by `pose`'s plane and the

@@ -97,6 +97,27 @@ TriMesh partition_mesh(const std::vector<Field3dResult>& fields, std::size_t l, 
 
 }  // namespace
 
+Field3dParams group_params(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
+                           const std::vector<std::size_t>& group, const Field3dParams& params, double pixel) {
+  Field3dParams p = params;
+  if (group.size() > 1) {  // one grid: the box of every label of the group
+    Box box{Vec3d::Constant(kInf), Vec3d::Constant(-kInf)};
+    for (std::size_t i : group) {
+      const Box b = contour_box(sections, labels[i]);
+      box[0] = box[0].cwiseMin(b[0]);
+      box[1] = box[1].cwiseMax(b[1]);
+    }
+    p.box = box;
+  }
+  // Pixel input: the pixel rows (band, contour weight) and pixel cells over the group's box (the label's own
+  // box when alone), as pixel_params() sizes one label's grid.
+  if (pixel > 0) {
+    p = pixel_rows(p);
+    p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, p);
+  }
+  return p;
+}
+
 std::vector<std::vector<std::size_t>> overlapping_labels(const std::vector<Section>& sections,
                                                          const std::vector<std::uint32_t>& labels, double margin) {
   const std::size_t n = labels.size();
@@ -146,22 +167,7 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
   for (const std::vector<std::size_t>& group : overlapping_labels(sections, labels, params.margin)) {
     const std::size_t g = res.groups.size();
     res.groups.emplace_back();
-    Field3dParams p = params;
-    if (group.size() > 1) {  // one grid: the box of every label of the group
-      Box box{Vec3d::Constant(kInf), Vec3d::Constant(-kInf)};
-      for (std::size_t i : group) {
-        const Box b = contour_box(sections, labels[i]);
-        box[0] = box[0].cwiseMin(b[0]);
-        box[1] = box[1].cwiseMax(b[1]);
-      }
-      p.box = box;
-    }
-    // Pixel input: the pixel rows (band, contour weight) and pixel cells over the group's box (the label's own
-    // box when alone), as pixel_params() sizes one label's grid.
-    if (pixel > 0) {
-      p = pixel_rows(p);
-      p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, p);
-    }
+    const Field3dParams p = group_params(sections, labels, group, params, pixel);
     std::vector<Field3dResult> fields;
     for (std::size_t i : group) {
       res.groups[g].push_back(labels[i]);
@@ -194,12 +200,33 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
   return res;
 }
 
+Field3dWork estimate_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
+                               std::uint32_t label, const Field3dParams& params, double pixel) {
+  using namespace detail;
+  Field3dWork own, peak;
+  for (const std::vector<std::size_t>& group : overlapping_labels(sections, labels, params.margin)) {
+    const Field3dParams p = group_params(sections, labels, group, params, pixel);
+    double solve = 0, held = 0;  // the group's largest solve; its fields and meshes held together
+    for (const std::size_t i : group) {
+      const Field3dWork w = estimate_sections(sections, labels[i], p);
+      if (labels[i] == label) own = w;
+      solve = std::max(solve, w.solve_bytes);
+      held += w.field_bytes + w.mesh_bytes;
+    }
+    peak.solve_bytes = std::max(peak.solve_bytes, solve + held);
+  }
+  own.solve_bytes = peak.solve_bytes;
+  return own;
+}
+
 Partition3dObject SharedPartition::take(const std::vector<Section>& sections, std::uint32_t label,
-                                        const Field3dParams& params, double pixel, double& seconds) {
+                                        const Field3dParams& params, double pixel, double& seconds,
+                                        const std::function<void(bool solves)>& before) {
   const auto at = std::find(labels_.begin(), labels_.end(), label);
   if (at == labels_.end()) throw ParamError("field3d partition: label " + std::to_string(label) + " is not in it");
   const std::lock_guard lock(mutex_);
   seconds = 0;
+  if (before) before(!result_);
   if (!result_) {
     result_ = reconstruct_partition(sections, labels_, params, pixel);  // an error leaves it unset: the next taker throws too
     taken_.assign(labels_.size(), false);

@@ -26,6 +26,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -63,6 +64,14 @@ struct Partition3dResult {
 Partition3dResult reconstruct_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
                                         const Field3dParams& params = {}, double pixel = 0);
 
+/// `label`'s work in the partition (estimate_sections() on its group's grid),
+/// with solve_bytes the whole partition's peak: the largest group's largest
+/// solve plus the fields and meshes of that group's labels, held together
+/// until each label's surface is cut from them.
+/// \throw as reconstruct_partition().
+Field3dWork estimate_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
+                               std::uint32_t label, const Field3dParams& params = {}, double pixel = 0);
+
 /// One input's partition shared by its jobs, one job per label (a CSL
 /// file's, run/inputs.cpp): the first job that asks solves every label, each
 /// job takes its own label's object. Thread-safe; the params of the first
@@ -74,11 +83,13 @@ class SharedPartition {
   [[nodiscard]] const std::vector<std::uint32_t>& labels() const { return labels_; }
   /// Label `label`'s object (moved out: each label once); `seconds` the
   /// partition's wall time for the first taker, 0 for the others; `pixel`
-  /// as reconstruct_partition()'s.
+  /// as reconstruct_partition()'s. `before(solves)`, under the lock before
+  /// anything else (e.g. a budget check that throws): solves is true for
+  /// the taker that solves the partition.
   /// \throw as reconstruct_partition() (every taker, the first error);
-  ///        ParamError for a label not in the list or taken twice.
+  ///        ParamError for a label not in the list or taken twice; what `before` throws.
   Partition3dObject take(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params,
-                         double pixel, double& seconds);
+                         double pixel, double& seconds, const std::function<void(bool solves)>& before = {});
 
  private:
   std::vector<std::uint32_t> labels_;
@@ -88,6 +99,12 @@ class SharedPartition {
 };
 
 namespace detail {
+/// The params of one group's grid (indices into `labels`): its common box
+/// when it has several labels, and for pixel input (`pixel` > 0) the pixel
+/// rows (pixel_rows()) and pixel cells over that box (pixel_resolution()).
+Field3dParams group_params(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
+                           const std::vector<std::size_t>& group, const Field3dParams& params, double pixel);
+
 /// The labels' groups: labels whose grid boxes (their contours' box with
 /// Field3dParams::margin, as reconstruct_sections() builds it) overlap,
 /// transitively; indices into `labels`, each group ascending, groups by

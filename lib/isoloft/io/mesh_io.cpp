@@ -112,11 +112,7 @@ TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame, bool ras) 
   out.triangles.resize(m.triangles.size());
   const bool flip = frame.axes.determinant() < 0;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.vertices.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i < r.end(); ++i) {
-      Vec3d p = frame.to_patient(m.vertices[i].cast<double>());
-      if (ras) p.x() = -p.x(), p.y() = -p.y();
-      out.vertices[i] = p.cast<float>();
-    }
+    for (std::size_t i = r.begin(); i < r.end(); ++i) out.vertices[i] = patient_point(frame, ras, m.vertices[i]);
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.triangles.size()), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
@@ -128,7 +124,8 @@ TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame, bool ras) 
 }
 
 namespace {
-void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space);
+void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space,
+                   const PatientFrame* frame = nullptr);
 }
 
 std::vector<MeshFormatInfo> mesh_formats() {
@@ -157,10 +154,17 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const MeshWriteOpt
     const Eigen::Matrix3d axes = options.frame->axes;
     const double det = axes.determinant();
     if (!(std::isfinite(det) && det != 0)) throw ParamError(path + ": the patient frame is singular");
-    const TriMesh placed = in_patient_space(mesh, *options.frame, options.ras);
     MeshWriteOptions plain = options;
     plain.frame.reset();
     plain.scale = 1.0;
+    // Not mirrored: the vertices placed as they are written (no copy of the
+    // mesh: the combined mesh of a run is its size again). Mirrored: the
+    // triangles reversed in a copy.
+    if (det > 0) {
+      write_mesh_as(path, mesh, plain, options.ras ? "RAS" : "LPS", &*options.frame);
+      return;
+    }
+    const TriMesh placed = in_patient_space(mesh, *options.frame, options.ras);
     write_mesh_as(path, placed, plain, options.ras ? "RAS" : "LPS");
     return;
   }
@@ -168,7 +172,8 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const MeshWriteOpt
 }
 
 namespace {
-void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space) {
+void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOptions& options, const std::string& space,
+                   const PatientFrame* frame) {
   const double scale = options.scale;
   const std::vector<Rgb>* vertex_colors = options.colors;
   const FormatEntry* format = entry_for(path);
@@ -193,7 +198,7 @@ void write_mesh_as(const std::string& path, const TriMesh& m, const MeshWriteOpt
       throw ParamError(path + ": " + std::to_string(options.triangle_labels->size()) + " triangle labels for " +
                        std::to_string(m.triangles.size()) + " triangles");
     format->write(path, o,
-                  detail::MeshOut{m, detail::Scaled{m, scale}, vertex_colors, options.ascii, space, options.triangle_labels,
+                  detail::MeshOut{m, detail::Scaled{m, scale, frame, options.ras}, vertex_colors, options.ascii, space, options.triangle_labels,
                                   options.label, &options.label_names});
     o.close();
   }

@@ -74,6 +74,13 @@ void write_mesh(const std::string& path, const TriMesh& m, const MeshWriteOption
 /// counter-clockwise seen from outside where the frame mirrors.
 TriMesh in_patient_space(const TriMesh& m, const PatientFrame& frame, bool ras = false);
 
+/// One vertex of in_patient_space(): working pixels -> patient mm (RAS: x and y negated).
+inline Vec3f patient_point(const PatientFrame& frame, bool ras, const Vec3f& v) {
+  Vec3d p = frame.to_patient(v.cast<double>());
+  if (ras) p.x() = -p.x(), p.y() = -p.y();
+  return p.cast<float>();
+}
+
 /// Reads PLY (ASCII or binary, any scalar types), OBJ, STL (welded by exact
 /// position), OFF/COFF; polygons fan-triangulated; colours if present.
 /// \throw InputError(path, ...) for a missing, unknown, truncated or corrupt

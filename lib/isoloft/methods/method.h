@@ -45,6 +45,8 @@ struct MethodInput {
   SharedPartition* partition = nullptr;
   /// Label input: only these labels (ReconstructOptions::labels; empty = all).
   std::vector<std::uint32_t> labels{};
+  /// ReconstructOptions::on_estimate: per object before its work is allocated.
+  std::function<void(const WorkEstimate&)> on_estimate{};
 };
 
 /// A method: slices (or sections) to fields.

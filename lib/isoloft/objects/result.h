@@ -4,6 +4,7 @@
 // (WorkEstimate) and the hooks a caller gives it (ReconstructOptions).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -81,6 +82,11 @@ struct WorkEstimate {
   double field_bytes = 0;   ///< per-slice fields, spline and fine rasters in flight
   double mesh_bytes = 0;    ///< the mesh before decimation and its checks
   double plane_bytes = 0;   ///< one sampled plane (float, padded crop), e.g. of --volume
+  /// field3d (no crop, planes or per-slice fields; field_bytes its solve):
+  /// the finest grid's nodes per axis ({0, 0, 0} for a column method) and the
+  /// samples on its sections.
+  std::array<int, 3> grid{};
+  double samples = 0;
 };
 
 struct ReconstructOptions {

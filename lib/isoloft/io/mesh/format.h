@@ -78,11 +78,17 @@ class Out {
   std::string buf_;
 };
 
-/// The mesh's vertices multiplied by a scale (pixel units -> physical units).
+/// The mesh's vertices as written: multiplied by a scale (pixel units ->
+/// physical units), or, with a frame, placed in patient space on the fly
+/// (patient_point(), the arithmetic of in_patient_space(): the same floats
+/// without a copy of the mesh).
 struct Scaled {
   const TriMesh& m;
   double s;
+  const PatientFrame* frame = nullptr;  ///< non-null: patient_point(*frame, ras, vertex); s is ignored
+  bool ras = false;
   [[nodiscard]] Vec3f operator[](std::size_t i) const {
+    if (frame) return patient_point(*frame, ras, m.vertices[i]);
     return s == 1.0 ? m.vertices[i] : Vec3f((m.vertices[i].cast<double>() * s).cast<float>());
   }
 };

@@ -180,9 +180,28 @@ std::vector<ObjectSections> input_objects(const MethodInput& in, const Reconstru
   return image_stack_sections(in, params);
 }
 
+int sections_with_contours(const ObjectSections& o) {
+  return int(std::count_if(o.sections.begin(), o.sections.end(), [&](const Section& s) {
+    return std::any_of(s.contours.begin(), s.contours.end(), [&](const SectionContour& c) { return c.label == o.label; });
+  }));
+}
+
+// The object's work for the budget (ReconstructOptions::on_estimate), before its grid is made.
+void report_work(const MethodInput& in, const ObjectSections& o, const Field3dWork& w) {
+  WorkEstimate e;
+  e.label = o.object;
+  e.slices = sections_with_contours(o);
+  e.grid = {w.nx, w.ny, w.nz};
+  e.samples = w.samples;
+  e.triangles = w.triangles;
+  e.field_bytes = w.solve_bytes;
+  e.mesh_bytes = w.mesh_bytes;
+  in.on_estimate(e);
+}
+
 // Every object's mesh (world units for sections, working pixels for a
 // stack); no decimation (its bound is in the stack's pixels, which a CSL file
-// does not have).
+// does not have). Each object's work goes to in.on_estimate first.
 ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructParams& params) {
   params_table<ReconstructParams>().validate(params);
   ReconstructResult r;
@@ -190,12 +209,20 @@ ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructPa
     ObjectResult ob;
     ob.label = o.object;
     if (in.partition && !in.sections.empty()) {  // the labels of one input as one partition (pixel cells per group)
-      Partition3dObject p = in.partition->take(o.sections, o.label, params.field3d, o.pixel, r.times.interp);
+      // The taker that solves carries the partition's peak; the others only their meshes.
+      const auto before = [&](bool solves) {
+        if (!in.on_estimate) return;
+        Field3dWork w = estimate_partition(o.sections, in.partition->labels(), o.label, params.field3d, o.pixel);
+        if (!solves) w.solve_bytes = 0;
+        report_work(in, o, w);
+      };
+      Partition3dObject p = in.partition->take(o.sections, o.label, params.field3d, o.pixel, r.times.interp, before);
       ob.mesh = std::move(p.mesh);
       ob.check = p.check;
       for (auto& w : p.warnings) r.warnings.push_back(std::move(w));
     } else {
       const Field3dParams fp = o.pixel > 0 ? pixel_params(o.sections, o.label, o.pixel, params.field3d) : params.field3d;
+      if (in.on_estimate) report_work(in, o, estimate_sections(o.sections, o.label, fp));
       Field3dResult f = reconstruct_sections(o.sections, o.label, fp);
       ob.mesh = std::move(f.mesh);
       ob.check = f.check;
@@ -203,9 +230,7 @@ ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructPa
       for (auto& w : f.warnings) r.warnings.push_back(std::move(w));
     }
     ob.triangles_before_decimation = long(ob.mesh.triangles.size());
-    ob.slices_with_contours = int(std::count_if(o.sections.begin(), o.sections.end(), [&](const Section& s) {
-      return std::any_of(s.contours.begin(), s.contours.end(), [&](const SectionContour& c) { return c.label == o.label; });
-    }));
+    ob.slices_with_contours = sections_with_contours(o);
     if (ob.mesh.empty()) ob.empty_reason = "the field3d field never rises above zero (no inside anywhere)";
     r.objects.push_back(std::move(ob));
   }
