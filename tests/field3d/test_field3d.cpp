@@ -275,9 +275,9 @@ TEST(Field3d, BadInputNamesTheSection) {
   auto few = good;
   few[2].contours[0].points.resize(2);
   expect_input_error(few, 1, "analytic plane 2");
-  auto image = good;
+  auto image = good;  // a label image (pixel input) is accepted, with a positive, finite pixel size only
   image[0].labels = Grid2u32(4, 4, 1);
-  image[0].pixel_size = 1;
+  image[0].pixel_size = 0;
   expect_input_error(image, 1, "analytic plane 0");
   expect_input_error(good, 7, "label 7");
   Field3dParams p;
