@@ -162,9 +162,12 @@ def strip(j, top=True):
     return j
 
 
-# An RT-STRUCT's identity of its new instance (UIDs, creation time, software).
+# An RT-STRUCT's identity of its new instance (UIDs, creation time, software),
+# and the file meta group's length, which follows its UID's (the UID holds the
+# process id: 4 or 5 digits).
 DICOM_VOLATILE = ("SOPInstanceUID", "MediaStorageSOPInstanceUID", "SeriesInstanceUID", "InstanceCreationDate",
-                  "InstanceCreationTime", "StructureSetDate", "StructureSetTime", "SoftwareVersions")
+                  "InstanceCreationTime", "StructureSetDate", "StructureSetTime", "SoftwareVersions",
+                  "FileMetaInformationGroupLength")
 
 
 def dicom_text(path: Path) -> str:

@@ -341,9 +341,7 @@ RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std:
     for (auto& w : r.warnings) all.warnings.push_back(job.name.empty() ? w : "ROI '" + job.name + "': " + w);
     all.times += r.times;
     for (auto& ob : r.objects) {
-      RunObject out{j, std::move(ob), {}, job.color.value_or(label_colour(all.objects.size())), {}};
-      out.mesh = job.stack.patient ? in_patient_space(out.object.mesh, *job.stack.patient) : out.object.mesh;
-      all.objects.push_back(std::move(out));
+      all.objects.push_back({j, std::move(ob), job.color.value_or(label_colour(all.objects.size())), {}});
     }
   }
   return all;

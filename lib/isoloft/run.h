@@ -32,11 +32,13 @@ namespace isoloft {
 /// Distinct colours per object: golden-ratio hue steps at full saturation.
 Rgb label_colour(std::size_t i);
 
-/// One reconstructed object of a run.
+/// One reconstructed object of a run. Its one mesh is object.mesh, in working
+/// pixels; the writers place it in output units as they write (patient mm
+/// through the job's frame, or pixels times the pixel size:
+/// object_mesh_options(), run/outputs.h), so no copy is held.
 struct RunObject {
   std::size_t job = 0;   ///< index into Inputs::jobs
   ObjectResult object;   ///< the pipeline's result (mesh in working pixels)
-  TriMesh mesh;          ///< in output units: patient mm (LPS), or working pixels
   Rgb colour;            ///< the ROI's display colour, or label_colour(index)
   std::string file;      ///< where its mesh was written (MeshOutput, write_run_meshes())
 };

@@ -158,7 +158,7 @@ PYBIND11_MODULE(_isoloft, m) {
       }, py::arg("path"), py::arg("ascii") = false,
          "writes this mesh as the CLI would (.ply .obj .stl .off .vtp .vtk), with reconstruct()'s output checks")
       .def("__repr__", [](const PyObjectResult& o) {
-        const auto& m = o.object().mesh;
+        const auto& m = o.object().object.mesh;
         return "<isoloft.Object label " + std::to_string(o.object().object.label) + ": " +
                std::to_string(m.vertices.size()) + " vertices, " + std::to_string(m.triangles.size()) + " faces>";
       });

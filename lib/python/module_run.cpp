@@ -27,23 +27,32 @@ py::object read_only(py::array a) {
 }
 
 // The object's arrays: vertices converted once to float64 in output units
-// (the C++ mesh is float32), faces a view of the C++ buffer. The view's base
-// is a capsule owning the results (not the Object: that would be a cycle).
+// (the C++ mesh is float32, in working pixels), faces a view of the C++
+// buffer (a copy with each triangle reversed where the frame mirrors). The
+// view's base is a capsule owning the results (not the Object: that would be a cycle).
 void make_arrays(PyObjectResult& o) {
   const RunObject& r = o.object();
-  const MeshWriteOptions& mo = o.data->mesh_options;
+  const TriMesh& mesh = r.object.mesh;
+  const MeshWriteOptions mo = object_mesh_options(*o.data->in, r, o.data->mesh_options);
   // What save() writes: the writer's own float arithmetic.
-  const detail::Scaled scaled{r.mesh, mo.scale, mo.frame ? &*mo.frame : nullptr, mo.ras};
-  py::array_t<double> v({py::ssize_t(r.mesh.vertices.size()), py::ssize_t(3)});
+  const detail::Scaled scaled{mesh, mo.scale, mo.frame ? &*mo.frame : nullptr, mo.ras};
+  py::array_t<double> v({py::ssize_t(mesh.vertices.size()), py::ssize_t(3)});
   double* p = v.mutable_data();
-  for (std::size_t i = 0; i < r.mesh.vertices.size(); ++i) {
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
     const Vec3f q = scaled[i];
     *p++ = q.x(), *p++ = q.y(), *p++ = q.z();
   }
   o.vertices = read_only(v);
   static_assert(sizeof(std::array<std::int32_t, 3>) == 3 * sizeof(std::int32_t));
-  const auto m = py::ssize_t(r.mesh.triangles.size());
-  const std::int32_t* t = m ? r.mesh.triangles.front().data() : nullptr;
+  const auto m = py::ssize_t(mesh.triangles.size());
+  if (mo.frame && mo.frame->axes.determinant() < 0) {
+    py::array_t<std::int32_t> f({m, py::ssize_t(3)});
+    std::int32_t* q = f.mutable_data();
+    for (const auto& t : mesh.triangles) *q++ = t[0], *q++ = t[2], *q++ = t[1];
+    o.faces = read_only(f);
+    return;
+  }
+  const std::int32_t* t = m ? mesh.triangles.front().data() : nullptr;
   const py::capsule owner(new std::shared_ptr<ResultData>(o.data),
                           [](void* p) { delete static_cast<std::shared_ptr<ResultData>*>(p); });
   py::array_t<std::int32_t> f({m, py::ssize_t(3)}, {py::ssize_t(12), py::ssize_t(4)}, t, owner);

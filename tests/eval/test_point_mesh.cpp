@@ -5,6 +5,7 @@
 // and the summary's percentile is a nearest-rank one.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -91,6 +92,44 @@ TEST(PointMesh, AFewFarPointsEqualTheBruteForceMinimum) {
     EXPECT_GT(std::sqrt(best), 5.0) << "point " << i << " should be far from the mesh";
     EXPECT_NEAR(got[i], std::sqrt(best), kRounding) << "point " << i;
   }
+}
+
+// Small triangles (the sphere's, bucketed by their box centres) with a few
+// large ones (bucketed in every cell their boxes meet, as a decimated or
+// capped mesh has): points whose nearest triangle is of either kind still get
+// the brute-force minimum.
+TEST(PointMesh, LargeTrianglesAmongSmallOnesEqualTheBruteForceMinimum) {
+  TriMesh mesh = sphere_mesh();
+  const std::size_t small = mesh.triangles.size();
+  // A wide flat triangle under the sphere, a long sliver beside it, a tall one across z.
+  const std::vector<std::array<Vec3f, 3>> large{{Vec3f(-6, -6, -3), Vec3f(30, -6, -3), Vec3f(12, 30, -3)},
+                                                {Vec3f(-4, 26, 2), Vec3f(28, 26.5f, 2.5f), Vec3f(28, 26, 3)},
+                                                {Vec3f(27, -2, -2), Vec3f(27.5f, 25, 12), Vec3f(27, 0, 27)}};
+  for (const auto& t : large) {
+    const auto v = std::int32_t(mesh.vertices.size());
+    mesh.vertices.insert(mesh.vertices.end(), t.begin(), t.end());
+    mesh.triangles.push_back({v, v + 1, v + 2});
+  }
+  std::vector<detail::PreparedTriangle> tris;
+  for (const auto& t : mesh.triangles)
+    tris.emplace_back(mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(), mesh.vertices[t[2]].cast<double>());
+  std::mt19937 rng(37);
+  std::uniform_real_distribution<double> u(-10.0, 34.0);
+  std::vector<Vec3d> points;
+  for (int i = 0; i < 300; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  for (const double z : {-3.0, 2.0, 11.7})  // on planes too (the rounds near the points' z)
+    for (int i = 0; i < 100; ++i) points.emplace_back(u(rng), u(rng), z);
+  const std::vector<double> got = point_mesh_distances(mesh, points);
+  std::size_t nearest_large = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t arg = 0;
+    for (std::size_t t = 0; t < tris.size(); ++t)
+      if (const double d2 = tris[t].distance_sq(points[i]); d2 < best) best = d2, arg = t;
+    nearest_large += arg >= small;
+    EXPECT_NEAR(got[i], std::sqrt(best), kRounding) << "point " << i;
+  }
+  EXPECT_GT(nearest_large, 50u) << "too few points nearest a large triangle to test their bucketing";
 }
 
 TEST(PointMesh, SummaryUsesNearestRank) {

@@ -1,6 +1,5 @@
 #include "isoloft/eval/point_mesh.h"
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
@@ -25,55 +24,75 @@ constexpr double kPlaneReachExtents = 2.0, kReachGrowth = 4.0;
 // At most this many points left: candidates by each point's own box, not its plane.
 constexpr std::size_t kFewPoints = 64;
 
-// A triangle's bounding box.
+// A triangle's bounding box, from its float corners.
 struct Box {
   Eigen::Vector3f lo, hi;
 };
 
-// The triangles bucketed by the cells their boxes meet (cells of about twice
-// the mean triangle extent; only the occupied ones, by sorted key).
+Box triangle_box(const TriMesh& mesh, std::size_t i) {
+  const auto& t = mesh.triangles[i];
+  const Eigen::Vector3f &a = mesh.vertices[std::size_t(t[0])], &b = mesh.vertices[std::size_t(t[1])],
+                        &c = mesh.vertices[std::size_t(t[2])];
+  return {a.cwiseMin(b).cwiseMin(c), a.cwiseMax(b).cwiseMax(c)};
+}
+
+// The triangles bucketed on a uniform grid (cells of about twice the mean
+// triangle extent; only the occupied ones, by sorted key). A small triangle
+// (half its box's largest side within kSmallHalfCells cells: all of a
+// Marching Cubes mesh) is in the one cell of its box's centre, a larger one
+// in every cell its box meets: one entry per triangle on a fine mesh
+// (entering each in every cell its box met held several per triangle).
 class TriangleGrid {
  public:
-  /// The mesh's triangles `ids`; boxes[i] is triangle i's box.
-  TriangleGrid(const TriMesh& mesh, const std::vector<Box>& boxes, const std::vector<std::int32_t>& ids) : mesh_(mesh) {
+  /// The mesh's triangles `ids`.
+  TriangleGrid(const TriMesh& mesh, const std::vector<std::int32_t>& ids) : mesh_(mesh) {
     if (ids.empty()) return;
     struct Bounds {
       Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-      double extent = 0;
+      double extent = 0, largest = 0;  // sum and largest of the boxes' largest sides
     };
     const Bounds all = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, ids.size()), Bounds{},
         [&](const tbb::blocked_range<std::size_t>& r, Bounds b) {
           for (std::size_t k = r.begin(); k < r.end(); ++k) {
-            const Box& t = boxes[std::size_t(ids[k])];
+            const Box t = triangle_box(mesh, std::size_t(ids[k]));
             const Vec3d tlo = t.lo.cast<double>(), thi = t.hi.cast<double>();
             b.lo = b.lo.cwiseMin(tlo), b.hi = b.hi.cwiseMax(thi);
-            b.extent += (thi - tlo).maxCoeff();
+            const double side = (thi - tlo).maxCoeff();
+            b.extent += side, b.largest = std::max(b.largest, side);
           }
           return b;
         },
         [](Bounds a, const Bounds& b) {
           a.lo = a.lo.cwiseMin(b.lo), a.hi = a.hi.cwiseMax(b.hi), a.extent += b.extent;
+          a.largest = std::max(a.largest, b.largest);
           return a;
         });
     lo_ = all.lo;
     cell_ = std::max(kCellExtents * all.extent / double(ids.size()), 1e-6);
+    reach_ = std::min(0.5 * all.largest, kSmallHalfCells * cell_);
     for (int a = 0; a < 3; ++a) n_[a] = std::max(1, int(std::floor((all.hi[a] - all.lo[a]) / cell_)) + 1);
-    // Each triangle in every cell its box meets; the sort below orders them.
-    using Entries = std::vector<std::pair<std::uint64_t, std::int32_t>>;
-    tbb::enumerable_thread_specific<Entries> parts;
+    // Entries per triangle, then each written at its offset: one array, no per-thread parts.
+    std::vector<std::size_t> first(ids.size() + 1, 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ids.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-      Entries& out = parts.local();
       for (std::size_t k = r.begin(); k < r.end(); ++k) {
-        const Box& t = boxes[std::size_t(ids[k])];
-        const auto c0 = cell_of(t.lo.cast<double>()), c1 = cell_of(t.hi.cast<double>());
-        for (int z = c0[2]; z <= c1[2]; ++z)
-          for (int y = c0[1]; y <= c1[1]; ++y)
-            for (int x = c0[0]; x <= c1[0]; ++x) out.emplace_back(key(x, y, z), ids[k]);
+        const Cells c = cells_of(triangle_box(mesh, std::size_t(ids[k])));
+        first[k + 1] = c.small ? 1 : std::size_t(c.hi[0] - c.lo[0] + 1) * std::size_t(c.hi[1] - c.lo[1] + 1) *
+                                         std::size_t(c.hi[2] - c.lo[2] + 1);
       }
     });
-    Entries entries;
-    for (const Entries& e : parts) entries.insert(entries.end(), e.begin(), e.end());
+    std::partial_sum(first.begin(), first.end(), first.begin());
+    std::vector<std::pair<std::uint64_t, std::int32_t>> entries(first.back());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ids.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t k = r.begin(); k < r.end(); ++k) {
+        const Cells c = cells_of(triangle_box(mesh, std::size_t(ids[k])));
+        std::size_t e = first[k];
+        for (int z = c.lo[2]; z <= c.hi[2]; ++z)
+          for (int y = c.lo[1]; y <= c.hi[1]; ++y)
+            for (int x = c.lo[0]; x <= c.hi[0]; ++x) entries[e++] = {key(x, y, z), ids[k]};
+      }
+    });
+    first = {};
     tbb::parallel_sort(entries.begin(), entries.end());
     ids_.reserve(entries.size());
     for (std::size_t e = 0; e < entries.size(); ++e) {
@@ -85,38 +104,70 @@ class TriangleGrid {
 
   [[nodiscard]] double distance(const Vec3d& p) const {
     if (keys_.empty()) return std::numeric_limits<double>::infinity();
-    const auto c = cell_of(p);
     double best2 = std::numeric_limits<double>::infinity();
-    // Shells of cells at Chebyshev index distance r: a triangle not in them
-    // lies farther than r cells from p.
-    for (int r = 0; r <= n_[0] + n_[1] + n_[2]; ++r) {
-      for (int z = std::max(0, c[2] - r); z <= std::min(n_[2] - 1, c[2] + r); ++z)
-        for (int y = std::max(0, c[1] - r); y <= std::min(n_[1] - 1, c[1] + r); ++y)
-          for (int x = std::max(0, c[0] - r); x <= std::min(n_[0] - 1, c[0] + r); ++x) {
-            if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != r) continue;
-            const auto it = std::lower_bound(keys_.begin(), keys_.end(), key(x, y, z));
-            if (it == keys_.end() || *it != key(x, y, z)) continue;
-            const std::size_t k = std::size_t(it - keys_.begin());
-            for (std::uint32_t q = start_[k]; q < start_[k + 1]; ++q) {
-              const auto& t = mesh_.triangles[std::size_t(ids_[q])];
-              best2 = std::min(best2, detail::PreparedTriangle(vertex(t[0]), vertex(t[1]), vertex(t[2])).distance_sq(p));
-            }
+    // Rounds over the cells meeting the box of half side clear + reach_
+    // around p (those of earlier rounds skipped), `clear` doubling: an unseen
+    // small triangle's box centre lies outside that box, so all of it lies
+    // farther than `clear` from p; an unseen large one's box misses it.
+    std::array<int, 3> seen_lo{1, 1, 1}, seen_hi{0, 0, 0};  // none yet
+    for (double clear = kFirstClearCells * cell_;; clear *= 2) {
+      const Vec3d half = Vec3d::Constant(clear + reach_);
+      const auto lo = cell_of(p - half), hi = cell_of(p + half);
+      for (int z = lo[2]; z <= hi[2]; ++z)
+        for (int y = lo[1]; y <= hi[1]; ++y) {
+          const bool inner = z >= seen_lo[2] && z <= seen_hi[2] && y >= seen_lo[1] && y <= seen_hi[1];
+          if (!inner) {
+            visit_row(p, y, z, lo[0], hi[0], best2);
+            continue;
           }
-      // Every unseen triangle lies outside the block of cells within r of c:
-      // at least as far as p is from that block's nearest face.
-      double reach = std::numeric_limits<double>::infinity();
-      for (int a = 0; a < 3; ++a) {
-        if (c[a] - r > 0) reach = std::min(reach, p[a] - (lo_[a] + double(c[a] - r) * cell_));
-        if (c[a] + r < n_[a] - 1) reach = std::min(reach, lo_[a] + double(c[a] + r + 1) * cell_ - p[a]);
-      }
-      if (best2 <= reach * reach || std::isinf(reach)) break;
+          visit_row(p, y, z, lo[0], seen_lo[0] - 1, best2);
+          visit_row(p, y, z, seen_hi[0] + 1, hi[0], best2);
+        }
+      seen_lo = lo, seen_hi = hi;
+      const bool every = lo == std::array<int, 3>{0, 0, 0} && hi == std::array<int, 3>{n_[0] - 1, n_[1] - 1, n_[2] - 1};
+      if (every || best2 <= clear * clear) break;
     }
     return std::sqrt(best2);
   }
 
  private:
   static constexpr double kCellExtents = 2.0;
+  // A triangle whose box's half side is at most this many cells is bucketed by
+  // its centre alone; the search then looks that much farther (reach_). 0.5:
+  // a Marching Cubes triangle spans at most one voxel, under a cell of twice
+  // the mean extent.
+  static constexpr double kSmallHalfCells = 0.5;
+  // The first round's clearance, in cells: a contour vertex lies on or near
+  // the surface made of it (a fraction of a pixel), so one round of at most
+  // 2 x 2 x 2 cells (half side 0.25 + <= 0.5 cells) finds most.
+  static constexpr double kFirstClearCells = 0.25;
 
+  // Cells x0..x1 of row (y, z): the triangles of those occupied, against best2.
+  void visit_row(const Vec3d& p, int y, int z, int x0, int x1, double& best2) const {
+    if (x0 > x1) return;
+    const std::uint64_t last = key(x1, y, z);
+    for (auto it = std::lower_bound(keys_.begin(), keys_.end(), key(x0, y, z)); it != keys_.end() && *it <= last; ++it) {
+      const std::size_t k = std::size_t(it - keys_.begin());
+      for (std::uint32_t q = start_[k]; q < start_[k + 1]; ++q) {
+        const auto& t = mesh_.triangles[std::size_t(ids_[q])];
+        best2 = std::min(best2, detail::PreparedTriangle(vertex(t[0]), vertex(t[1]), vertex(t[2])).distance_sq(p));
+      }
+    }
+  }
+
+  // The cells a triangle is entered in: its centre's (small), or those its box meets.
+  struct Cells {
+    std::array<int, 3> lo, hi;
+    bool small;
+  };
+  [[nodiscard]] Cells cells_of(const Box& b) const {
+    const Vec3d lo = b.lo.cast<double>(), hi = b.hi.cast<double>();
+    if (0.5 * (hi - lo).maxCoeff() <= kSmallHalfCells * cell_) {
+      const auto c = cell_of(0.5 * (lo + hi));
+      return {c, c, true};
+    }
+    return {cell_of(lo), cell_of(hi), false};
+  }
   [[nodiscard]] Vec3d vertex(std::int32_t v) const { return mesh_.vertices[std::size_t(v)].cast<double>(); }
   [[nodiscard]] std::array<int, 3> cell_of(const Vec3d& p) const {
     std::array<int, 3> c{};
@@ -130,6 +181,7 @@ class TriangleGrid {
   const TriMesh& mesh_;
   Vec3d lo_ = Vec3d::Zero();
   double cell_ = 1;
+  double reach_ = 0;  // the largest half side of a small triangle's box
   std::array<int, 3> n_{1, 1, 1};
   std::vector<std::uint64_t> keys_;   // occupied cells, increasing
   std::vector<std::uint32_t> start_;  // cell keys_[k] holds ids_[start_[k] .. start_[k + 1])
@@ -146,16 +198,13 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
   // itself when few are left); a triangle nearer than reach to a point is
   // among them, so a distance <= reach is exact. The others go on with
   // kReachGrowth times the reach, until the round that holds every triangle.
-  std::vector<Box> boxes(mesh.triangles.size());
+  // The triangles' boxes are made from their corners where needed, not held.
   const double extent = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, mesh.triangles.size()), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double sum) {
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
-          const auto& t = mesh.triangles[i];
-          const Eigen::Vector3f &a = mesh.vertices[std::size_t(t[0])], &b = mesh.vertices[std::size_t(t[1])],
-                                &c = mesh.vertices[std::size_t(t[2])];
-          boxes[i] = {a.cwiseMin(b).cwiseMin(c), a.cwiseMax(b).cwiseMax(c)};
-          sum += double((boxes[i].hi - boxes[i].lo).maxCoeff());
+          const Box b = triangle_box(mesh, i);
+          sum += double((b.hi - b.lo).maxCoeff());
         }
         return sum;
       },
@@ -168,8 +217,9 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
     if (todo.size() <= kFewPoints) {
       // A few points left (e.g. contour specks the grid dropped): the
       // triangles whose box comes within reach of one of them.
-      for (std::size_t i = 0; i < boxes.size(); ++i) {
-        const Vec3d lo = boxes[i].lo.cast<double>(), hi = boxes[i].hi.cast<double>();
+      for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+        const Box b = triangle_box(mesh, i);
+        const Vec3d lo = b.lo.cast<double>(), hi = b.hi.cast<double>();
         for (const std::size_t k : todo)
           if (((points[k].array() >= lo.array() - reach) && (points[k].array() <= hi.array() + reach)).all()) {
             ids.push_back(std::int32_t(i));
@@ -181,13 +231,14 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
       for (const std::size_t i : todo) zs.push_back(points[i].z());
       std::sort(zs.begin(), zs.end());
       zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
-      for (std::size_t i = 0; i < boxes.size(); ++i) {
-        const auto it = std::lower_bound(zs.begin(), zs.end(), double(boxes[i].lo.z()) - reach);
-        if (it != zs.end() && *it <= double(boxes[i].hi.z()) + reach) ids.push_back(std::int32_t(i));
+      for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+        const Box b = triangle_box(mesh, i);
+        const auto it = std::lower_bound(zs.begin(), zs.end(), double(b.lo.z()) - reach);
+        if (it != zs.end() && *it <= double(b.hi.z()) + reach) ids.push_back(std::int32_t(i));
       }
     }
     const bool every = ids.size() == mesh.triangles.size();
-    const TriangleGrid grid(mesh, boxes, ids);
+    const TriangleGrid grid(mesh, ids);
     tbb::parallel_for(std::size_t(0), todo.size(), [&](std::size_t k) { d[todo[k]] = grid.distance(points[todo[k]]); });
     if (every) break;
     std::erase_if(todo, [&](std::size_t i) { return d[i] <= reach; });

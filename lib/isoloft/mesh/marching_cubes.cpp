@@ -246,6 +246,9 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
 
 TriMesh MarchingCubes::finish() {
   TriMesh out = std::move(mesh_);
+  // Grown by doubling: up to half of each array unused, held with the mesh until it is written.
+  out.vertices.shrink_to_fit();
+  out.triangles.shrink_to_fit();
   mesh_ = TriMesh{};
   planes_ = 0;
   prev_ = Grid2f{};

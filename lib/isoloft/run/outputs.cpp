@@ -103,11 +103,41 @@ std::string object_display_name(const Inputs& in, const RunObject& o) {
          : o.object.label ? "label " + std::to_string(o.object.label) : "object";
 }
 
+PatientFrame placing_frame(const PatientFrame& f) {
+  PatientFrame out = f;
+  out.origin = f.origin + Vec3d::Zero();  // -0 + 0 = +0: a vertex at exactly 0 mm is +0 whatever its sum's sign
+  return out;
+}
+
 MeshWriteOptions object_mesh_options(const Inputs& in, const RunObject& o, MeshWriteOptions mo) {
+  if (mo.frame && in.jobs[o.job].stack.patient) mo.frame = placing_frame(*in.jobs[o.job].stack.patient);
   mo.label = object_cell_label(o);
   if (const auto named = object_label_name(in, o)) mo.label_names = {*named};
   return mo;
 }
+
+namespace {
+
+// The run's objects merged in order (merge_meshes) and placed in patient mm,
+// each part through its job's frame, as its own file is (object_mesh_options()):
+// patient_point(), the triangles reversed where the frame mirrors.
+void place_parts(const Inputs& in, const RunResult& r, TriMesh& combined) {
+  std::vector<std::size_t> v0{0}, t0{0};
+  for (const RunObject& o : r.objects)
+    v0.push_back(v0.back() + o.object.mesh.vertices.size()), t0.push_back(t0.back() + o.object.mesh.triangles.size());
+  tbb::parallel_for(std::size_t(0), r.objects.size(), [&](std::size_t i) {
+    const std::optional<PatientFrame>& patient = in.jobs[r.objects[i].job].stack.patient;
+    if (!patient) return;
+    const PatientFrame f = placing_frame(*patient);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(v0[i], v0[i + 1]), [&](const tbb::blocked_range<std::size_t>& b) {
+      for (std::size_t k = b.begin(); k < b.end(); ++k) combined.vertices[k] = patient_point(f, false, combined.vertices[k]);
+    });
+    if (f.axes.determinant() < 0)
+      for (std::size_t t = t0[i]; t < t0[i + 1]; ++t) std::swap(combined.triangles[t][1], combined.triangles[t][2]);
+  });
+}
+
+}  // namespace
 
 void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r, const MeshWriteOptions& mo,
                       const std::function<std::string(const std::string&)>& stage) {
@@ -122,7 +152,7 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
   const std::string combined_path = several ? staged(output) : std::string();
   auto write_objects = [&] {
     tbb::parallel_for(std::size_t(0), r.objects.size(), [&](std::size_t i) {
-      write_mesh(paths[i], r.objects[i].mesh, object_mesh_options(in, r.objects[i], mo));
+      write_mesh(paths[i], r.objects[i].object.mesh, object_mesh_options(in, r.objects[i], mo));
     });
   };
   auto write_combined = [&] {
@@ -131,11 +161,12 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
     std::vector<Rgb> colours;
     std::vector<std::uint32_t> triangle_labels;
     for (const auto& o : r.objects) {
-      parts.push_back(&o.mesh), colours.push_back(o.colour);
-      triangle_labels.insert(triangle_labels.end(), o.mesh.triangles.size(), object_cell_label(o));
+      parts.push_back(&o.object.mesh), colours.push_back(o.colour);
+      triangle_labels.insert(triangle_labels.end(), o.object.mesh.triangles.size(), object_cell_label(o));
     }
     std::vector<Rgb> vertex_colours;
-    const TriMesh combined = merge_meshes(parts, colours, &vertex_colours);
+    TriMesh combined = merge_meshes(parts, colours, &vertex_colours);
+    if (mo.frame) place_parts(in, r, combined);  // each part through its own job's frame; `mo`'s names the space
     MeshWriteOptions co = mo;
     co.colors = &vertex_colours;
     co.triangle_labels = &triangle_labels;
@@ -163,7 +194,7 @@ std::vector<std::string> save_run_meshes(const std::string& path, const std::str
   std::vector<std::string> written;
   try {
     if (object) {
-      write_mesh(files.stage(path), r.objects.at(*object).mesh, object_mesh_options(in, r.objects[*object], mo));
+      write_mesh(files.stage(path), r.objects.at(*object).object.mesh, object_mesh_options(in, r.objects[*object], mo));
       written.push_back(path);
     } else {
       write_run_meshes(path, in, r, mo, [&](const std::string& p) { return files.stage(p); });

@@ -101,9 +101,14 @@ std::uint32_t object_cell_label(const RunObject& o);
 /// its ROI's, its label's (the label table's), else "label N", else "object".
 std::string object_display_name(const Inputs& in, const RunObject& o);
 
-/// `mo` for object `o`'s own file: its cell label, and in the VTK formats'
-/// field data its label and name (the ROI's, or the label table's) when the
-/// input names its objects.
+/// Job frame `f` as the writers place a mesh through it (patient_point()):
+/// its origin's -0 made +0, so an exact 0 mm is written +0.
+PatientFrame placing_frame(const PatientFrame& f);
+
+/// `mo` for object `o`'s own file: its mesh (working pixels) placed through
+/// its job's frame when `mo` has one (placing_frame(); `mo`'s names the space),
+/// its cell label, and in the VTK formats' field data its label and name (the
+/// ROI's, or the label table's) when the input names its objects.
 MeshWriteOptions object_mesh_options(const Inputs& in, const RunObject& o, MeshWriteOptions mo);
 
 /// Whether the run writes one file per object plus a combined one.

@@ -375,8 +375,9 @@ void ReferenceLabelmapOutput::finish(const RunContext& ctx, RunResult& r) {
     const RunObject& ro = *entries[i].run;
     const std::string name = object_name(ctx.in, ro.job, ro.object.label);
     bool beyond = false;
-    for (const auto& p : ro.mesh.vertices) {
-      const Eigen::Vector3d ijk = to_ijk * (p.cast<double>() - origin);
+    const PatientFrame& frame = *ctx.in.jobs[ro.job].stack.patient;
+    for (const auto& v : ro.object.mesh.vertices) {  // placed as the mesh writers place them
+      const Eigen::Vector3d ijk = to_ijk * (patient_point(frame, false, v).cast<double>() - origin);
       for (int a = 0; a < 3; ++a) beyond |= ijk[a] < -0.5 || ijk[a] > size_along(g, a) - 0.5;
       if (beyond) break;
     }
