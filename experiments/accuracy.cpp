@@ -91,6 +91,24 @@ int main(int argc, char** argv) {
   for (const Config& c : all_configs)
     if (config_names.empty() || std::find(config_names.begin(), config_names.end(), c.name) != config_names.end())
       configs.push_back(c);
+  // "field3d:row=value:row=value": field3d with its rows changed (pixel input variants, docs/decisions.md:
+  // field3d pixel input: sign constraints at pixel centres), e.g. field3d:pixel_signs=0:pixel_sigma=0.
+  for (const std::string& n : config_names) {
+    if (n.rfind("field3d:", 0) != 0) continue;
+    std::vector<std::pair<std::string, std::string>> rows;
+    std::stringstream ss(n.substr(8));
+    for (std::string kv; std::getline(ss, kv, ':');) {
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) {
+        std::cerr << "config " << n << ": expected row=value, got " << kv << "\n";
+        return 2;
+      }
+      rows.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    }
+    configs.push_back({n, Method::Field3d, SplineKind::ExtremumPreserving, false, "columns", [rows](ReconstructParams& p) {
+                         for (const auto& [row, value] : rows) params_table<Field3dParams>().set(p.field3d, row, nlohmann::json::parse(value));
+                       }});
+  }
   fs::create_directories(out);
   std::ofstream csv(fs::path(out) / "accuracy.csv");
   csv << "shape,ratio,method,mean_two_sided_px,mean_mesh_to_truth_px,mean_truth_to_mesh_px,p99_mesh_to_truth_px,"

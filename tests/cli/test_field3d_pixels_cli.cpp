@@ -65,13 +65,9 @@ void expect_sphere(const TriMesh& m) {
 // mm, from the slice list or from a mask volume marking the same slices.
 TEST_F(Cli, Field3dReadsALabelVolumeAnnotatedAlongSeveralAxes) {
   write_volume(p("seg.nrrd"), sphere_labels());
-  // field3d.resolution is a floor the pixel rule raises: 16 leaves one cell
-  // per voxel (~26 over the sphere's box); the default 96 gives ~3.5, 50x
-  // the time (10.5 against 0.2 s) for the same properties.
-  std::ofstream(p("f3d.json")) << R"({"field3d": {"resolution": 16}})";
-  const std::string f3d = " --params " + p("f3d.json");
+  // The defaults: one cell per voxel (~26 over the sphere's box; pixel_resolution()).
   const CliRun r = run("reconstruct " + p("seg.nrrd") + " --method field3d --annotated 'k:10,16,22;i:15;j:16' -o " +
-                       p("a.ply") + " --report " + p("a.json") + f3d);
+                       p("a.ply") + " --report " + p("a.json"));
   ASSERT_EQ(r.code, 0) << r.err;
   expect_sphere(read_mesh(p("a.ply")));
   std::ifstream in(p("a.json"));
@@ -89,17 +85,17 @@ TEST_F(Cli, Field3dReadsALabelVolumeAnnotatedAlongSeveralAxes) {
         if (k == 10 || k == 16 || k == 22 || i == 15 || j == 16) mask.data[mask.index(i, j, k)] = 1;
   write_volume(p("annotated.nrrd"), mask);
   const CliRun m = run("reconstruct " + p("seg.nrrd") + " --method field3d --annotated-mask " + p("annotated.nrrd") +
-                       " -o " + p("b.ply") + f3d);
+                       " -o " + p("b.ply"));
   ASSERT_EQ(m.code, 0) << m.err;
   expect_sphere(read_mesh(p("b.ply")));
 }
 
-// Pixel input raises field3d's grid to one cell per pixel, up to 1024 per
-// axis: that grid is estimated before it is made, and one over the budget
-// stops naming the label and the file; exit 1, nothing written.
+// Pixel input's grid (field3d.pixel_resolution, up to 1024 cells per axis)
+// is estimated before it is made, and one over the budget stops naming the
+// label and the file; exit 1, nothing written.
 TEST_F(Cli, Field3dPixelGridOverTheMemoryBudgetIsRefused) {
   write_volume(p("seg.nrrd"), sphere_labels());
-  std::ofstream(p("fine.json")) << R"({"field3d": {"resolution": 1024}})";
+  std::ofstream(p("fine.json")) << R"({"field3d": {"pixel_resolution": 1024}})";
   const CliRun r = run("reconstruct " + p("seg.nrrd") + " --method field3d --annotated 'k:10,16,22;i:15;j:16' -o " +
                        p("a.ply") + " --params " + p("fine.json"));
   EXPECT_EQ(r.code, 1);

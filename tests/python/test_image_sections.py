@@ -18,16 +18,19 @@ N = 33  # pixels per side: the disc of RADIUS and a rim of outside pixels
 # of radius: 3 x 0.5 / 12 = 12.5 %. Measured: -5.6 % (three planes only;
 # the field rounds off between them).
 VOLUME_SHARE = 0.125
-# field3d's resolution row is a floor the pixel rule raises (one cell per
-# pixel: ~34 cells over the ball's box and margin); the default 96 would
-# give 3 cells per pixel and 20x the nodes for the same properties.
-FIELD3D = {"resolution": 16}
+# field3d's defaults: pixel input gets one cell per pixel (~34 cells over
+# the ball's box and margin; field3d.resolution is for polylines).
+FIELD3D = {}
 # The two labels' volumes in the partition against each solved alone:
 # the partition's grid spans both labels' box (each alone: its own), and
 # the groove along the rim of the shared face counts as outside (2-3 % on
-# polylines, docs/decisions.md, touching labels). Measured +1.8 % at one
-# cell per pixel (FIELD3D), -1.3 % at three; 4 % bounds both.
-PARTITION_VOLUME_SHARE = 0.04
+# polylines, docs/decisions.md, touching labels). Measured with the traced
+# boundary at contour weight 100: +1.8 % at one cell per pixel (FIELD3D),
+# -1.3 % at three; with the pixel input's default (smoothed boundary at
+# weight 1, band 16, sign constraints) +4.1 %: each half alone rounds off
+# more at its cut face, where the partition keeps the face flat (the
+# whole ball's volume share: 0.89 against 0.94). 6 % bounds these.
+PARTITION_VOLUME_SHARE = 0.06
 # The shared face's vertices are compared within this distance of the axis
 # (mm): farther out, between the drawn lines, both fields dip below 0 at one
 # cell per pixel and the rim groove takes over (measured: 0 unmatched within

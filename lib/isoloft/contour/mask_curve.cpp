@@ -119,6 +119,12 @@ Grid2u8 thin_side(const Grid2u8& m, double width) {
 
 }  // namespace detail
 
+Grid2f smoothed_mask(const Grid2u8& inside, double sigma) {
+  Grid2f f = gaussian(inside, sigma);
+  for (float& v : f.data) v -= 0.5f;
+  return f;
+}
+
 Grid2f clamped_smoothed_mask(const Grid2u8& inside, const MaskCurveParams& p) {
   Grid2f f = gaussian(inside, p.sigma);
   const bool adaptive = p.thin_margin != p.margin && p.thin_width > 0;

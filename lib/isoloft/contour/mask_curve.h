@@ -50,6 +50,12 @@ inline const ParamTable<MaskCurveParams>& params_table<MaskCurveParams>() {
 /// @warning An empty mask gives a field without zero crossing (all < 0).
 Grid2f clamped_smoothed_mask(const Grid2u8& inside, const MaskCurveParams& params = {});
 
+/// The mask smoothed by a Gaussian of `sigma` px (radius 3 sigma, 0 beyond
+/// the grid) minus 1/2, positive inside: its zero set is smooth but, unlike
+/// clamped_smoothed_mask()'s, may leave pixel centres on the wrong side
+/// (corners, features thinner than about 2 sigma).
+Grid2f smoothed_mask(const Grid2u8& inside, double sigma);
+
 namespace detail {
 
 /// Widths whose deep test reaches farther than this (px) take the EDT.

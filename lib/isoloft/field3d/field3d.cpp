@@ -15,10 +15,12 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/field3d/image_sections.h"
 #include "isoloft/mesh/marching_cubes.h"
 
 namespace isoloft {
@@ -1068,6 +1070,138 @@ std::size_t reweight(std::vector<Sample>& samples, const std::vector<std::size_t
   return raised;
 }
 
+/// Pixel centres of the label images as sign constraints: positions in
+/// finest cells from the grid origin, +1 inside (label), -1 outside.
+struct SignPoints {
+  std::vector<Vec3d> g;
+  std::vector<std::int8_t> sign;
+  std::vector<std::uint32_t> section, pixel;  ///< the section's index and the pixel's index in its image
+};
+
+/// Every pixel centre of `sections`' label images inside the box [lo, hi]
+/// (world mm; grid spacing h, origin lo).
+SignPoints sign_points(const std::vector<Section>& sections, std::uint32_t label, const Vec3d& lo, const Vec3d& hi,
+                       double h) {
+  std::vector<SignPoints> per(sections.size());
+  tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
+    const Section& sec = sections[i];
+    if (!sec.is_image()) return;
+    const double eps = 1e-9 * h;
+    for (int y = 0; y < sec.labels.height; ++y)
+      for (int x = 0; x < sec.labels.width; ++x) {
+        const Vec3d w = sec.pose.to_world(Vec2d(x, y) * sec.pixel_size);
+        if ((w.array() < lo.array() - eps).any() || (w.array() > hi.array() + eps).any()) continue;
+        per[i].g.push_back((w - lo) / h);
+        per[i].sign.push_back(sec.labels(x, y) == label ? 1 : -1);
+        per[i].section.push_back(std::uint32_t(i));
+        per[i].pixel.push_back(std::uint32_t(sec.labels.index(x, y)));
+      }
+  });
+  SignPoints all;
+  for (auto& p : per) {
+    all.g.insert(all.g.end(), p.g.begin(), p.g.end());
+    all.sign.insert(all.sign.end(), p.sign.begin(), p.sign.end());
+    all.section.insert(all.section.end(), p.section.begin(), p.section.end());
+    all.pixel.insert(all.pixel.end(), p.pixel.begin(), p.pixel.end());
+  }
+  return all;
+}
+
+/// The sign points on the wrong side of +-margin (cells) of the field x on lv.
+std::vector<std::size_t> violated_signs(const SignPoints& sp, const Level& lv, const Eigen::VectorXd& x, double margin) {
+  std::vector<std::uint8_t> bad(sp.g.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sp.g.size(), 4096), [&](const auto& rg) {
+    for (std::size_t k = rg.begin(); k < rg.end(); ++k) bad[k] = sp.sign[k] * base_value(lv, x, sp.g[k]) < margin;
+  });
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < bad.size(); ++k)
+    if (bad[k]) out.push_back(k);
+  return out;
+}
+
+/// Sign point k's penalty sample (target +-2 margin, sign_weight), made on
+/// first use. sample_of[k]: point k's index in samples, -1 before.
+Sample& penalty_sample(const SignPoints& sp, std::size_t k, const Field3dParams& p, std::vector<Sample>& samples,
+                       std::vector<std::int64_t>& sample_of) {
+  if (sample_of[k] < 0) {
+    sample_of[k] = std::int64_t(samples.size());
+    samples.push_back({sp.g[k], 2 * p.sign_margin * sp.sign[k], p.sign_weight / p.reweight_factor, false});
+  }
+  return samples[std::size_t(sample_of[k])];
+}
+
+/// One active-set step: each violated sign point's penalty sample is made
+/// (weight sign_weight) or, already there, weighs reweight_factor times more.
+void activate_signs(const SignPoints& sp, const std::vector<std::size_t>& violated, const Field3dParams& p,
+                    std::vector<Sample>& samples, std::vector<std::int64_t>& sample_of) {
+  for (const std::size_t k : violated) penalty_sample(sp, k, p, samples, sample_of).weight *= p.reweight_factor;
+}
+
+/// The sign points whose pixel the mesh draws on the wrong side (the mesh's
+/// section by their image's plane, image_sections.h section_pixels): Marching
+/// Cubes' surface is not the trilinear field's, so a small feature can pass
+/// the field's check and still be lost.
+std::vector<std::size_t> mesh_mismatches(const SignPoints& sp, const std::vector<Section>& sections, const TriMesh& mesh) {
+  std::vector<Grid2u8> drawn(sections.size());
+  tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
+    const Section& s = sections[i];
+    if (s.is_image()) drawn[i] = section_pixels(mesh, s.pose, s.pixel_size, s.labels.width, s.labels.height);
+  });
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < sp.g.size(); ++k)
+    if ((drawn[sp.section[k]].data[sp.pixel[k]] != 0) != (sp.sign[k] > 0)) out.push_back(k);
+  return out;
+}
+
+/// Points the mesh misses: their penalty samples pull twice as far and weigh
+/// reweight_factor times more (a new one: target +-4 margin, sign_weight).
+void strengthen_signs(const SignPoints& sp, const std::vector<std::size_t>& missed, const Field3dParams& p,
+                      std::vector<Sample>& samples, std::vector<std::int64_t>& sample_of) {
+  for (const std::size_t k : missed) {
+    Sample& s = penalty_sample(sp, k, p, samples, sample_of);
+    s.value *= 2;
+    s.weight *= p.reweight_factor;
+  }
+}
+
+/// Marching Cubes of value(i, j, k) on fx x fy x fz nodes padded by a layer
+/// of `outside` (closed, oriented), vertices in node units.
+template <class F>
+TriMesh march(int fx, int fy, int fz, double outside, const F& value) {
+  const int W = fx + 2, Hh = fy + 2;
+  MarchingCubes mc(W, Hh, -1, -1);
+  for (int k = -1; k <= fz; ++k) {
+    Grid2f plane(W, Hh, float(outside));
+    if (k >= 0 && k < fz)
+      tbb::parallel_for(0, fy, [&](int j) {
+        for (int i = 0; i < fx; ++i) plane(i + 1, j + 1) = float(value(i, j, k));
+      });
+    mc.add_plane(std::move(plane), k);
+  }
+  return mc.finish();
+}
+
+/// The field on one level for `samples`, directly (the twin) or by
+/// multigrid-preconditioned conjugate gradients warm from x; adds the iterations to res.
+void solve_level(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p, bool direct,
+                 Eigen::VectorXd& x, Field3dResult& res) {
+  const Operator A(lv, samples, p);
+  if (direct) {
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
+    if (ldlt.info() != Eigen::Success) throw Error("field3d: the direct factorisation failed");
+    x = ldlt.solve(A.rhs());
+    Eigen::VectorXd Ax;
+    A.apply(x, Ax);
+    res.residual = (Ax - A.rhs()).norm() / A.rhs().norm();
+    return;
+  }
+  const Multigrid M(lv, A, samples, p);
+  const int it = preconditioned_cg(A, M, x, p.tolerance, p.max_iterations, res.residual);
+  res.iterations += it;
+  res.finest_iterations = it;
+  res.multigrid_levels = M.levels();
+}
+
 }  // namespace
 
 /// Closed components of `mesh` with positive volume that enclose none of
@@ -1290,7 +1424,8 @@ SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t lab
     const std::string name = section_name(sections, i);
     if (!sec.pose.orthonormal(1e-6) || !sec.pose.origin.allFinite())
       throw InputError(name, "the plane's axes are not orthonormal or its origin is not finite");
-    if (sec.is_image()) throw InputError(name, "label-image sections are not supported by field3d (contours only)");
+    if (sec.is_image() && (!(sec.pixel_size > 0) || !std::isfinite(sec.pixel_size)))
+      throw InputError(name, "the label image's pixel size is not positive and finite");
     for (std::size_t c = 0; c < sec.contours.size(); ++c) {
       const SectionContour& con = sec.contours[c];
       if (con.label != label) continue;
@@ -1432,24 +1567,11 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     const bool last = l + 1 == levels.size();
     const int passes = last && !refine ? params.reweight_passes : 0;
     for (int pass = 0; pass <= passes; ++pass) {
-      const Operator A(levels[l], samples, params);
-      if (params.direct && !refine) {
-        Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
-        if (ldlt.info() != Eigen::Success) throw Error("field3d: the direct factorisation failed");
-        x = ldlt.solve(A.rhs());
-        Eigen::VectorXd Ax;
-        A.apply(x, Ax);
-        res.residual = (Ax - A.rhs()).norm() / A.rhs().norm();
-      } else {
-        if (pass == 0)  // later passes start from the previous solution
-          x = l == 0 ? Eigen::VectorXd::Constant(Eigen::Index(levels[l].size()), -params.band)
-                     : prolong(levels[l - 1], x, levels[l]);
-        const Multigrid M(levels[l], A, samples, params);
-        const int it = preconditioned_cg(A, M, x, params.tolerance, params.max_iterations, res.residual);
-        res.iterations += it;
-        res.finest_iterations = it;
-        res.multigrid_levels = M.levels();
-      }
+      const bool direct = params.direct && !refine;
+      if (!direct && pass == 0)  // later passes start from the previous solution
+        x = l == 0 ? Eigen::VectorXd::Constant(Eigen::Index(levels[l].size()), -params.band)
+                   : prolong(levels[l - 1], x, levels[l]);
+      solve_level(levels[l], samples, params, direct, x, res);
       if (pass == passes) break;
       std::vector<std::size_t> all(samples.size());
       for (std::size_t s = 0; s < all.size(); ++s) all[s] = s;
@@ -1472,8 +1594,43 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     }
   }
   const Level& base = levels.back();
-  if (grid.stack_axis >= 0) res.field = spline_along(base, x, grid.stack_axis, grid.out_nodes[std::size_t(grid.stack_axis)]);
-  else res.field.assign(x.data(), x.data() + x.size());
+  // The field at one cell along every axis (a parallel stack's solve splined back along its normal).
+  const auto store_field = [&] {
+    if (grid.stack_axis >= 0) res.field = spline_along(base, x, grid.stack_axis, grid.out_nodes[std::size_t(grid.stack_axis)]);
+    else res.field.assign(x.data(), x.data() + x.size());
+  };
+
+  // Pixel input: the active set of sign constraints at the label images' pixel centres.
+  const std::size_t sign_first = samples.size();
+  std::optional<SignPoints> signs;
+  std::vector<std::int64_t> sign_sample;  // per sign point: its penalty sample, -1 while inactive
+  // One active-set re-solve on the base grid, conjugate gradients warm from the previous solution x.
+  const auto sign_solve = [&](bool direct) {
+    const int before = res.iterations;
+    solve_level(base, samples, params, direct, x, res);
+    res.sign_iterations += res.iterations - before;
+    ++res.sign_passes;
+  };
+  const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
+  const auto signs_start = std::chrono::steady_clock::now();
+  if (params.pixel_signs) signs = sign_points(sections, label, res.origin, box_hi, h);
+  if (signs && signs->g.empty()) signs.reset();
+  if (signs) {
+    res.sign_points = signs->g.size();
+    sign_sample.assign(signs->g.size(), -1);
+    for (int pass = 0;; ++pass) {
+      const std::vector<std::size_t> violated = violated_signs(*signs, base, x, params.sign_margin);
+      res.sign_violated = violated.size();
+      if (violated.empty() || pass == params.sign_passes) break;
+      activate_signs(*signs, violated, params, samples, sign_sample);
+      sign_solve(params.direct && !refine);
+    }
+    res.sign_active = samples.size() - sign_first;
+  }
+  res.sign_seconds = seconds_since(signs_start);
+  store_field();
 
   // The band: re-solved on the grid `refinement` times finer near the surface.
   Band bd;
@@ -1488,6 +1645,10 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
       const std::int64_t n = bd.node(int(std::floor(q.x())), int(std::floor(q.y())), int(std::floor(q.z())));
       return n >= 0;
     });
+    for (std::size_t k = sign_first; k < samples.size(); ++k) {  // the active sign constraints in the band
+      const Vec3d q = samples[k].g * r;
+      if (bd.node(int(std::floor(q.x())), int(std::floor(q.y())), int(std::floor(q.z()))) >= 0) fine.push_back(samples[k]);
+    }
     res.band_nodes = bd.size();
     res.band_unknowns = std::size_t(std::count(bd.unknown.begin(), bd.unknown.end(), std::uint8_t(1)));
     for (int pass = 0; pass <= params.reweight_passes; ++pass) {
@@ -1509,31 +1670,34 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   // Mesh: the field padded with a layer of outside samples, so the surface
   // closes; on the band's grid, the band's values where stored and the base
   // field prolonged elsewhere (no zero there: those cells hold no sign change).
-  {
-    const int r = refine ? params.refinement : 1;
-    const int fx = r * (res.nx - 1) + 1, fy = r * (res.ny - 1) + 1, fz = r * (res.nz - 1) + 1;
-    const int W = fx + 2, Hh = fy + 2;
-    MarchingCubes mc(W, Hh, -1, -1);
-    for (int k = -1; k <= fz; ++k) {
-      Grid2f plane(W, Hh, float(-params.band));
-      if (k >= 0 && k < fz)
-        tbb::parallel_for(0, fy, [&](int j) {
-          for (int i = 0; i < fx; ++i) {
-            double v = 0;
-            if (!refine) {
-              v = res.field[i + std::size_t(res.nx) * (j + std::size_t(res.ny) * k)];
-            } else {
-              const std::int64_t n = bd.node(i, j, k);
-              v = n >= 0 ? z[Eigen::Index(n)] : base_value(base, x, Vec3d(i, j, k) / r);
-            }
-            plane(i + 1, j + 1) = float(v);
-          }
-        });
-      mc.add_plane(std::move(plane), k);
-    }
-    res.mesh = mc.finish();
-    const double hf = h / r;
-    for (Vec3f& v : res.mesh.vertices) v = (res.origin + hf * v.cast<double>()).cast<float>();
+  const auto base_mesh = [&] {
+    TriMesh m = march(res.nx, res.ny, res.nz, -params.band, [&](int i, int j, int k) {
+      return res.field[std::size_t(i) + std::size_t(res.nx) * (std::size_t(j) + std::size_t(res.ny) * std::size_t(k))];
+    });
+    for (Vec3f& v : m.vertices) v = (res.origin + h * v.cast<double>()).cast<float>();
+    return m;
+  };
+  // Pixel input: the pixels the mesh itself draws wrong, put back (the base grid's mesh).
+  const auto mesh_signs_start = std::chrono::steady_clock::now();
+  for (int pass = 0; signs && !refine && pass < params.sign_passes; ++pass) {
+    const std::vector<std::size_t> missed = mesh_mismatches(*signs, sections, base_mesh());
+    res.sign_violated = missed.size();
+    if (missed.empty()) break;
+    strengthen_signs(*signs, missed, params, samples, sign_sample);
+    sign_solve(params.direct);
+    store_field();
+  }
+  res.sign_seconds += seconds_since(mesh_signs_start);
+  if (signs) res.sign_active = samples.size() - sign_first;
+  if (!refine) {
+    res.mesh = base_mesh();
+  } else {
+    const int r = params.refinement;
+    res.mesh = march(r * (res.nx - 1) + 1, r * (res.ny - 1) + 1, r * (res.nz - 1) + 1, -params.band, [&](int i, int j, int k) {
+      const std::int64_t n = bd.node(i, j, k);
+      return n >= 0 ? z[Eigen::Index(n)] : base_value(base, x, Vec3d(i, j, k) / r);
+    });
+    for (Vec3f& v : res.mesh.vertices) v = (res.origin + h / r * v.cast<double>()).cast<float>();
   }
   if (params.prune) {
     std::vector<Vec3d> inside;
@@ -1646,6 +1810,14 @@ constexpr double kBytesPerBandNode = 128;
 /// case under its estimate (0.79-0.89 of it) with room for the cases not
 /// measured (re-weighting passes, several labels on one grid).
 constexpr double kEstimateSafety = 1.25;
+/// Per sign point (pixel input, Field3dParams::pixel_signs): its position,
+/// sign, section and pixel (SignPoints), its penalty sample's index and
+/// violated flag, and the mesh check's raster of its pixel (1 byte).
+constexpr double kBytesPerSignPoint = 24 + 1 + 4 + 4 + 8 + 1 + 1;
+/// Share of the sign points that become penalty samples (the active set,
+/// each a sample of the solve): 0.19-0.46 % on five mask-kit rows (128 px;
+/// sphere 4:1 804 of 353,648), 0.02 leaves 4x room for rougher masks.
+constexpr double kSignActiveShare = 0.02;
 /// A plane raster this large is counted as its bounding rectangle (an upper
 /// bound) instead of row by row: the row count itself would take seconds.
 constexpr double kRowCountLimit = 1e9;
@@ -1696,6 +1868,14 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
         for (std::size_t e = 0; e < poly.size(); ++e)
           w.samples += std::max(1.0, std::ceil((poly[(e + 1) % poly.size()] - poly[e]).norm() / sp));
   }
+  // Pixel input: every pixel centre of the label images inside the box is a
+  // sign point (sign_points()); the active ones are samples of the solve too.
+  if (params.pixel_signs)
+    for (const Section& s : sections)
+      if (s.is_image())
+        w.sign_points += raster_points_inside(s.pose, PlaneRaster{Vec2d::Zero(), s.labels.width, s.labels.height},
+                                              s.pixel_size, g.origin, g.box_hi, 1e-9 * g.h);
+  const double solve_samples = w.samples + kSignActiveShare * w.sign_points;
   // The multigrid hierarchy under the finest grid (Multigrid's halving rule):
   // its nodes, and its cells with samples (a plane crosses a cell of H
   // finest cells in ~H^2 samples).
@@ -1709,7 +1889,7 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
     // A plane crosses a cell in ~its in-plane area of samples: H^2 on an
     // isotropic level, the smallest face of an anisotropic one.
     const double face = lv.H.prod() / lv.H.maxCoeff();
-    blocks += std::min(double(lv.nx - 1) * double(lv.ny - 1) * double(lv.nz - 1), w.samples / face);
+    blocks += std::min(double(lv.nx - 1) * double(lv.ny - 1) * double(lv.nz - 1), solve_samples / face);
   }
   // The surface: the contours' box as an ellipsoid (Thomsen's area formula), in cells^2.
   const Vec3d semi = (g.contour_hi - g.contour_lo) / (2 * g.h);
@@ -1721,7 +1901,8 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
   w.triangles = kTrianglesPerCellArea * area * r * r;
   const double band_nodes = r > 1 ? area * (2 * params.refine_width + 1) * r * r * r : 0.0;
   w.solve_bytes = kEstimateSafety * (w.solve_nodes * kBytesPerNode + coarse_nodes * kBytesPerCoarseNode +
-                                     blocks * kBytesPerBlock + w.samples * kBytesPerSample + band_nodes * kBytesPerBandNode);
+                                     blocks * kBytesPerBlock + solve_samples * kBytesPerSample +
+                                     w.sign_points * kBytesPerSignPoint + band_nodes * kBytesPerBandNode);
   w.field_bytes = w.nodes() * sizeof(double);
   w.mesh_bytes = kEstimateSafety * w.triangles * kMeshBytesPerTriangle;
   return w;

@@ -37,8 +37,16 @@
 // @warning A surface that would leave the padded box is cut by the boundary
 // term (f pulled to -band on the box faces), so margin bounds how far the
 // surface may bulge beyond the outermost contours.
-// @warning Label-image sections (Section::is_image()) are refused (InputError);
-// contours only.
+// Pixel input (sections that keep a label image beside their traced
+// contours, field3d/image_sections.h): every pixel centre of the image is a
+// sign constraint, inside (label `label`) f >= sign_margin, outside f <=
+// -sign_margin; after the solve, the violated centres become penalty samples
+// (target +-2 sign_margin, sign_weight; raised by reweight_factor while still
+// violated) and the field is re-solved warm, at most sign_passes times: an
+// active set, so the surface keeps every drawn pixel while the contour
+// samples may lie on a smoothed boundary.
+// @warning A label-image section's contours are the boundary samples; an
+// image without them constrains the signs at its pixel centres only.
 #pragma once
 
 #include <cstddef>
@@ -76,6 +84,14 @@ struct Field3dParams {
   double reweight_tolerance = 5e-4;
   bool prune = true;
   double stack_spacing = 8.0;
+  bool pixel_signs = true;
+  double pixel_sigma = 1.0;
+  double pixel_band = 16.0;
+  double pixel_contour_weight = 1.0;
+  double sign_margin = 0.05;
+  double sign_weight = 10.0;
+  int sign_passes = 8;
+  int pixel_resolution = 0;
   /// The box (world mm, low and high corners) the grid covers before its
   /// margin, instead of the label's contours' box: labels solved on one box
   /// get one grid (field3d/partition3d.h). Not a parameter row (no flag).
@@ -89,7 +105,8 @@ template <>
 inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
   static const ParamTable<Field3dParams> t({
       field("resolution", &Field3dParams::resolution, "cells",
-            "grid cells along the box's longest side (96: armadillo's 26 planes within 5 s on 2 threads)",
+            "grid cells along the box's longest side (96: armadillo's 26 planes within 5 s on 2 threads); polyline "
+            "input only, pixel input follows pixel_resolution",
             between(4, 1024)),
       field("margin", &Field3dParams::margin, "",
             "box margin around the contours, share of their bounding-box diagonal (room for caps beyond the "
@@ -143,6 +160,35 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             above(0)),
       field("prune", &Field3dParams::prune, "",
             "drop closed components that enclose no sample drawn inside (spurious blobs between planes)"),
+      field("pixel_signs", &Field3dParams::pixel_signs, "",
+            "pixel input: every pixel centre of a label image kept on its drawn side (inside f >= sign_margin, "
+            "outside f <= -sign_margin) by an active set of penalty samples"),
+      field("pixel_sigma", &Field3dParams::pixel_sigma, "px",
+            "pixel input: the boundary samples on the 1/2 level of the mask smoothed by a Gaussian of this sigma "
+            "(0: on the traced boundary, mask_curve, which keeps every pixel but is faceted)",
+            between(0, 8)),
+      field("pixel_band", &Field3dParams::pixel_band, "cells",
+            "pixel input: the band instead of field3d.band (a cell is at most a pixel); 16 beat 8 and 32 on the mask "
+            "kit (torus 16:1 mean distance 1.25 px at 32, 0.15 at 16)",
+            above(0)),
+      field("pixel_contour_weight", &Field3dParams::pixel_contour_weight, "per cell",
+            "pixel input: the contour weight instead of field3d.contour_weight (the boundary is smoothed; the sign "
+            "constraints keep the pixels)",
+            at_least(0)),
+      field("sign_margin", &Field3dParams::sign_margin, "cells",
+            "pixel input: a pixel centre is violated when f is on its drawn side by less than this; its penalty "
+            "sample pulls f to twice this",
+            above(0)),
+      field("sign_weight", &Field3dParams::sign_weight, "",
+            "pixel input: weight of a violated pixel centre's penalty sample (raised by reweight_factor per pass "
+            "while it stays violated)",
+            above(0)),
+      field("sign_passes", &Field3dParams::sign_passes, "passes",
+            "pixel input: re-solves of the active set at most (each adds the violated pixel centres)", between(0, 32)),
+      field("pixel_resolution", &Field3dParams::pixel_resolution, "cells",
+            "pixel input: grid cells along the box's longest side instead of field3d.resolution; 0: one cell per "
+            "pixel (a finer grid gained nothing on the mask kit and cost up to 50x the time)",
+            between(0, 1024)),
       field("stack_spacing", &Field3dParams::stack_spacing, "cells",
             "on a parallel stack (every section normal to one grid axis), the solve's spacing along that axis: the "
             "planes' spacing split into steps of at most this many cells, each plane on a node; the field is then "
@@ -191,12 +237,18 @@ struct Field3dResult {
   int band_iterations = 0;                   ///< conjugate-gradient iterations on the band, all passes
   std::size_t reweighted = 0;                ///< samples made heavier, all passes
   std::size_t pruned_components = 0;         ///< closed components dropped (no inside sample enclosed)
+  std::size_t sign_points = 0;               ///< pixel centres of label images inside the grid's box
+  std::size_t sign_active = 0;               ///< of which made penalty samples, all passes
+  std::size_t sign_violated = 0;             ///< of which still on the wrong side of the margin at the end
+  int sign_passes = 0;                       ///< active-set re-solves run
+  int sign_iterations = 0;                   ///< of `iterations`, those of the active-set re-solves
+  double sign_seconds = 0;                   ///< wall time of the active set (checks and re-solves, field and mesh)
 };
 
 /// The surface of `label` from every section: one field over all planes.
 /// \throw ParamError for params out of range, or direct with a grid above kMaxDirectNodes;
 ///        InputError naming the section (Section::source) for a non-orthonormal pose,
-///        a label image, a contour of < 3 points or a non-finite coordinate, and
+///        a label image whose pixel size is not positive and finite, a contour of < 3 points or a non-finite coordinate, and
 ///        when no section holds a contour of `label`.
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
                                    const Field3dParams& params = {});
@@ -209,6 +261,7 @@ struct Field3dWork {
   int nx = 0, ny = 0, nz = 0;  ///< the field's grid nodes per axis (Field3dResult::nx, ny, nz)
   double solve_nodes = 0;      ///< the finest solve's nodes (Field3dResult::solve_nodes)
   double samples = 0;          ///< plane and contour samples
+  double sign_points = 0;      ///< pixel input: label-image pixel centres inside the box (Field3dResult::sign_points)
   double triangles = 0;        ///< Marching Cubes triangles (the contours' box as an ellipsoid)
   double solve_bytes = 0;      ///< held at the finest solve: grid vectors, samples, operators, multigrid
   double field_bytes = 0;      ///< the finished field (Field3dResult::field)

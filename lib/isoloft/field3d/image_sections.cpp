@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "isoloft/core/error.h"
 #include "isoloft/contour/rasterize.h"
@@ -24,19 +25,21 @@ namespace {
 /// smoothing's reach (sigma 0.7 px) the same as beyond-the-grid zeros.
 constexpr int kPad = 2;
 
+/// Fewest cells the pixel rule gives a grid: the coarse-to-fine solve halves
+/// it twice (field3d.levels 3), and 16 cells leave 4, the resolution row's least.
+constexpr int kMinPixelResolution = 16;
 /// Largest field3d.resolution its row accepts (field3d/field3d.h).
 constexpr int kMaxResolution = 1024;
 
 }  // namespace
 
-std::vector<std::vector<Vec2d>> traced_loops(const Grid2u8& inside, const MaskCurveParams& params) {
+namespace {
+
+/// The zero set of `f` (on the image padded by kPad pixels) by marching
+/// squares, saddles joining the inside, chained into closed loops in the
+/// image's pixel units.
+std::vector<std::vector<Vec2d>> zero_loops(const Grid2f& f) {
   std::vector<std::vector<Vec2d>> loops;
-  if (std::none_of(inside.data.begin(), inside.data.end(), [](std::uint8_t v) { return v != 0; })) return loops;
-  Grid2u8 padded(inside.width + 2 * kPad, inside.height + 2 * kPad, 0);
-  for (int y = 0; y < inside.height; ++y)
-    for (int x = 0; x < inside.width; ++x) padded(x + kPad, y + kPad) = inside(x, y) != 0;
-  const Grid2f f = clamped_smoothed_mask(padded, params);
-  // Linear vertices (each between its inside and outside pixel centre), saddles joining the inside.
   const detail::ZeroSet zs = detail::marching_squares(f, [](const Vec2d&) { return 1.0; }, 0, 1);
   std::vector<std::uint8_t> used(zs.segments.size(), 0);
   const Vec2d shift(kPad, kPad);
@@ -60,16 +63,49 @@ std::vector<std::vector<Vec2d>> traced_loops(const Grid2u8& inside, const MaskCu
   return loops;
 }
 
-Section traced_section(const Section& section, std::uint32_t label, const MaskCurveParams& params) {
+/// `inside` with kPad outside pixels around it; nullopt when it is empty.
+std::optional<Grid2u8> padded_mask(const Grid2u8& inside) {
+  if (std::none_of(inside.data.begin(), inside.data.end(), [](std::uint8_t v) { return v != 0; })) return std::nullopt;
+  Grid2u8 padded(inside.width + 2 * kPad, inside.height + 2 * kPad, 0);
+  for (int y = 0; y < inside.height; ++y)
+    for (int x = 0; x < inside.width; ++x) padded(x + kPad, y + kPad) = inside(x, y) != 0;
+  return padded;
+}
+
+}  // namespace
+
+std::vector<std::vector<Vec2d>> traced_loops(const Grid2u8& inside, const MaskCurveParams& params) {
+  const auto padded = padded_mask(inside);
+  if (!padded) return {};
+  // Linear vertices (each between its inside and outside pixel centre), saddles joining the inside.
+  return zero_loops(clamped_smoothed_mask(*padded, params));
+}
+
+std::vector<std::vector<Vec2d>> smoothed_loops(const Grid2u8& inside, double sigma) {
+  const auto padded = padded_mask(inside);
+  if (!padded) return {};
+  return zero_loops(smoothed_mask(*padded, sigma));
+}
+
+std::vector<std::vector<Vec2d>> boundary_loops(const Grid2u8& inside, const MaskCurveParams& params, double sigma) {
+  return sigma > 0 ? smoothed_loops(inside, sigma) : traced_loops(inside, params);
+}
+
+Section traced_section(const Section& section, std::uint32_t label, const MaskCurveParams& params,
+                       const PixelBoundary& boundary) {
   if (!section.is_image()) return section;
   if (!(section.pixel_size > 0) || !std::isfinite(section.pixel_size))
     throw InputError(section.source, "the label image's pixel size is not positive and finite");
   Section out;
   out.pose = section.pose;
   out.source = section.source;
+  if (boundary.keep_image) {
+    out.labels = section.labels;
+    out.pixel_size = section.pixel_size;
+  }
   Grid2u8 inside(section.labels.width, section.labels.height, 0);
   for (std::size_t i = 0; i < inside.size(); ++i) inside.data[i] = section.labels.data[i] == label;
-  for (auto& loop : traced_loops(inside, params)) {
+  for (auto& loop : boundary_loops(inside, params, boundary.sigma)) {
     for (Vec2d& p : loop) p *= section.pixel_size;
     out.contours.push_back({std::move(loop), label, false});
   }
@@ -77,11 +113,11 @@ Section traced_section(const Section& section, std::uint32_t label, const MaskCu
 }
 
 std::vector<Section> traced_sections(const std::vector<Section>& sections, std::uint32_t label,
-                                     const MaskCurveParams& params) {
+                                     const MaskCurveParams& params, const PixelBoundary& boundary) {
   params_table<MaskCurveParams>().validate(params);
   std::vector<Section> out(sections.size());
   tbb::parallel_for(std::size_t(0), sections.size(),
-                    [&](std::size_t i) { out[i] = traced_section(sections[i], label, params); });
+                    [&](std::size_t i) { out[i] = traced_section(sections[i], label, params, boundary); });
   return out;
 }
 
@@ -97,17 +133,25 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
           lo = lo.cwiseMin(w);
           hi = hi.cwiseMax(w);
         }
+  params = pixel_rows(params);
   params.resolution = pixel_resolution({lo, hi}, pixel_size, params);
+  return params;
+}
+
+Field3dParams pixel_rows(Field3dParams params) {
+  params.band = params.pixel_band;
+  params.contour_weight = params.pixel_contour_weight;
   return params;
 }
 
 int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params) {
   const auto& [lo, hi] = box;
+  if (params.pixel_resolution > 0) return params.pixel_resolution;
   if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params.resolution;
   // The box as reconstruct_sections() sizes it: the contours' extent plus the margin on each side.
   const double longest = ((hi - lo).array() + 2 * params.margin * (hi - lo).norm()).maxCoeff();
   const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
-  return std::clamp(needed, params.resolution, std::max(params.resolution, kMaxResolution));
+  return std::clamp(needed, kMinPixelResolution, kMaxResolution);
 }
 
 Grid2u8 section_pixels(const TriMesh& mesh, const PlanePose& pose, double pixel_size, int width, int height) {

@@ -26,7 +26,7 @@
 
 namespace isoloft {
 
-/// The grid of a pixel input is at least this many cells per pixel along
+/// The grid of a pixel input has this many cells per pixel along
 /// each axis (the finest pixel of all sections): the traced boundary lies
 /// within a pixel of the centres it separates, so the trilinear field needs
 /// cells no larger than a pixel to follow it; with one cell per pixel the
@@ -42,31 +42,57 @@ inline constexpr double kImageCellsPerPixel = 1.0;
 /// @warning An empty mask gives no loop.
 std::vector<std::vector<Vec2d>> traced_loops(const Grid2u8& inside, const MaskCurveParams& params = {});
 
-/// `section` with its label image replaced by the traced boundary of
-/// `label`'s pixels (in-plane mm, label `label`, even-odd); a polyline
-/// section is returned as it is.
+/// The 1/2 level of `inside` smoothed by a Gaussian of `sigma` px
+/// (mask_curve.h smoothed_mask) as closed polylines, as traced_loops():
+/// smooth, but a pixel centre near a corner or in a feature thinner than
+/// about 2 sigma may fall on the wrong side (the solver's sign constraints
+/// put it back, Field3dParams::pixel_signs).
+/// @warning An empty mask, or one whose every pixel smooths below 1/2, gives no loop.
+std::vector<std::vector<Vec2d>> smoothed_loops(const Grid2u8& inside, double sigma);
+
+/// smoothed_loops() for sigma > 0, else traced_loops().
+std::vector<std::vector<Vec2d>> boundary_loops(const Grid2u8& inside, const MaskCurveParams& params, double sigma);
+
+/// How traced_section() turns a label image into the solver's section.
+struct PixelBoundary {
+  double sigma = 0;         ///< px; 0: traced_loops(), > 0: smoothed_loops() (Field3dParams::pixel_sigma)
+  bool keep_image = false;  ///< keep the label image: the solver's sign constraints (Field3dParams::pixel_signs)
+};
+
+/// `section` with its label image replaced by the boundary of `label`'s
+/// pixels (in-plane mm, label `label`, even-odd; `boundary` says which, and
+/// whether the image stays beside it); a polyline section is returned as it is.
 /// \throw InputError naming Section::source for a pixel size that is not
 ///        positive and finite.
-Section traced_section(const Section& section, std::uint32_t label, const MaskCurveParams& params = {});
+Section traced_section(const Section& section, std::uint32_t label, const MaskCurveParams& params = {},
+                       const PixelBoundary& boundary = {});
 
 /// Every section through traced_section(), side by side.
 std::vector<Section> traced_sections(const std::vector<Section>& sections, std::uint32_t label,
-                                     const MaskCurveParams& params = {});
+                                     const MaskCurveParams& params = {}, const PixelBoundary& boundary = {});
 
-/// `params` for pixel input: the resolution raised so that the solver's grid
+/// The PixelBoundary that `params` asks for (pixel_sigma, pixel_signs).
+inline PixelBoundary pixel_boundary(const Field3dParams& params) { return {params.pixel_sigma, params.pixel_signs}; }
+
+/// `params` for pixel input: band and contour_weight from pixel_band and
+/// pixel_contour_weight, and the resolution raised so that the solver's grid
 /// over `traced` (the box reconstruct_sections() builds around `label`'s
-/// contours) has at least kImageCellsPerPixel cells per `pixel_size` mm
-/// (at most the resolution row's limit, 1024); unchanged if `label` has no
-/// contour. The band stays field3d.band: raising it to 32 cells lowered the
-/// mean distance on 12 of the kit's 18 rows but cost the branching
-/// cylinders at 4:1 its input-slice Dice (0.9804; docs/decisions.md:
-/// label-image sections in field3d).
+/// contours) has kImageCellsPerPixel cells per `pixel_size` mm
+/// (pixel_resolution()). docs/decisions.md: field3d pixel input: sign constraints at pixel centres.
 Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t label, double pixel_size,
                            Field3dParams params);
 
+/// `params` with the pixel input's rows in place of the general ones: band
+/// from pixel_band, contour_weight from pixel_contour_weight (the grid's
+/// resolution is pixel_resolution()'s).
+Field3dParams pixel_rows(Field3dParams params);
+
 /// pixel_params()'s resolution for a grid over `box` (world mm, low and high
-/// corners, before the margin): params.resolution raised to
-/// kImageCellsPerPixel cells per `pixel_size` (at most 1024).
+/// corners, before the margin): params.pixel_resolution when > 0, else
+/// kImageCellsPerPixel cells per `pixel_size` (at least 16, at most 1024;
+/// params.resolution for an empty box). field3d.resolution does not floor
+/// it: a 32^3 annotated sphere took 10.5 s at the default 96 against 0.2 s
+/// at a cell per voxel, with the same properties.
 int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params);
 
 /// The pixels of a `width` x `height` image on `pose` (pixel (x, y)'s centre

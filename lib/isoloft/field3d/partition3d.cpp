@@ -109,8 +109,12 @@ Field3dParams group_params(const std::vector<Section>& sections, const std::vect
     }
     p.box = box;
   }
-  // Pixel cells over the group's box (the label's own box when alone), as pixel_params() sizes one label's grid.
-  if (pixel > 0) p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, params);
+  // Pixel input: the pixel rows (band, contour weight) and pixel cells over the group's box (the label's own
+  // box when alone), as pixel_params() sizes one label's grid.
+  if (pixel > 0) {
+    p = pixel_rows(p);
+    p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, p);
+  }
   return p;
 }
 
@@ -182,7 +186,7 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
         ob.planes = std::move(fields[k].planes);
         continue;
       }
-      ob.mesh = partition_mesh(fields, k, params.band);
+      ob.mesh = partition_mesh(fields, k, p.band);
       ob.check = check_mesh(ob.mesh);
       const auto polys = label_polylines(sections, ob.label);
       ob.planes.resize(sections.size());

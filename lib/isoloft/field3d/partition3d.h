@@ -56,9 +56,9 @@ struct Partition3dResult {
 
 /// The surfaces of `labels` (distinct, each drawn on some section) as one
 /// partition of space. `pixel` > 0: the contours were traced from label
-/// images whose finest pixel is `pixel` mm, and each group's grid gets cells
-/// of at most kImageCellsPerPixel per pixel (field3d/image_sections.h,
-/// pixel_params() over the group's box) instead of params.resolution alone.
+/// images whose finest pixel is `pixel` mm, and each group's grid and rows
+/// are the pixel input's (field3d/image_sections.h pixel_rows(),
+/// pixel_resolution() over the group's box) instead of params.resolution.
 /// \throw ParamError, InputError as reconstruct_sections(); ParamError for
 ///        an empty or repeated label list, or params.box given (it is set per group).
 Partition3dResult reconstruct_partition(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
@@ -100,8 +100,8 @@ class SharedPartition {
 
 namespace detail {
 /// The params of one group's grid (indices into `labels`): its common box
-/// when it has several labels, and for pixel input (`pixel` > 0) the
-/// resolution raised to pixel cells over that box.
+/// when it has several labels, and for pixel input (`pixel` > 0) the pixel
+/// rows (pixel_rows()) and pixel cells over that box (pixel_resolution()).
 Field3dParams group_params(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
                            const std::vector<std::size_t>& group, const Field3dParams& params, double pixel);
 

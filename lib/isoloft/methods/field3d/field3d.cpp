@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -52,6 +53,26 @@ ObjectSections polygon_stack_sections(const SliceStack& st) {
   return o;
 }
 
+// Pixels [x0, x1) x [y0, y1) of the slices' images that the solver's box for
+// label l can reach: the bounding box of l's loops over all slices, widened
+// by kCropMargin of its diagonal (Field3dParams::margin's default) plus a pixel.
+std::array<int, 4> object_crop(const std::vector<std::map<std::uint32_t, std::vector<std::vector<Vec2d>>>>& loops,
+                               std::uint32_t l, const std::vector<Grid2u32>& images) {
+  constexpr double kCropMargin = 0.2;  // twice field3d.margin's default: the box never reaches beyond
+  Vec2d lo = Vec2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  int w = 0, h = 0;
+  for (std::size_t k = 0; k < loops.size(); ++k) {
+    w = std::max(w, images[k].width);
+    h = std::max(h, images[k].height);
+    if (const auto it = loops[k].find(l); it != loops[k].end())
+      for (const auto& loop : it->second)
+        for (const Vec2d& p : loop) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  }
+  const double pad = kCropMargin * (hi - lo).norm() + 1;
+  return {std::max(0, int(std::floor(lo.x() - pad))), std::max(0, int(std::floor(lo.y() - pad))),
+          std::min(w, int(std::ceil(hi.x() + pad)) + 1), std::min(h, int(std::ceil(hi.y() + pad)) + 1)};
+}
+
 // A mask or label stack's slices as label-image sections (working pixels,
 // normal +z), each traced per label: one object per label (masks: one).
 std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const ReconstructParams& params) {
@@ -62,15 +83,21 @@ std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const Re
                      option_given("--input", "masks") + " (filled regions) or another method");
   const bool labels = st.kind == InputKind::Labels;
   params_table<MaskCurveParams>().validate(params.mask_curve);
-  // Per slice, per label: its traced loops.
+  const PixelBoundary boundary = pixel_boundary(params.field3d);
+  // Per slice, per label: its boundary loops; the slice's labels (masks: 1 inside) when the solver keeps images.
   std::vector<std::map<std::uint32_t, std::vector<std::vector<Vec2d>>>> loops(st.slices.size());
+  std::vector<Grid2u32> images(boundary.keep_image ? st.slices.size() : 0);
   tbb::parallel_for(std::size_t(0), st.slices.size(), [&](std::size_t k) {
     Slice s = st.slices[k];
     if (st.load_image) s.image = st.load_image(k);
     if (!labels) {
-      loops[k][1] = traced_loops(detail::slice_masks(st, s, params, 1).inside, params.mask_curve);
+      const Grid2u8 inside = detail::slice_masks(st, s, params, 1).inside;
+      loops[k][1] = boundary_loops(inside, params.mask_curve, boundary.sigma);
+      if (boundary.keep_image) images[k] = Grid2u32(inside.width, inside.height, 0);
+      for (std::size_t i = 0; boundary.keep_image && i < inside.size(); ++i) images[k].data[i] = inside.data[i] != 0;
       return;
     }
+    if (boundary.keep_image) images[k] = s.image;
     std::vector<std::uint32_t> present(s.image.data.begin(), s.image.data.end());
     std::sort(present.begin(), present.end());
     present.erase(std::unique(present.begin(), present.end()), present.end());
@@ -78,22 +105,34 @@ std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const Re
     for (const std::uint32_t l : present) {
       if (l == 0 || !asked_for(in, l)) continue;
       for (std::size_t i = 0; i < inside.size(); ++i) inside.data[i] = s.image.data[i] == l;
-      loops[k][l] = traced_loops(inside, params.mask_curve);
+      loops[k][l] = boundary_loops(inside, params.mask_curve, boundary.sigma);
     }
   });
   std::map<std::uint32_t, ObjectSections> objects;
   for (const auto& per : loops)
     for (const auto& [l, ls] : per)
       if (!ls.empty()) objects.emplace(l, ObjectSections{l, labels ? l : 0, {}, 1.0});
-  for (auto& [l, o] : objects)
+  for (auto& [l, o] : objects) {
+    const std::array<int, 4> crop = boundary.keep_image ? object_crop(loops, l, images) : std::array<int, 4>{};
     for (std::size_t k = 0; k < st.slices.size(); ++k) {
       Section sec;
       sec.pose.origin = Vec3d(0, 0, st.slices[k].z);
       sec.source = st.slices[k].source;
       if (const auto it = loops[k].find(l); it != loops[k].end())
         for (const auto& loop : it->second) sec.contours.push_back({loop, l, false});
+      if (boundary.keep_image) {  // the object's crop: the solver's box holds no other pixel
+        sec.pose.origin += Vec3d(crop[0], crop[1], 0);
+        for (auto& c : sec.contours)
+          for (Vec2d& p : c.points) p -= Vec2d(crop[0], crop[1]);
+        sec.pixel_size = 1;
+        sec.labels = Grid2u32(crop[2] - crop[0], crop[3] - crop[1], 0);
+        for (int y = crop[1]; y < crop[3]; ++y)
+          for (int x = crop[0]; x < crop[2]; ++x)
+            if (x < images[k].width && y < images[k].height) sec.labels(x - crop[0], y - crop[1]) = images[k](x, y);
+      }
       o.sections.push_back(std::move(sec));
     }
+  }
   std::vector<ObjectSections> out;
   for (auto& [l, o] : objects) out.push_back(std::move(o));
   return out;
@@ -102,8 +141,10 @@ std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const Re
 // Every label of a partition traced on each image section (polyline
 // sections as they are): the partition solves every label from the same
 // sections, and a label's neighbours bound it only where their contours are.
+// The label image, when `boundary` keeps it, is carried once (the first
+// label's traced section; the others add their contours).
 std::vector<Section> partition_sections(const std::vector<Section>& sections, const std::vector<std::uint32_t>& labels,
-                                        const MaskCurveParams& mask_curve) {
+                                        const MaskCurveParams& mask_curve, const PixelBoundary& boundary) {
   params_table<MaskCurveParams>().validate(mask_curve);
   std::vector<Section> out(sections.size());
   tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
@@ -112,7 +153,7 @@ std::vector<Section> partition_sections(const std::vector<Section>& sections, co
       return;
     }
     for (const std::uint32_t l : labels) {
-      Section t = traced_section(sections[i], l, mask_curve);
+      Section t = traced_section(sections[i], l, mask_curve, boundary);
       if (out[i].contours.empty()) out[i] = std::move(t);
       else out[i].contours.insert(out[i].contours.end(), t.contours.begin(), t.contours.end());
     }
@@ -124,9 +165,10 @@ std::vector<Section> partition_sections(const std::vector<Section>& sections, co
 // (label images traced), or the stack's slices as sections.
 std::vector<ObjectSections> input_objects(const MethodInput& in, const ReconstructParams& params) {
   if (!in.sections.empty()) {
+    const PixelBoundary boundary = pixel_boundary(params.field3d);
     ObjectSections o{in.section_label, in.section_label,
-                     in.partition ? partition_sections(in.sections, in.partition->labels(), params.mask_curve)
-                                  : traced_sections(in.sections, in.section_label, params.mask_curve),
+                     in.partition ? partition_sections(in.sections, in.partition->labels(), params.mask_curve, boundary)
+                                  : traced_sections(in.sections, in.section_label, params.mask_curve, boundary),
                      0};
     double pixel = std::numeric_limits<double>::infinity();
     for (const Section& s : in.sections)
