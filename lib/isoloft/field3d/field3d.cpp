@@ -17,6 +17,7 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <utility>
 
 #include "isoloft/core/error.h"
 #include "isoloft/field3d/image_sections.h"
@@ -52,10 +53,11 @@ double point_segment_distance(const Vec2d& p, const Vec2d& a, const Vec2d& b) {
 }
 
 /// One level of the coarse-to-fine hierarchy: nodes per axis and spacing H
-/// (in finest cells).
+/// per axis (in finest cells; above 1 along a parallel stack's normal, see
+/// SectionGrid::step).
 struct Level {
   int nx = 0, ny = 0, nz = 0;
-  double H = 1;
+  Vec3d H = Vec3d::Ones();
   [[nodiscard]] std::size_t size() const { return std::size_t(nx) * std::size_t(ny) * std::size_t(nz); }
   [[nodiscard]] std::size_t index(int i, int j, int k) const {
     return std::size_t(i) + std::size_t(nx) * (std::size_t(j) + std::size_t(ny) * std::size_t(k));
@@ -99,58 +101,94 @@ void for_nodes(const Level& lv, const F& f) {
   });
 }
 
-/// The diagonal of the smoothness and boundary terms, lam L^T L + wb on the
-/// box faces, at node (i, j, k).
-double energy_diagonal(const Level& lv, double lam, double wb, int i, int j, int k) {
-  int inner = 0;  // interior nodes among the six neighbours
-  for (const auto& o : kNeighbours) inner += lv.interior(i + o[0], j + o[1], k + o[2]);
-  return lam * ((lv.interior(i, j, k) ? 36 : 0) + inner) + (lv.boundary(i, j, k) ? wb : 0.0);
+/// The smoothness and boundary terms' coefficients on one level: the energy
+/// smoothness * sum_interior (Lap f)^2 V + boundary_weight * sum_faces (f + band)^2 a,
+/// with Lap the 7-point Laplacian at spacings H (finest cells), V = Hx Hy Hz
+/// a node's volume and a the area a face node stands for (the product of the
+/// two spacings in the face). Written lam (L f)^2 with L's axis weights
+/// c_a = (min H / H_a)^2 (1 on an isotropic level) and lam = smoothness V / (min H)^4.
+struct Energy {
+  double lam = 0;
+  std::array<double, 3> c{1, 1, 1};
+  double centre = 6;              ///< L's diagonal, -2 (cx + cy + cz), negated
+  std::array<double, 3> face{};   ///< boundary weight on a face normal to x, y, z
+
+  Energy(const Level& lv, const Field3dParams& p) {
+    const double hmin = lv.H.minCoeff();
+    for (int a = 0; a < 3; ++a) c[std::size_t(a)] = (hmin / lv.H[a]) * (hmin / lv.H[a]);
+    centre = 2 * (c[0] + c[1] + c[2]);
+    lam = p.smoothness * (lv.H.prod() / (hmin * hmin * hmin * hmin));
+    face = {p.boundary_weight * lv.H.y() * lv.H.z(), p.boundary_weight * lv.H.x() * lv.H.z(),
+            p.boundary_weight * lv.H.x() * lv.H.y()};
+  }
+  /// The boundary weight at node (i, j, k): its first face's (0 inside).
+  [[nodiscard]] double boundary(const Level& lv, int i, int j, int k) const {
+    if (i == 0 || i == lv.nx - 1) return face[0];
+    if (j == 0 || j == lv.ny - 1) return face[1];
+    if (k == 0 || k == lv.nz - 1) return face[2];
+    return 0.0;
+  }
+};
+
+/// The diagonal of the smoothness and boundary terms, lam L^T L + the face
+/// weights, at node (i, j, k).
+double energy_diagonal(const Level& lv, const Energy& e, int i, int j, int k) {
+  double inner = 0;  // interior neighbours, each its squared axis weight
+  for (int o = 0; o < 6; ++o) {
+    const auto& d = kNeighbours[std::size_t(o)];
+    if (lv.interior(i + d[0], j + d[1], k + d[2])) inner += e.c[std::size_t(o / 2)] * e.c[std::size_t(o / 2)];
+  }
+  return e.lam * ((lv.interior(i, j, k) ? e.centre * e.centre : 0) + inner) + e.boundary(lv, i, j, k);
 }
 
-/// y = (lam L^T L + wb on the box faces) x + data(i, j, k, n) per node (the
+/// y = (lam L^T L + the face weights) x + data(i, j, k, n) per node (the
 /// data term's row times x); lap: scratch for L x.
 template <class Data>
-void apply_energy(const Level& lv, double lam, double wb, const Eigen::VectorXd& x, Eigen::VectorXd& lap,
-                  Eigen::VectorXd& y, const Data& data) {
+void apply_energy(const Level& lv, const Energy& e, const Eigen::VectorXd& x, Eigen::VectorXd& lap, Eigen::VectorXd& y,
+                  const Data& data) {
   lap.resize(x.size());
   const std::size_t sx = 1, sy = std::size_t(lv.nx), sz = sy * std::size_t(lv.ny);
+  const double cx = e.c[0], cy = e.c[1], cz = e.c[2], cc = e.centre;
   for_nodes(lv, [&](int i, int j, int k, std::size_t n) {
-    lap[Eigen::Index(n)] = lv.interior(i, j, k)
-                               ? x[n - sx] + x[n + sx] + x[n - sy] + x[n + sy] + x[n - sz] + x[n + sz] - 6 * x[n]
-                               : 0.0;
+    lap[Eigen::Index(n)] = lv.interior(i, j, k) ? cx * (x[n - sx] + x[n + sx]) + cy * (x[n - sy] + x[n + sy]) +
+                                                      cz * (x[n - sz] + x[n + sz]) - cc * x[n]
+                                                : 0.0;
   });
   y.resize(x.size());
   for_nodes(lv, [&](int i, int j, int k, std::size_t n) {
-    double l = -6 * lap[n];
-    if (i > 0) l += lap[n - sx];
-    if (i < lv.nx - 1) l += lap[n + sx];
-    if (j > 0) l += lap[n - sy];
-    if (j < lv.ny - 1) l += lap[n + sy];
-    if (k > 0) l += lap[n - sz];
-    if (k < lv.nz - 1) l += lap[n + sz];
-    double v = lam * l + data(i, j, k, n);
-    if (lv.boundary(i, j, k)) v += wb * x[n];
+    double l = -cc * lap[n];
+    if (i > 0) l += cx * lap[n - sx];
+    if (i < lv.nx - 1) l += cx * lap[n + sx];
+    if (j > 0) l += cy * lap[n - sy];
+    if (j < lv.ny - 1) l += cy * lap[n + sy];
+    if (k > 0) l += cz * lap[n - sz];
+    if (k < lv.nz - 1) l += cz * lap[n + sz];
+    double v = e.lam * l + data(i, j, k, n);
+    if (lv.boundary(i, j, k)) v += e.boundary(lv, i, j, k) * x[n];
     y[Eigen::Index(n)] = v;
   });
 }
 
-/// lam L^T L + wb on the box faces, assembled.
-Eigen::SparseMatrix<double> energy_matrix(const Level& lv, double lam, double wb) {
+/// lam L^T L + the face weights, assembled.
+Eigen::SparseMatrix<double> energy_matrix(const Level& lv, const Energy& e) {
   const auto N = Eigen::Index(lv.size());
   std::vector<Eigen::Triplet<double>> lt, dt;
   for (int k = 0; k < lv.nz; ++k)
     for (int j = 0; j < lv.ny; ++j)
       for (int i = 0; i < lv.nx; ++i) {
         const auto n = Eigen::Index(lv.index(i, j, k));
-        if (lv.boundary(i, j, k)) dt.emplace_back(n, n, wb);
+        if (lv.boundary(i, j, k)) dt.emplace_back(n, n, e.boundary(lv, i, j, k));
         if (!lv.interior(i, j, k)) continue;
-        lt.emplace_back(n, n, -6.0);
-        for (const auto& o : kNeighbours) lt.emplace_back(n, Eigen::Index(lv.index(i + o[0], j + o[1], k + o[2])), 1.0);
+        lt.emplace_back(n, n, -e.centre);
+        for (int o = 0; o < 6; ++o) {
+          const auto& d = kNeighbours[std::size_t(o)];
+          lt.emplace_back(n, Eigen::Index(lv.index(i + d[0], j + d[1], k + d[2])), e.c[std::size_t(o / 2)]);
+        }
       }
   Eigen::SparseMatrix<double> L(N, N), D(N, N);
   L.setFromTriplets(lt.begin(), lt.end());
   D.setFromTriplets(dt.begin(), dt.end());
-  Eigen::SparseMatrix<double> A = lam * Eigen::SparseMatrix<double>(L.transpose() * L);
+  Eigen::SparseMatrix<double> A = e.lam * Eigen::SparseMatrix<double>(L.transpose() * L);
   A += D;
   return A;
 }
@@ -158,7 +196,7 @@ Eigen::SparseMatrix<double> energy_matrix(const Level& lv, double lam, double wb
 /// Sample s's cell on a level of spacing H (lower corner, clamped into the
 /// grid) and its eight trilinear weights, corner c = dx + 2 dy + 4 dz.
 std::array<int, 3> sample_cell(const Level& lv, const Sample& s, std::array<double, 8>& w) {
-  const Vec3d q = s.g / lv.H;
+  const Vec3d q = s.g.cwiseQuotient(lv.H);
   const int i = std::clamp(int(std::floor(q.x())), 0, lv.nx - 2);
   const int j = std::clamp(int(std::floor(q.y())), 0, lv.ny - 2);
   const int k = std::clamp(int(std::floor(q.z())), 0, lv.nz - 2);
@@ -171,12 +209,12 @@ std::array<int, 3> sample_cell(const Level& lv, const Sample& s, std::array<doub
   return {i, j, k};
 }
 
-/// The normal equations' operator A = (smoothness / H) L^T L + B^T W B + boundary
+/// The normal equations' operator A = lam L^T L + B^T W B + boundary (Energy)
 /// on one level, matrix-free (B and its transpose as gather lists).
 class Operator {
  public:
   Operator(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p)
-      : lv_(lv), lam_(p.smoothness / lv.H), wb_(p.boundary_weight * lv.H * lv.H), outside_(-p.band) {
+      : lv_(lv), e_(lv, p), outside_(-p.band) {
     const std::size_t S = samples.size(), N = lv.size();
     node_.resize(8 * S);
     bw_.resize(8 * S);
@@ -195,7 +233,7 @@ class Operator {
     b_ = Eigen::VectorXd::Zero(Eigen::Index(N));
     diag_ = Eigen::VectorXd::Zero(Eigen::Index(N));
     for_nodes(lv_, [&](int i, int j, int k, std::size_t n) {
-      double d = energy_diagonal(lv_, lam_, wb_, i, j, k), rhs = lv_.boundary(i, j, k) ? wb_ * outside_ : 0.0;
+      double d = energy_diagonal(lv_, e_, i, j, k), rhs = e_.boundary(lv_, i, j, k) * outside_;
       for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) {
         const std::uint32_t e = entry_[a];
         d += sw_[e / 8] * bw_[e] * bw_[e];
@@ -219,7 +257,7 @@ class Operator {
         r_[Eigen::Index(s)] = sw_[s] * v;
       }
     });
-    apply_energy(lv_, lam_, wb_, x, lap_, y, [&](int, int, int, std::size_t n) {
+    apply_energy(lv_, e_, x, lap_, y, [&](int, int, int, std::size_t n) {
       double v = 0;
       for (std::uint32_t a = off_[n]; a < off_[n + 1]; ++a) v += bw_[entry_[a]] * r_[entry_[a] / 8];
       return v;
@@ -234,14 +272,15 @@ class Operator {
       for (int c = 0; c < 8; ++c) bt.emplace_back(Eigen::Index(s), node_[8 * s + c], std::sqrt(sw_[s]) * bw_[8 * s + c]);
     Eigen::SparseMatrix<double> B(Eigen::Index(sw_.size()), N);
     B.setFromTriplets(bt.begin(), bt.end());
-    Eigen::SparseMatrix<double> A = energy_matrix(lv_, lam_, wb_);
+    Eigen::SparseMatrix<double> A = energy_matrix(lv_, e_);
     A += Eigen::SparseMatrix<double>(B.transpose() * B);
     return A;
   }
 
  private:
   Level lv_;
-  double lam_, wb_, outside_;
+  Energy e_;
+  double outside_;
   std::vector<std::uint32_t> node_;  // 8 per sample
   std::vector<double> bw_;           // trilinear weights, 8 per sample
   std::vector<double> sw_;           // sample weights
@@ -266,7 +305,7 @@ constexpr int kPackedBlock = 36;
 class CellOperator {
  public:
   CellOperator(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p)
-      : lv_(lv), lam_(p.smoothness / lv.H), wb_(p.boundary_weight * lv.H * lv.H) {
+      : lv_(lv), e_(lv, p) {
     slot_.assign(std::size_t(lv.nx - 1) * std::size_t(lv.ny - 1) * std::size_t(lv.nz - 1), -1);
     std::array<double, 8> w{};
     for (const Sample& s : samples) {  // the cells holding a sample, numbered in cell order
@@ -286,7 +325,7 @@ class CellOperator {
     }
     diag_.resize(Eigen::Index(lv.size()));
     for_nodes(lv_, [&](int i, int j, int k, std::size_t n) {
-      double d = energy_diagonal(lv_, lam_, wb_, i, j, k);
+      double d = energy_diagonal(lv_, e_, i, j, k);
       each_cell(i, j, k, [&](const float* B, int c, std::size_t) { d += B[packed(c, c)]; });
       diag_[Eigen::Index(n)] = d;
     });
@@ -296,7 +335,7 @@ class CellOperator {
 
   /// y = A x.
   void apply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
-    apply_energy(lv_, lam_, wb_, x, lap_, y, [&](int i, int j, int k, std::size_t) {
+    apply_energy(lv_, e_, x, lap_, y, [&](int i, int j, int k, std::size_t) {
       double v = 0;
       each_cell(i, j, k, [&](const float* B, int c, std::size_t n0) {
         for (int m = 0; m < 8; ++m) v += B[packed(c, m)] * x[Eigen::Index(n0 + corner(m))];
@@ -322,7 +361,7 @@ class CellOperator {
         }
     Eigen::SparseMatrix<double> G(N, N);
     G.setFromTriplets(bt.begin(), bt.end());
-    Eigen::SparseMatrix<double> A = energy_matrix(lv_, lam_, wb_);
+    Eigen::SparseMatrix<double> A = energy_matrix(lv_, e_);
     A += G;
     return A;
   }
@@ -345,7 +384,7 @@ class CellOperator {
   }
 
   Level lv_;
-  double lam_, wb_;
+  Energy e_;
   std::vector<std::int32_t> slot_;  // per cell: its block, or -1
   std::vector<float> block_;        // kPackedBlock per cell with samples
   Eigen::VectorXd diag_;
@@ -396,16 +435,32 @@ int conjugate_gradients(const Op& A, Eigen::VectorXd& x, double tol, int max_it,
   return preconditioned_cg(A, JacobiPreconditioner{A.diagonal().cwiseInverse()}, x, tol, max_it, rel);
 }
 
+/// Per axis, whether `coarse` halves `fine` there (1) or keeps its nodes (0):
+/// nested grids, each axis coarsened by 2 or not at all.
+std::array<int, 3> halved(const Level& coarse, const Level& fine) {
+  std::array<int, 3> h{};
+  for (int a = 0; a < 3; ++a) h[std::size_t(a)] = coarse.H[a] > 1.5 * fine.H[a] ? 1 : 0;
+  return h;
+}
+
+/// The coarse nodes (i0, i1) around fine node i along an axis (halved or
+/// not; i0 == i1 on a coarse node), each weighing 1/2.
+inline std::array<int, 2> coarse_pair(int i, int half, int n_coarse) {
+  const int i0 = i >> half;
+  return {i0, std::min(i0 + (i & half), n_coarse - 1)};
+}
+
 /// Coarse level's field trilinearly at the finer level's nodes (nested grids), into xf.
 void prolong_into(const Level& coarse, const Eigen::VectorXd& xc, const Level& fine, Eigen::VectorXd& xf) {
   xf.resize(Eigen::Index(fine.size()));
+  const std::array<int, 3> hv = halved(coarse, fine);
   tbb::parallel_for(tbb::blocked_range<int>(0, fine.nz), [&](const auto& rg) {
     for (int k = rg.begin(); k < rg.end(); ++k)
       for (int j = 0; j < fine.ny; ++j)
         for (int i = 0; i < fine.nx; ++i) {
-          const int i0 = i / 2, j0 = j / 2, k0 = k / 2;
-          const int i1 = std::min(i0 + (i & 1), coarse.nx - 1), j1 = std::min(j0 + (j & 1), coarse.ny - 1),
-                    k1 = std::min(k0 + (k & 1), coarse.nz - 1);
+          const auto [i0, i1] = coarse_pair(i, hv[0], coarse.nx);
+          const auto [j0, j1] = coarse_pair(j, hv[1], coarse.ny);
+          const auto [k0, k1] = coarse_pair(k, hv[2], coarse.nz);
           double v = 0;
           for (int c = 0; c < 8; ++c)
             v += xc[Eigen::Index(coarse.index(c & 1 ? i1 : i0, c >> 1 & 1 ? j1 : j0, c >> 2 & 1 ? k1 : k0))];
@@ -426,12 +481,13 @@ Eigen::VectorXd prolong(const Level& coarse, const Eigen::VectorXd& xc, const Le
 /// correction keeps the V-cycle symmetric), into rc.
 void restrict_to(const Level& coarse, const Eigen::VectorXd& rf, const Level& fine, Eigen::VectorXd& rc) {
   rc.setZero(Eigen::Index(coarse.size()));
+  const std::array<int, 3> hv = halved(coarse, fine);
   for (int k = 0; k < fine.nz; ++k)
     for (int j = 0; j < fine.ny; ++j)
       for (int i = 0; i < fine.nx; ++i) {
-        const int i0 = i / 2, j0 = j / 2, k0 = k / 2;
-        const int i1 = std::min(i0 + (i & 1), coarse.nx - 1), j1 = std::min(j0 + (j & 1), coarse.ny - 1),
-                  k1 = std::min(k0 + (k & 1), coarse.nz - 1);
+        const auto [i0, i1] = coarse_pair(i, hv[0], coarse.nx);
+        const auto [j0, j1] = coarse_pair(j, hv[1], coarse.ny);
+        const auto [k0, k1] = coarse_pair(k, hv[2], coarse.nz);
         const double v = rf[Eigen::Index(fine.index(i, j, k))] / 8;
         for (int c = 0; c < 8; ++c)
           rc[Eigen::Index(coarse.index(c & 1 ? i1 : i0, c >> 1 & 1 ? j1 : j0, c >> 2 & 1 ? k1 : k0))] += v;
@@ -444,6 +500,26 @@ void restrict_to(const Level& coarse, const Eigen::VectorXd& rf, const Level& fi
 constexpr std::size_t kCoarsestNodes = 1000;
 /// Most levels of one hierarchy (a 1024-cell axis reaches 4 cells in 8 halvings).
 constexpr int kMaxMultigridLevels = 9;
+/// A multigrid level halves only the axes whose spacing is at most this
+/// times its smallest (semi-coarsening): along an anisotropic grid's wide
+/// axis the point smoother leaves the modes smooth across it and rough along
+/// it, and only a coarse grid that keeps that axis can correct them.
+constexpr double kSemiCoarsening = 1.5;
+
+/// The multigrid level below `f`: its axes within kSemiCoarsening of the
+/// smallest spacing halved (nested nodes; an axis of 2 nodes kept).
+Level coarser(const Level& f) {
+  const double hmin = f.H.minCoeff();
+  Level c = f;
+  const std::array<int*, 3> n{&c.nx, &c.ny, &c.nz};
+  for (int a = 0; a < 3; ++a)
+    if (f.H[a] <= kSemiCoarsening * hmin && *n[std::size_t(a)] > 2) {
+      *n[std::size_t(a)] = *n[std::size_t(a)] / 2 + 1;  // ceil((n - 1) / 2) cells
+      c.H[a] = 2 * f.H[a];
+    }
+  return c;
+}
+
 /// Chebyshev smoothing steps before and after the coarse correction.
 constexpr int kSmoothingSteps = 3;
 /// The smoother damps the eigenvalues of D^-1 A in [lmax / ratio, lmax]: a
@@ -474,9 +550,9 @@ class Multigrid {
   Multigrid(const Level& top, const Operator& A, const std::vector<Sample>& samples, const Field3dParams& p) : top_(&A) {
     lv_.push_back(top);
     while (lv_.back().size() > kCoarsestNodes && int(lv_.size()) < kMaxMultigridLevels) {
-      const Level& f = lv_.back();
-      const auto half = [](int n) { return n / 2 + 1; };  // ceil((n - 1) / 2) cells
-      lv_.push_back({half(f.nx), half(f.ny), half(f.nz), 2 * f.H});
+      const Level c = coarser(lv_.back());
+      if (c.size() == lv_.back().size()) break;
+      lv_.push_back(c);
       coarse_.push_back(std::make_unique<CellOperator>(lv_.back(), samples, p));
     }
     work_.resize(lv_.size());
@@ -633,9 +709,10 @@ std::vector<double> line_crossings(const std::vector<Polyline>& polys, const Vec
   return ts;
 }
 
-/// f at a point of the base grid (q in base cells from node 0), trilinear;
+/// f at a point of the level (g in finest cells from node 0), trilinear;
 /// clamped into the grid.
-double base_value(const Level& lv, const Eigen::VectorXd& x, const Vec3d& q) {
+double base_value(const Level& lv, const Eigen::VectorXd& x, const Vec3d& g) {
+  const Vec3d q = g.cwiseQuotient(lv.H);
   const int i = std::clamp(int(std::floor(q.x())), 0, lv.nx - 2), j = std::clamp(int(std::floor(q.y())), 0, lv.ny - 2),
             k = std::clamp(int(std::floor(q.z())), 0, lv.nz - 2);
   const double fx = std::clamp(q.x() - i, 0.0, 1.0), fy = std::clamp(q.y() - j, 0.0, 1.0),
@@ -646,6 +723,50 @@ double base_value(const Level& lv, const Eigen::VectorXd& x, const Vec3d& q) {
     v += (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * (dz ? fz : 1 - fz) * x[Eigen::Index(lv.index(i + dx, j + dy, k + dz))];
   }
   return v;
+}
+
+/// The level's field at nodes one finest cell apart along `axis` (n_out of
+/// them from node 0; the other axes' nodes as they are), x fastest: along
+/// each line of nodes on that axis, the natural cubic spline through its
+/// values. It is the smoothest curve through them (least integral of f''^2,
+/// the 1D form of the solve's energy): C2 across the nodes, so the surface
+/// has no crease at the input planes that lie on them.
+std::vector<double> spline_along(const Level& lv, const Eigen::VectorXd& x, int axis, int n_out) {
+  const std::array<int, 3> n{lv.nx, lv.ny, lv.nz};
+  const std::array<std::size_t, 3> stride{1, std::size_t(lv.nx), std::size_t(lv.nx) * std::size_t(lv.ny)};
+  std::array<int, 3> no = n;
+  no[std::size_t(axis)] = n_out;
+  const std::array<std::size_t, 3> ostride{1, std::size_t(no[0]), std::size_t(no[0]) * std::size_t(no[1])};
+  const int m = n[std::size_t(axis)];
+  const double step = lv.H[axis];
+  // The other two axes, and the spline's tridiagonal system M[k-1] + 4 M[k] + M[k+1] = 6 (y[k-1] - 2 y[k] + y[k+1])
+  // (node units, natural ends M = 0) by the Thomas algorithm: its eliminated diagonal is the same for every line.
+  const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
+  std::vector<double> diag(std::size_t(std::max(m, 1)), 4.0);
+  for (int k = 2; k < m - 1; ++k) diag[std::size_t(k)] = 4 - 1 / diag[std::size_t(k - 1)];
+  std::vector<double> out(std::size_t(no[0]) * std::size_t(no[1]) * std::size_t(no[2]));
+  tbb::parallel_for(0, n[std::size_t(a2)], [&](int q) {
+    std::vector<double> y(static_cast<std::size_t>(m)), M(static_cast<std::size_t>(m), 0.0);
+    for (int p = 0; p < n[std::size_t(a1)]; ++p) {
+      const std::size_t in0 = std::size_t(p) * stride[std::size_t(a1)] + std::size_t(q) * stride[std::size_t(a2)];
+      const std::size_t out0 = std::size_t(p) * ostride[std::size_t(a1)] + std::size_t(q) * ostride[std::size_t(a2)];
+      for (int k = 0; k < m; ++k) y[std::size_t(k)] = x[Eigen::Index(in0 + std::size_t(k) * stride[std::size_t(axis)])];
+      for (int k = 1; k < m - 1; ++k) {
+        M[std::size_t(k)] = 6 * (y[std::size_t(k - 1)] - 2 * y[std::size_t(k)] + y[std::size_t(k + 1)]);
+        if (k > 1) M[std::size_t(k)] -= M[std::size_t(k - 1)] / diag[std::size_t(k - 1)];
+      }
+      for (int k = m - 2; k >= 1; --k) M[std::size_t(k)] = (M[std::size_t(k)] - M[std::size_t(k + 1)]) / diag[std::size_t(k)];
+      for (int o = 0; o < n_out; ++o) {
+        const double t = o / step;
+        const int k = std::clamp(int(std::floor(t)), 0, m - 2);
+        const double u = t - k, v = 1 - u;
+        const double f = v * y[std::size_t(k)] + u * y[std::size_t(k + 1)] +
+                         ((v * v * v - v) * M[std::size_t(k)] + (u * u * u - u) * M[std::size_t(k + 1)]) / 6;
+        out[out0 + std::size_t(o) * ostride[std::size_t(axis)]] = f;
+      }
+    }
+  });
+  return out;
 }
 
 /// Box dilation by w cells of a byte mask over cx x cy x cz cells (separable).
@@ -990,7 +1111,7 @@ SignPoints sign_points(const std::vector<Section>& sections, std::uint32_t label
 std::vector<std::size_t> violated_signs(const SignPoints& sp, const Level& lv, const Eigen::VectorXd& x, double margin) {
   std::vector<std::uint8_t> bad(sp.g.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sp.g.size(), 4096), [&](const auto& rg) {
-    for (std::size_t k = rg.begin(); k < rg.end(); ++k) bad[k] = sp.sign[k] * base_value(lv, x, sp.g[k] / lv.H) < margin;
+    for (std::size_t k = rg.begin(); k < rg.end(); ++k) bad[k] = sp.sign[k] * base_value(lv, x, sp.g[k]) < margin;
   });
   std::vector<std::size_t> out;
   for (std::size_t k = 0; k < bad.size(); ++k)
@@ -1236,15 +1357,63 @@ Field3dPlaneResidual plane_section_distance(const TriMesh& mesh, const PlanePose
 }
 
 /// The label's polylines per section (checked) and the finest grid around
-/// them: cells a multiple of 2^(levels-1) per axis, centred on the box.
+/// them: cells a multiple of 2^(levels-1) per axis, centred on the box. Along
+/// the normal of a parallel stack (every section normal to one grid axis) the
+/// solve's spacing is wider: step cells, the planes' spacing or a divisor of
+/// it, every plane on a node; the field is then sampled back at spacing h
+/// along that axis for the mesh (out_nodes).
 struct SectionGrid {
   std::vector<std::vector<Polyline>> polys;  ///< per section
   Vec3d contour_lo = Vec3d::Zero(), contour_hi = Vec3d::Zero();  ///< the label's contours' box, mm
   double diag = 0;                           ///< the box's diagonal (contours' or Field3dParams::box), mm
   Vec3d origin = Vec3d::Zero(), box_hi = Vec3d::Zero();  ///< the grid's corners, mm
   double h = 0;                              ///< finest spacing, mm
-  std::array<int, 3> cells{};                ///< finest cells per axis
+  Vec3d step = Vec3d::Ones();                ///< the solve's spacing per axis, finest cells
+  int stack_axis = -1;                       ///< the axis whose step is above 1, or -1
+  std::array<int, 3> cells{};                ///< the solve's cells per axis (each of its step)
+  std::array<int, 3> out_nodes{};            ///< the field's and the mesh's nodes per axis (spacing h)
+  [[nodiscard]] std::array<int, 3> nodes() const { return {cells[0] + 1, cells[1] + 1, cells[2] + 1}; }
 };
+
+/// Section planes closer than this share a height (cells; far below a pixel).
+constexpr double kSameHeight = 1e-6;
+/// A stack's plane gaps are multiples of the smallest gap within this share
+/// of it (readers place slices at k times a spacing; 1e-3 absorbs rounding in
+/// the positions, not a missing slice's half-step).
+constexpr double kGapMultiple = 1e-3;
+/// The stack's spacing is used along its normal only from this many finest
+/// cells up: below it the grid shrinks by less than a third.
+constexpr double kMinStackStep = 1.5;
+
+/// The parallel stack's axis (every section's normal along one grid axis,
+/// the planes' gaps multiples of the smallest) and its solve spacing in mm:
+/// the smallest gap divided into as few steps as keep each at most
+/// stack_spacing cells of h. {-1, h} when the sections are no such stack.
+std::pair<int, double> stack_step(const std::vector<Section>& sections, double h, const Field3dParams& params) {
+  const std::pair<int, double> none{-1, h};
+  if (params.stack_spacing <= 1 || params.refinement > 1 || sections.size() < 2) return none;
+  const Vec3d n0 = sections[0].pose.normal();
+  int axis = -1;
+  n0.cwiseAbs().maxCoeff(&axis);
+  if (std::abs(n0[axis]) < 1 - 1e-12) return none;
+  std::vector<double> heights;
+  for (const Section& s : sections) {
+    if (std::abs(s.pose.normal()[axis]) < 1 - 1e-12) return none;
+    heights.push_back(s.pose.origin[axis]);
+  }
+  std::sort(heights.begin(), heights.end());
+  double gap = kInf;
+  for (std::size_t i = 1; i < heights.size(); ++i)
+    if (heights[i] - heights[i - 1] > kSameHeight * h) gap = std::min(gap, heights[i] - heights[i - 1]);
+  if (!std::isfinite(gap)) return none;
+  for (std::size_t i = 1; i < heights.size(); ++i) {
+    const double m = (heights[i] - heights[0]) / gap;
+    if (std::abs(m - std::round(m)) > kGapMultiple) return none;
+  }
+  const double step = gap / std::ceil(gap / (params.stack_spacing * h));
+  if (step < kMinStackStep * h) return none;
+  return {axis, step};
+}
 
 SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params) {
   SectionGrid g;
@@ -1287,6 +1456,17 @@ SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t lab
   for (int a = 0; a < 3; ++a) g.cells[a] = std::max(2, int(std::ceil(ext[a] / g.h / unit))) * unit;
   g.origin = (lo + hi) / 2 - g.h / 2 * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
   g.box_hi = g.origin + g.h * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
+  g.out_nodes = g.nodes();
+  const auto [axis, step] = stack_step(sections, g.h, params);
+  if (axis >= 0) {  // the stack's planes on nodes, the box as wide as before along its normal
+    const double z0 = sections[0].pose.origin[axis], lo_a = (lo[axis] + hi[axis] - ext[axis]) / 2;
+    g.stack_axis = axis;
+    g.step[axis] = step / g.h;
+    g.origin[axis] = z0 - step * std::ceil((z0 - lo_a) / step - kSameHeight);
+    g.cells[axis] = std::max(2, int(std::ceil((lo_a + ext[axis] - g.origin[axis]) / step / unit - kSameHeight))) * unit;
+    g.box_hi[axis] = g.origin[axis] + step * g.cells[axis];
+    g.out_nodes[axis] = int(std::floor(g.cells[axis] * g.step[axis] + kSameHeight)) + 1;
+  }
   return g;
 }
 
@@ -1323,12 +1503,15 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   const Vec3d box_hi = grid.box_hi;
   res.spacing = h;
   res.origin = grid.origin;
-  res.nx = cells[0] + 1;
-  res.ny = cells[1] + 1;
-  res.nz = cells[2] + 1;
-  if (params.direct && std::size_t(res.nx) * res.ny * res.nz > kMaxDirectNodes)
-    throw ParamError("field3d.direct: the grid has " + std::to_string(std::size_t(res.nx) * res.ny * res.nz) +
-                     " nodes, more than the direct twin's " + std::to_string(kMaxDirectNodes));
+  res.nx = grid.out_nodes[0];
+  res.ny = grid.out_nodes[1];
+  res.nz = grid.out_nodes[2];
+  res.solve_nodes = grid.nodes();
+  res.solve_spacing = h * grid.step;
+  const std::size_t solve_size = std::size_t(res.solve_nodes[0]) * res.solve_nodes[1] * res.solve_nodes[2];
+  if (params.direct && solve_size > kMaxDirectNodes)
+    throw ParamError("field3d.direct: the grid has " + std::to_string(solve_size) + " nodes, more than the direct twin's " +
+                     std::to_string(kMaxDirectNodes));
 
   // Samples: every plane's raster inside the box, and along every contour, at
   // spacing sp (mm); positions in base cells; `keep` filters them (the band).
@@ -1376,7 +1559,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   for (int l = params.levels - 1; l >= 0; --l) {
     const int f = 1 << l;
     if (params.direct && l > 0 && !refine) continue;
-    levels.push_back({cells[0] / f + 1, cells[1] / f + 1, cells[2] / f + 1, double(f)});
+    levels.push_back({cells[0] / f + 1, cells[1] / f + 1, cells[2] / f + 1, double(f) * grid.step});
   }
   Eigen::VectorXd x;
   for (std::size_t l = 0; l < levels.size(); ++l) {
@@ -1411,6 +1594,11 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     }
   }
   const Level& base = levels.back();
+  // The field at one cell along every axis (a parallel stack's solve splined back along its normal).
+  const auto store_field = [&] {
+    if (grid.stack_axis >= 0) res.field = spline_along(base, x, grid.stack_axis, grid.out_nodes[std::size_t(grid.stack_axis)]);
+    else res.field.assign(x.data(), x.data() + x.size());
+  };
 
   // Pixel input: the active set of sign constraints at the label images' pixel centres.
   const std::size_t sign_first = samples.size();
@@ -1442,7 +1630,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     res.sign_active = samples.size() - sign_first;
   }
   res.sign_seconds = seconds_since(signs_start);
-  res.field.assign(x.data(), x.data() + x.size());
+  store_field();
 
   // The band: re-solved on the grid `refinement` times finer near the surface.
   Band bd;
@@ -1483,7 +1671,9 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   // closes; on the band's grid, the band's values where stored and the base
   // field prolonged elsewhere (no zero there: those cells hold no sign change).
   const auto base_mesh = [&] {
-    TriMesh m = march(res.nx, res.ny, res.nz, -params.band, [&](int i, int j, int k) { return x[Eigen::Index(base.index(i, j, k))]; });
+    TriMesh m = march(res.nx, res.ny, res.nz, -params.band, [&](int i, int j, int k) {
+      return res.field[std::size_t(i) + std::size_t(res.nx) * (std::size_t(j) + std::size_t(res.ny) * std::size_t(k))];
+    });
     for (Vec3f& v : m.vertices) v = (res.origin + h * v.cast<double>()).cast<float>();
     return m;
   };
@@ -1495,7 +1685,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     if (missed.empty()) break;
     strengthen_signs(*signs, missed, params, samples, sign_sample);
     sign_solve(params.direct);
-    res.field.assign(x.data(), x.data() + x.size());
+    store_field();
   }
   res.sign_seconds += seconds_since(mesh_signs_start);
   if (signs) res.sign_active = samples.size() - sign_first;
@@ -1664,9 +1854,11 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
   params_table<Field3dParams>().validate(params);
   const SectionGrid g = section_grid(sections, label, params);
   Field3dWork w;
-  w.nx = g.cells[0] + 1;
-  w.ny = g.cells[1] + 1;
-  w.nz = g.cells[2] + 1;
+  w.nx = g.out_nodes[0];
+  w.ny = g.out_nodes[1];
+  w.nz = g.out_nodes[2];
+  const std::array<int, 3> sn = g.nodes();
+  w.solve_nodes = double(sn[0]) * double(sn[1]) * double(sn[2]);
   const double sp = params.sample_spacing * g.h;
   for (std::size_t i = 0; i < sections.size(); ++i) {
     const PlanePose& pose = sections[i].pose;
@@ -1688,11 +1880,16 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
   // its nodes, and its cells with samples (a plane crosses a cell of H
   // finest cells in ~H^2 samples).
   double coarse_nodes = 0, blocks = 0;
-  Level lv{w.nx, w.ny, w.nz, 1};
+  Level lv{sn[0], sn[1], sn[2], g.step};
   for (int l = 1; lv.size() > kCoarsestNodes && l < kMaxMultigridLevels; ++l) {
-    lv = {lv.nx / 2 + 1, lv.ny / 2 + 1, lv.nz / 2 + 1, 2 * lv.H};
+    const Level c = coarser(lv);
+    if (c.size() == lv.size()) break;
+    lv = c;
     coarse_nodes += double(lv.size());
-    blocks += std::min(double(lv.nx - 1) * double(lv.ny - 1) * double(lv.nz - 1), solve_samples / (lv.H * lv.H));
+    // A plane crosses a cell in ~its in-plane area of samples: H^2 on an
+    // isotropic level, the smallest face of an anisotropic one.
+    const double face = lv.H.prod() / lv.H.maxCoeff();
+    blocks += std::min(double(lv.nx - 1) * double(lv.ny - 1) * double(lv.nz - 1), solve_samples / face);
   }
   // The surface: the contours' box as an ellipsoid (Thomsen's area formula), in cells^2.
   const Vec3d semi = (g.contour_hi - g.contour_lo) / (2 * g.h);
@@ -1703,7 +1900,7 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
   const int r = params.refinement;
   w.triangles = kTrianglesPerCellArea * area * r * r;
   const double band_nodes = r > 1 ? area * (2 * params.refine_width + 1) * r * r * r : 0.0;
-  w.solve_bytes = kEstimateSafety * (w.nodes() * kBytesPerNode + coarse_nodes * kBytesPerCoarseNode +
+  w.solve_bytes = kEstimateSafety * (w.solve_nodes * kBytesPerNode + coarse_nodes * kBytesPerCoarseNode +
                                      blocks * kBytesPerBlock + solve_samples * kBytesPerSample +
                                      w.sign_points * kBytesPerSignPoint + band_nodes * kBytesPerBandNode);
   w.field_bytes = w.nodes() * sizeof(double);
