@@ -314,17 +314,17 @@ TEST(Field3d, EstimateCountsTheGridAndSamplesOfTheSolve) {
 }
 
 /// A sphere from 5 parallel planes 12 mm apart (14 cells at the default 96
-/// cells): solved with one node every 6 mm along z (stack_spacing 8, the
-/// default) and on the grid of one cell along every axis (stack_spacing 1).
+/// cells): solved with one node every 6 mm along z (stack_spacing 8) and on
+/// the grid of one cell along every axis (stack_spacing 1, the default).
 /// The wide solve, splined back to one cell along z, gives the same surface
 /// up to a share of a cell, with no crease at the planes.
 TEST(Field3d, ParallelStackAtWideSpacingMatchesOneCellGrid) {
   const auto s = sphere();
   const std::vector<Section> sections = analytic_sections(*s, parallel_poses(*s, 5), kSectionPixel);
-  Field3dParams one_cell;
-  one_cell.stack_spacing = 1;
-  const Field3dResult wide = reconstruct_sections(sections, 1);
-  const Field3dResult dense = reconstruct_sections(sections, 1, one_cell);
+  Field3dParams stacked;
+  stacked.stack_spacing = 8;
+  const Field3dResult wide = reconstruct_sections(sections, 1, stacked);
+  const Field3dResult dense = reconstruct_sections(sections, 1);
   ASSERT_GT(wide.solve_spacing.z(), 5 * wide.spacing);
   ASSERT_DOUBLE_EQ(dense.solve_spacing.z(), dense.spacing);
   EXPECT_LT(wide.solve_nodes[2] * 5, dense.solve_nodes[2]);

@@ -76,6 +76,7 @@ TEST(Field3dMultigrid, AnisotropicMatchesDirectTwin) {
   constexpr double kSectionPixel = 0.1;  // as sphere_sections()
   const std::vector<Section> sections = analytic_sections(*s, parallel_poses(*s, 5), kSectionPixel);
   Field3dParams p = one_system(24);
+  p.stack_spacing = 8;
   const Field3dResult mg = reconstruct_sections(sections, 1, p);
   ASSERT_GT(mg.solve_spacing.z(), 3 * mg.spacing);  // the stack's spacing along z, not one cell
   EXPECT_LT(mg.solve_nodes[2], mg.nz);
