@@ -15,12 +15,14 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <sstream>
 #include <utility>
 
 #include "isoloft/core/error.h"
 #include "isoloft/field3d/image_sections.h"
+#include "isoloft/interp/spline.h"
 #include "isoloft/mesh/marching_cubes.h"
 
 namespace isoloft {
@@ -728,9 +730,9 @@ double base_value(const Level& lv, const Eigen::VectorXd& x, const Vec3d& g) {
 /// The level's field at nodes one finest cell apart along `axis` (n_out of
 /// them from node 0; the other axes' nodes as they are), x fastest: along
 /// each line of nodes on that axis, the natural cubic spline through its
-/// values. It is the smoothest curve through them (least integral of f''^2,
-/// the 1D form of the solve's energy): C2 across the nodes, so the surface
-/// has no crease at the input planes that lie on them.
+/// values (interp/spline.h). It is the smoothest curve through them (least
+/// integral of f''^2, the 1D form of the solve's energy): C2 across the
+/// nodes, so the surface has no crease at the input planes that lie on them.
 std::vector<double> spline_along(const Level& lv, const Eigen::VectorXd& x, int axis, int n_out) {
   const std::array<int, 3> n{lv.nx, lv.ny, lv.nz};
   const std::array<std::size_t, 3> stride{1, std::size_t(lv.nx), std::size_t(lv.nx) * std::size_t(lv.ny)};
@@ -739,30 +741,30 @@ std::vector<double> spline_along(const Level& lv, const Eigen::VectorXd& x, int 
   const std::array<std::size_t, 3> ostride{1, std::size_t(no[0]), std::size_t(no[0]) * std::size_t(no[1])};
   const int m = n[std::size_t(axis)];
   const double step = lv.H[axis];
-  // The other two axes, and the spline's tridiagonal system M[k-1] + 4 M[k] + M[k+1] = 6 (y[k-1] - 2 y[k] + y[k+1])
-  // (node units, natural ends M = 0) by the Thomas algorithm: its eliminated diagonal is the same for every line.
-  const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
-  std::vector<double> diag(std::size_t(std::max(m, 1)), 4.0);
-  for (int k = 2; k < m - 1; ++k) diag[std::size_t(k)] = 4 - 1 / diag[std::size_t(k - 1)];
+  std::vector<double> knots(static_cast<std::size_t>(m));  // node units
+  std::iota(knots.begin(), knots.end(), 0.0);
+  // Each output node's knot interval and Hermite basis: the same on every line.
+  std::vector<std::size_t> interval(static_cast<std::size_t>(n_out));
+  std::vector<HermiteBasis> basis;
+  basis.reserve(std::size_t(n_out));
+  for (int o = 0; o < n_out; ++o) {
+    interval[std::size_t(o)] = knot_interval(knots, o / step);
+    const double k = double(interval[std::size_t(o)]);
+    basis.emplace_back(SplineKind::Natural, k, k + 1, std::min(o / step, knots.back()));
+  }
+  const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;  // the other two axes
   std::vector<double> out(std::size_t(no[0]) * std::size_t(no[1]) * std::size_t(no[2]));
   tbb::parallel_for(0, n[std::size_t(a2)], [&](int q) {
-    std::vector<double> y(static_cast<std::size_t>(m)), M(static_cast<std::size_t>(m), 0.0);
+    std::vector<double> y(static_cast<std::size_t>(m)), tangent(static_cast<std::size_t>(m));
     for (int p = 0; p < n[std::size_t(a1)]; ++p) {
       const std::size_t in0 = std::size_t(p) * stride[std::size_t(a1)] + std::size_t(q) * stride[std::size_t(a2)];
       const std::size_t out0 = std::size_t(p) * ostride[std::size_t(a1)] + std::size_t(q) * ostride[std::size_t(a2)];
       for (int k = 0; k < m; ++k) y[std::size_t(k)] = x[Eigen::Index(in0 + std::size_t(k) * stride[std::size_t(axis)])];
-      for (int k = 1; k < m - 1; ++k) {
-        M[std::size_t(k)] = 6 * (y[std::size_t(k - 1)] - 2 * y[std::size_t(k)] + y[std::size_t(k + 1)]);
-        if (k > 1) M[std::size_t(k)] -= M[std::size_t(k - 1)] / diag[std::size_t(k - 1)];
-      }
-      for (int k = m - 2; k >= 1; --k) M[std::size_t(k)] = (M[std::size_t(k)] - M[std::size_t(k + 1)]) / diag[std::size_t(k)];
+      spline_tangents(SplineKind::Natural, knots, y, tangent);
       for (int o = 0; o < n_out; ++o) {
-        const double t = o / step;
-        const int k = std::clamp(int(std::floor(t)), 0, m - 2);
-        const double u = t - k, v = 1 - u;
-        const double f = v * y[std::size_t(k)] + u * y[std::size_t(k + 1)] +
-                         ((v * v * v - v) * M[std::size_t(k)] + (u * u * u - u) * M[std::size_t(k + 1)]) / 6;
-        out[out0 + std::size_t(o) * ostride[std::size_t(axis)]] = f;
+        const std::size_t k = interval[std::size_t(o)];
+        out[out0 + std::size_t(o) * ostride[std::size_t(axis)]] =
+            basis[std::size_t(o)].value(y[k], y[k + 1], tangent[k], tangent[k + 1]);
       }
     }
   });
