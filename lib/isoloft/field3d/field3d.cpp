@@ -144,30 +144,69 @@ double energy_diagonal(const Level& lv, const Energy& e, int i, int j, int k) {
 }
 
 /// y = (lam L^T L + the face weights) x + data(i, j, k, n) per node (the
-/// data term's row times x); lap: scratch for L x.
+/// data term's row times x); lap: scratch for L x. Rows of interior nodes run
+/// without the per-node bounds tests (the sums in the same order, so the same
+/// bits); nodes on the grid's faces take the general form.
 template <class Data>
 void apply_energy(const Level& lv, const Energy& e, const Eigen::VectorXd& x, Eigen::VectorXd& lap, Eigen::VectorXd& y,
                   const Data& data) {
   lap.resize(x.size());
+  y.resize(x.size());
   const std::size_t sx = 1, sy = std::size_t(lv.nx), sz = sy * std::size_t(lv.ny);
   const double cx = e.c[0], cy = e.c[1], cz = e.c[2], cc = e.centre;
-  for_nodes(lv, [&](int i, int j, int k, std::size_t n) {
-    lap[Eigen::Index(n)] = lv.interior(i, j, k) ? cx * (x[n - sx] + x[n + sx]) + cy * (x[n - sy] + x[n + sy]) +
-                                                      cz * (x[n - sz] + x[n + sz]) - cc * x[n]
-                                                : 0.0;
+  const int nx = lv.nx, ny = lv.ny, nz = lv.nz;
+  const double* X = x.data();
+  double* Lp = lap.data();
+  double* Y = y.data();
+  const auto interior_row = [&](int j, int k) { return nx > 2 && j > 0 && k > 0 && j < ny - 1 && k < nz - 1; };
+  tbb::parallel_for(tbb::blocked_range<int>(0, nz), [&](const auto& rg) {
+    for (int k = rg.begin(); k < rg.end(); ++k)
+      for (int j = 0; j < ny; ++j) {
+        const std::size_t r = lv.index(0, j, k);
+        if (!interior_row(j, k)) {
+          std::fill(Lp + r, Lp + r + std::size_t(nx), 0.0);
+          continue;
+        }
+        Lp[r] = 0.0;
+        Lp[r + std::size_t(nx - 1)] = 0.0;
+        for (std::size_t n = r + 1; n < r + std::size_t(nx - 1); ++n)
+          Lp[n] = cx * (X[n - sx] + X[n + sx]) + cy * (X[n - sy] + X[n + sy]) + cz * (X[n - sz] + X[n + sz]) - cc * X[n];
+      }
   });
-  y.resize(x.size());
-  for_nodes(lv, [&](int i, int j, int k, std::size_t n) {
-    double l = -cc * lap[n];
-    if (i > 0) l += cx * lap[n - sx];
-    if (i < lv.nx - 1) l += cx * lap[n + sx];
-    if (j > 0) l += cy * lap[n - sy];
-    if (j < lv.ny - 1) l += cy * lap[n + sy];
-    if (k > 0) l += cz * lap[n - sz];
-    if (k < lv.nz - 1) l += cz * lap[n + sz];
+  const auto general = [&](int i, int j, int k, std::size_t n) {
+    double l = -cc * Lp[n];
+    if (i > 0) l += cx * Lp[n - sx];
+    if (i < nx - 1) l += cx * Lp[n + sx];
+    if (j > 0) l += cy * Lp[n - sy];
+    if (j < ny - 1) l += cy * Lp[n + sy];
+    if (k > 0) l += cz * Lp[n - sz];
+    if (k < nz - 1) l += cz * Lp[n + sz];
     double v = e.lam * l + data(i, j, k, n);
-    if (lv.boundary(i, j, k)) v += e.boundary(lv, i, j, k) * x[n];
-    y[Eigen::Index(n)] = v;
+    if (lv.boundary(i, j, k)) v += e.boundary(lv, i, j, k) * X[n];
+    Y[n] = v;
+  };
+  tbb::parallel_for(tbb::blocked_range<int>(0, nz), [&](const auto& rg) {
+    for (int k = rg.begin(); k < rg.end(); ++k)
+      for (int j = 0; j < ny; ++j) {
+        const std::size_t r = lv.index(0, j, k);
+        if (!interior_row(j, k)) {
+          for (int i = 0; i < nx; ++i) general(i, j, k, r + std::size_t(i));
+          continue;
+        }
+        general(0, j, k, r);
+        for (int i = 1; i < nx - 1; ++i) {
+          const std::size_t n = r + std::size_t(i);
+          double l = -cc * Lp[n];
+          l += cx * Lp[n - sx];
+          l += cx * Lp[n + sx];
+          l += cy * Lp[n - sy];
+          l += cy * Lp[n + sy];
+          l += cz * Lp[n - sz];
+          l += cz * Lp[n + sz];
+          Y[n] = e.lam * l + data(i, j, k, n);
+        }
+        general(nx - 1, j, k, r + std::size_t(nx - 1));
+      }
   });
 }
 
@@ -377,6 +416,18 @@ class CellOperator {
   /// f(block, c, n0) for each cell with samples that holds node (i, j, k), the node as its corner c (n0: its corner 0).
   template <class F>
   void each_cell(int i, int j, int k, const F& f) const {
+    if (lv_.interior(i, j, k)) {  // all eight cells in the grid: no bounds tests
+      const std::size_t cy = std::size_t(lv_.nx - 1), cz = cy * std::size_t(lv_.ny - 1), c0 = cell(i, j, k);
+      const std::size_t ny = std::size_t(lv_.nx), nz = ny * std::size_t(lv_.ny), n0 = lv_.index(i, j, k);
+      for (int c = 0; c < 8; ++c) {
+        const std::size_t dc = std::size_t(c & 1) + std::size_t(c >> 1 & 1) * cy + std::size_t(c >> 2 & 1) * cz;
+        const std::int32_t s = slot_[c0 - dc];
+        if (s >= 0)
+          f(&block_[std::size_t(s) * kPackedBlock], c,
+            n0 - std::size_t(c & 1) - std::size_t(c >> 1 & 1) * ny - std::size_t(c >> 2 & 1) * nz);
+      }
+      return;
+    }
     for (int c = 0; c < 8; ++c) {
       const int ci = i - (c & 1), cj = j - (c >> 1 & 1), ck = k - (c >> 2 & 1);
       if (ci < 0 || cj < 0 || ck < 0 || ci >= lv_.nx - 1 || cj >= lv_.ny - 1 || ck >= lv_.nz - 1) continue;
