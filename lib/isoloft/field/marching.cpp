@@ -108,15 +108,19 @@ std::vector<detail::SegmentGeom> segment_geoms(const NarrowBandResult& band) {
   return geom;
 }
 
+// \throw ParamError if the required-pixel mask (if any) is not w x h.
+void check_required(const Grid2u8* required, int w, int h) {
+  if (required && (required->width != w || required->height != h))
+    throw ParamError("distance extension: the required-pixel mask is " + std::to_string(required->width) + "x" +
+                     std::to_string(required->height) + ", the grid " + std::to_string(w) + "x" + std::to_string(h));
+}
+
 // Required pixels not known yet: a march may stop when none is left.
 class RequiredLeft {
  public:
   RequiredLeft(const Grid2u8* required, const std::vector<std::uint8_t>& status, int width, int height) : required_(required) {
     if (!required) return;
-    if (required->width != width || required->height != height)
-      throw ParamError("distance extension: the required-pixel mask is " + std::to_string(required->width) + "x" +
-                       std::to_string(required->height) + ", the grid " + std::to_string(width) + "x" +
-                       std::to_string(height));
+    check_required(required, width, height);
     for (std::size_t i = 0; i < status.size(); ++i) left_ += required->data[i] && status[i] != kKnown;
   }
   void known(int i) { left_ -= required_ && required_->data[std::size_t(i)]; }
@@ -322,9 +326,7 @@ struct MarchCell {
 Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required) {
   check_band(band);
   const int w = band.distance.width, h = band.distance.height;
-  if (required && (required->width != w || required->height != h))
-    throw ParamError("distance extension: the required-pixel mask is " + std::to_string(required->width) + "x" +
-                     std::to_string(required->height) + ", the grid " + std::to_string(w) + "x" + std::to_string(h));
+  check_required(required, w, h);
   const std::vector<detail::SegmentGeom> geom = segment_geoms(band);
   const int pw = w + 2;
   std::vector<MarchCell> cell(std::size_t(pw) * std::size_t(h + 2), MarchCell{kInf, -1, kKnown, 0});
