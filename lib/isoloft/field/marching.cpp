@@ -76,15 +76,51 @@ std::vector<std::uint8_t> initial_status(const detail::ExtendState& s) {
   return status;
 }
 
+// The band's grids and links agree. \throw ParamError if not.
+void check_band(const NarrowBandResult& band) {
+  const int w = band.distance.width, h = band.distance.height;
+  auto same = [&](int gw, int gh) { return gw == w && gh == h; };
+  if (!same(band.known.width, band.known.height) || !same(band.inside.width, band.inside.height) ||
+      !same(band.nearest_segment.width, band.nearest_segment.height))
+    throw ParamError("distance extension: narrow-band grids differ in size (distance " + std::to_string(w) + "x" +
+                     std::to_string(h) + ")");
+  if (band.links.size() != band.segments.size())
+    throw ParamError("distance extension: " + std::to_string(band.links.size()) + " segment links for " +
+                     std::to_string(band.segments.size()) + " segments");
+}
+
+// Known band pixel i's nearest segment. \throw ParamError if invalid.
+std::int32_t band_segment(const NarrowBandResult& band, std::size_t i) {
+  const std::int32_t k = band.nearest_segment.data[i];
+  if (k < 0 || std::size_t(k) >= band.segments.size())
+    throw ParamError("distance extension: known band pixel " + std::to_string(i) + " has no valid segment");
+  return k;
+}
+
+std::vector<detail::SegmentGeom> segment_geoms(const NarrowBandResult& band) {
+  std::vector<detail::SegmentGeom> geom;
+  geom.reserve(band.segments.size());
+  for (const Segment2d& sg : band.segments) {
+    const Vec2d d = sg[1] - sg[0];
+    const double len2 = d.squaredNorm();
+    geom.push_back({sg[0].x(), sg[0].y(), d.x(), d.y(), len2 > 0.0 ? 1.0 / len2 : 0.0});
+  }
+  return geom;
+}
+
+// \throw ParamError if the required-pixel mask (if any) is not w x h.
+void check_required(const Grid2u8* required, int w, int h) {
+  if (required && (required->width != w || required->height != h))
+    throw ParamError("distance extension: the required-pixel mask is " + std::to_string(required->width) + "x" +
+                     std::to_string(required->height) + ", the grid " + std::to_string(w) + "x" + std::to_string(h));
+}
+
 // Required pixels not known yet: a march may stop when none is left.
 class RequiredLeft {
  public:
   RequiredLeft(const Grid2u8* required, const std::vector<std::uint8_t>& status, int width, int height) : required_(required) {
     if (!required) return;
-    if (required->width != width || required->height != height)
-      throw ParamError("distance extension: the required-pixel mask is " + std::to_string(required->width) + "x" +
-                       std::to_string(required->height) + ", the grid " + std::to_string(width) + "x" +
-                       std::to_string(height));
+    check_required(required, width, height);
     for (std::size_t i = 0; i < status.size(); ++i) left_ += required->data[i] && status[i] != kKnown;
   }
   void known(int i) { left_ -= required_ && required_->data[std::size_t(i)]; }
@@ -100,37 +136,21 @@ class RequiredLeft {
 namespace detail {
 
 ExtendState init_extend_state(const NarrowBandResult& band, ExtendUpdate update) {
+  check_band(band);
   const int w = band.distance.width, h = band.distance.height;
-  auto same = [&](int gw, int gh) { return gw == w && gh == h; };
-  if (!same(band.known.width, band.known.height) || !same(band.inside.width, band.inside.height) ||
-      !same(band.nearest_segment.width, band.nearest_segment.height))
-    throw ParamError("distance extension: narrow-band grids differ in size (distance " + std::to_string(w) + "x" +
-                     std::to_string(h) + ")");
   ExtendState s;
   s.width = w;
   s.height = h;
   s.value.assign(band.distance.size(), kInf);
   s.fixed.assign(band.distance.size(), 0);
-  if (update == ExtendUpdate::ClosestPoint) {
-    s.geom.reserve(band.segments.size());
-    for (const Segment2d& sg : band.segments) {
-      const Vec2d d = sg[1] - sg[0];
-      const double len2 = d.squaredNorm();
-      s.geom.push_back({sg[0].x(), sg[0].y(), d.x(), d.y(), len2 > 0.0 ? 1.0 / len2 : 0.0});
-    }
-  }
+  if (update == ExtendUpdate::ClosestPoint) s.geom = segment_geoms(band);
   s.links = &band.links;
-  if (band.links.size() != band.segments.size())
-    throw ParamError("distance extension: " + std::to_string(band.links.size()) + " segment links for " +
-                     std::to_string(band.segments.size()) + " segments");
   if (update == ExtendUpdate::ClosestPoint) s.seg.assign(band.distance.size(), -1);
   for (std::size_t i = 0; i < s.value.size(); ++i) {
     if (!band.known.data[i]) continue;
     s.fixed[i] = 1;
     if (update == ExtendUpdate::ClosestPoint) {
-      const std::int32_t k = band.nearest_segment.data[i];
-      if (k < 0 || std::size_t(k) >= band.segments.size())
-        throw ParamError("distance extension: known band pixel " + std::to_string(i) + " has no valid segment");
+      const std::int32_t k = band_segment(band, i);
       const int x = int(i % std::size_t(w)), y = int(i / std::size_t(w));
       s.seg[i] = k;
       s.value[i] = segment_distance2(s, x, y, k);
@@ -141,7 +161,9 @@ ExtendState init_extend_state(const NarrowBandResult& band, ExtendUpdate update)
   return s;
 }
 
-std::int32_t descend_along_curve(const ExtendState& s, int x, int y, std::int32_t k, double& d2) {
+std::int32_t descend_along_curve(const std::vector<SegmentGeom>& geom,
+                                 const std::vector<std::array<std::int32_t, 2>>& links, int x, int y, std::int32_t k,
+                                 double& d2) {
   // Follow the curve both ways from k, up to kWalkSteps segments each, while
   // the distance stays within kWalkSlack of the best so far: the chord
   // polyline's distance wiggles (by <= L^2 / (8 R), 0.008 px at R = 3) and has
@@ -152,11 +174,10 @@ std::int32_t descend_along_curve(const ExtendState& s, int x, int y, std::int32_
   std::int32_t best = k;
   double bd = d2;
   double limit = (std::sqrt(bd) + kWalkSlack) * (std::sqrt(bd) + kWalkSlack);
-  const auto& links = *s.links;
   for (int e = 0; e < 2; ++e) {
     std::int32_t prev = k, cur = links[std::size_t(k)][e];
     for (int step = 0; cur >= 0 && cur != k && step < kWalkSteps; ++step) {
-      const double dc = segment_distance2(s, x, y, cur);
+      const double dc = segment_distance2(geom[std::size_t(cur)], x, y);
       if (dc > limit) break;
       if (dc < bd) {
         bd = dc;
@@ -247,7 +268,7 @@ Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update, c
   return detail::finish_extend(band, s, update);
 }
 
-Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required) {
+Grid2f detail::marching_cc_generic(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required) {
   detail::ExtendState s = detail::init_extend_state(band, update);
   std::vector<std::uint8_t> status = initial_status(s);
   RequiredLeft left(required, status, s.width, s.height);
@@ -285,6 +306,116 @@ Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update, con
     for (int i : newly) offer(s, status, i, update, add);
   }
   return detail::finish_extend(band, s, update);
+}
+
+
+namespace {
+
+// One pixel of the closest-point march, its fields side by side (one cache
+// line holds a pixel's and its row neighbours' state).
+struct MarchCell {
+  double value;        // squared distance, +inf unknown
+  std::int32_t seg;    // nearest segment, -1 unknown
+  std::uint8_t status; // kFar, kTrial, kKnown
+  std::uint8_t required;
+};
+
+// extend_marching_cc with ClosestPoint: marching_cc_generic's march, the same
+// offers in the same order, over a grid padded by one known pixel on every
+// side (no bounds checks) with each pixel's state in one MarchCell.
+Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required) {
+  check_band(band);
+  const int w = band.distance.width, h = band.distance.height;
+  check_required(required, w, h);
+  const std::vector<detail::SegmentGeom> geom = segment_geoms(band);
+  const int pw = w + 2;
+  std::vector<MarchCell> cell(std::size_t(pw) * std::size_t(h + 2), MarchCell{kInf, -1, kKnown, 0});
+  auto at = [pw](int x, int y) { return (y + 1) * pw + x + 1; };
+  long left = 0;  // required pixels not known yet
+  bool any = false;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
+      MarchCell& c = cell[std::size_t(at(x, y))];
+      c.required = required && required->data[i];
+      if (!band.known.data[i]) {
+        c.status = kFar;
+        left += c.required;
+        continue;
+      }
+      const std::int32_t k = band_segment(band, i);
+      c.seg = k;
+      c.value = detail::segment_distance2(geom[std::size_t(k)], x, y);
+      any = true;
+    }
+  }
+  const int off[8] = {-1, 1, -pw, pw, -pw - 1, -pw + 1, pw - 1, pw + 1};  // kDx8 / kDy8's order
+  std::vector<int> trial, newly;
+  auto offer_from = [&](int p, int x, int y) {
+    const std::int32_t si = cell[std::size_t(p)].seg;
+    const detail::SegmentGeom g = geom[std::size_t(si)];
+    for (int k = 0; k < 8; ++k) {
+      MarchCell& c = cell[std::size_t(p + off[k])];
+      if (c.status == kKnown || c.seg == si) continue;
+      const double c2 = detail::segment_distance2(g, x + kDx8[k], y + kDy8[k]);
+      if (c2 < c.value) {
+        c.value = c2;
+        c.seg = si;
+        if (c.status == kFar) {
+          c.status = kTrial;
+          trial.push_back(p + off[k]);
+        }
+      }
+    }
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (band.known.data[std::size_t(y) * std::size_t(w) + std::size_t(x)]) offer_from(at(x, y), x, y);
+  while (!trial.empty() && !(required && left == 0)) {
+    double m = kInf;
+    for (int p : trial) m = std::min(m, cell[std::size_t(p)].value);
+    const double threshold = (std::sqrt(m) + detail::kCorrectnessDelta) * (std::sqrt(m) + detail::kCorrectnessDelta);
+    newly.clear();
+    std::size_t keep = 0;
+    for (int p : trial) {
+      MarchCell& c = cell[std::size_t(p)];
+      if (c.value <= threshold) {
+        newly.push_back(p);
+        c.status = kKnown;
+        left -= c.required;
+      } else {
+        trial[keep++] = p;
+      }
+    }
+    trial.resize(keep);
+    for (int p : newly) {
+      MarchCell& c = cell[std::size_t(p)];
+      c.seg = detail::descend_along_curve(geom, band.links, p % pw - 1, p / pw - 1, c.seg, c.value);
+    }
+    for (int p : newly) offer_from(p, p % pw - 1, p / pw - 1);
+  }
+  Grid2f out(w, h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
+      const double v = cell[std::size_t(at(x, y))].value;
+      const float sign = band.inside.data[i] ? 1.0f : -1.0f;
+      if (band.known.data[i])
+        out.data[i] = band.distance.data[i];
+      else if (!any || !std::isfinite(v))
+        out.data[i] = sign * kNoSurfaceDistance;
+      else
+        out.data[i] = sign * float(std::sqrt(v));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Grid2f extend_marching_cc(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required) {
+  return update == ExtendUpdate::ClosestPoint ? marching_cc_closest(band, required)
+                                              : detail::marching_cc_generic(band, update, required);
 }
 
 Grid2f extend_distance(const NarrowBandResult& band, const ExtendParams& params, const Grid2u8* required) {

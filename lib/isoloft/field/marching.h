@@ -109,7 +109,18 @@ inline double segment_distance2(const ExtendState& s, int x, int y, std::int32_t
 
 /// From segment k walks the links both ways while within 0.01 px of the best
 /// (<= 32 segments). \return the nearest segment met; d2 its squared distance.
-std::int32_t descend_along_curve(const ExtendState& s, int x, int y, std::int32_t k, double& d2);
+std::int32_t descend_along_curve(const std::vector<SegmentGeom>& geom,
+                                 const std::vector<std::array<std::int32_t, 2>>& links, int x, int y, std::int32_t k,
+                                 double& d2);
+inline std::int32_t descend_along_curve(const ExtendState& s, int x, int y, std::int32_t k, double& d2) {
+  return descend_along_curve(s.geom, *s.links, x, y, k, d2);
+}
+
+/// extend_marching_cc over ExtendState with the generic update (offer /
+/// settle shared with fast marching); extend_marching_cc runs it for Eikonal.
+/// For ClosestPoint it is the twin of extend_marching_cc's own march (same
+/// offers in the same order: the same floats).
+Grid2f marching_cc_generic(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required = nullptr);
 
 /// \throw ParamError if the band is inconsistent.
 ExtendState init_extend_state(const NarrowBandResult& band, ExtendUpdate update);
