@@ -17,7 +17,9 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -139,6 +141,28 @@ int main(int argc, char** argv) {
         const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const TriMesh& mesh = r.objects.front().mesh;
         const TruthDistanceReport t = mesh_to_truth(mesh, *syn.shape, z0, z1);
+        // ISOLOFT_PHASES set: the mesh vertices' signed distance to the truth (> 0 outside: a bulge) by
+        // phase between input slices (bin 0 at a slice, bin 3 midway), to see where the error is.
+        if (std::getenv("ISOLOFT_PHASES")) {
+          constexpr int kBins = 4;
+          std::array<double, kBins> sum{}, abs_sum{};
+          std::array<int, kBins> n{};
+          for (const auto& vf : mesh.vertices) {
+            const Vec3d v = vf.template cast<double>();
+            if (v.z() < z0 || v.z() > z1) continue;
+            const double ph = std::fmod((v.z() - z0) / ratio, 1.0);
+            const int b = int(std::floor(std::min(ph, 1.0 - ph) * 2 * kBins)) % kBins;
+            const double d = syn.shape->distance(v) * (syn.shape->value(v) > 0 ? -1 : 1);
+            sum[std::size_t(b)] += d;
+            abs_sum[std::size_t(b)] += std::abs(d);
+            ++n[std::size_t(b)];
+          }
+          std::cerr << "phases " << shape_name << " " << ratio << " " << c.name << ":";
+          for (int b = 0; b < kBins; ++b)
+            std::cerr << " [" << b << "] " << sum[std::size_t(b)] / std::max(1, n[std::size_t(b)]) << " / "
+                      << abs_sum[std::size_t(b)] / std::max(1, n[std::size_t(b)]);
+          std::cerr << "\n";
+        }
         // Masks: the mesh's section on every input slice against the drawn mask.
         double dice_min = 1, dice_sum = 0;
         if (kind == InputKind::Masks) {

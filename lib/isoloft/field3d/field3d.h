@@ -84,6 +84,7 @@ struct Field3dParams {
   double reweight_tolerance = 5e-4;
   bool prune = true;
   double stack_spacing = 1.0;
+  bool plane_slope = false;
   bool pixel_signs = true;
   double pixel_sigma = 1.0;
   double pixel_band = 16.0;
@@ -160,6 +161,10 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             above(0)),
       field("prune", &Field3dParams::prune, "",
             "drop closed components that enclose no sample drawn inside (spurious blobs between planes)"),
+      field("plane_slope", &Field3dParams::plane_slope, "",
+            "the in-plane distance samples scaled by 1/sqrt(1 + s^2), s its change per mm along the normal between "
+            "the nearest parallel sections on either side: an estimate of the 3D distance, which the bi-Laplacian "
+            "interpolates between planes without the in-plane distance's inward bias"),
       field("pixel_signs", &Field3dParams::pixel_signs, "",
             "pixel input: every pixel centre of a label image kept on its drawn side (inside f >= sign_margin, "
             "outside f <= -sign_margin) by an active set of penalty samples"),
