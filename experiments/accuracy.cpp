@@ -157,6 +157,23 @@ int main(int argc, char** argv) {
             abs_sum[std::size_t(b)] += std::abs(d);
             ++n[std::size_t(b)];
           }
+          // and the area-weighted normal angle (deg) of the faces by their centroid's phase
+          std::array<double, kBins> ang{}, area{};
+          for (const auto& t : mesh.triangles) {
+            const Vec3d a = mesh.vertices[std::size_t(t[0])].template cast<double>(),
+                        b = mesh.vertices[std::size_t(t[1])].template cast<double>(),
+                        c3 = mesh.vertices[std::size_t(t[2])].template cast<double>();
+            const Vec3d m = (a + b + c3) / 3, cr = (b - a).cross(c3 - a);
+            if (m.z() < z0 || m.z() > z1 || cr.norm() == 0) continue;
+            const double ph = std::fmod((m.z() - z0) / ratio, 1.0);
+            const std::size_t bin = std::size_t(int(std::floor(std::min(ph, 1.0 - ph) * 2 * kBins)) % kBins);
+            const double cosang = std::clamp(cr.normalized().dot(syn.shape->normal(syn.shape->closest_point(m))), -1.0, 1.0);
+            ang[bin] += 0.5 * cr.norm() * std::acos(cosang) * 180 / M_PI;
+            area[bin] += 0.5 * cr.norm();
+          }
+          std::cerr << "angles " << shape_name << " " << ratio << " " << c.name << ":";
+          for (int b = 0; b < kBins; ++b) std::cerr << " [" << b << "] " << ang[std::size_t(b)] / std::max(1e-12, area[std::size_t(b)]);
+          std::cerr << "\n";
           std::cerr << "phases " << shape_name << " " << ratio << " " << c.name << ":";
           for (int b = 0; b < kBins; ++b)
             std::cerr << " [" << b << "] " << sum[std::size_t(b)] / std::max(1, n[std::size_t(b)]) << " / "

@@ -1489,6 +1489,24 @@ PlaneRaster plane_raster(const PlanePose& pose, const Vec3d& lo, const Vec3d& hi
   return {pmin, int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, int(std::floor((pmax.y() - pmin.y()) / sp)) + 1};
 }
 
+/// The median over the sections of the distance to the nearest parallel section (mm; 0 without one).
+double median_gap(const std::vector<Section>& sections) {
+  std::vector<double> gaps;
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    const PlanePose& pose = sections[i].pose;
+    double g = kInf;
+    for (std::size_t j = 0; j < sections.size(); ++j)
+      if (j != i && std::abs(std::abs(sections[j].pose.normal().dot(pose.normal())) - 1) <= 1e-9) {
+        const double o = std::abs(pose.height(sections[j].pose.origin));
+        if (o > 0) g = std::min(g, o);
+      }
+    if (g < kInf) gaps.push_back(g);
+  }
+  if (gaps.empty()) return 0;
+  std::nth_element(gaps.begin(), gaps.begin() + std::ptrdiff_t(gaps.size() / 2), gaps.end());
+  return gaps[gaps.size() / 2];
+}
+
 /// Least factor 1/sqrt(1 + s^2) of plane_slope: a slope of 4 (the surface within 14 deg of the plane), so that
 /// a cap's empty neighbour section does not flatten the data to nothing.
 inline constexpr double kMinSlopeFactor = 0.25;
@@ -1543,13 +1561,15 @@ Grid2d slope_corrected(const std::vector<Section>& sections, const std::vector<P
 }  // namespace detail
 
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
-                                   const Field3dParams& params) {
+                                   const Field3dParams& params_in) {
   using namespace detail;
   const auto start = std::chrono::steady_clock::now();
-  params_table<Field3dParams>().validate(params);
+  params_table<Field3dParams>().validate(params_in);
   Field3dResult res;
 
-  const SectionGrid grid = section_grid(sections, label, params);
+  const SectionGrid grid = section_grid(sections, label, params_in);
+  Field3dParams params = params_in;
+  if (params.band_per_gap > 0) params.band = std::max(params.band, params.band_per_gap * median_gap(sections) / grid.h);
   const std::vector<std::vector<Polyline>>& polys = grid.polys;
   const double diag = grid.diag, h = grid.h;
   const std::array<int, 3>& cells = grid.cells;
