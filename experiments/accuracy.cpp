@@ -17,7 +17,9 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -139,6 +141,45 @@ int main(int argc, char** argv) {
         const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const TriMesh& mesh = r.objects.front().mesh;
         const TruthDistanceReport t = mesh_to_truth(mesh, *syn.shape, z0, z1);
+        // ISOLOFT_PHASES set: the mesh vertices' signed distance to the truth (> 0 outside: a bulge) by
+        // phase between input slices (bin 0 at a slice, bin 3 midway), to see where the error is.
+        if (std::getenv("ISOLOFT_PHASES")) {
+          constexpr int kBins = 4;
+          std::array<double, kBins> sum{}, abs_sum{};
+          std::array<int, kBins> n{};
+          for (const auto& vf : mesh.vertices) {
+            const Vec3d v = vf.template cast<double>();
+            if (v.z() < z0 || v.z() > z1) continue;
+            const double ph = std::fmod((v.z() - z0) / ratio, 1.0);
+            const int b = int(std::floor(std::min(ph, 1.0 - ph) * 2 * kBins)) % kBins;
+            const double d = syn.shape->distance(v) * (syn.shape->value(v) > 0 ? -1 : 1);
+            sum[std::size_t(b)] += d;
+            abs_sum[std::size_t(b)] += std::abs(d);
+            ++n[std::size_t(b)];
+          }
+          // and the area-weighted normal angle (deg) of the faces by their centroid's phase
+          std::array<double, kBins> ang{}, area{};
+          for (const auto& t : mesh.triangles) {
+            const Vec3d a = mesh.vertices[std::size_t(t[0])].template cast<double>(),
+                        b = mesh.vertices[std::size_t(t[1])].template cast<double>(),
+                        c3 = mesh.vertices[std::size_t(t[2])].template cast<double>();
+            const Vec3d m = (a + b + c3) / 3, cr = (b - a).cross(c3 - a);
+            if (m.z() < z0 || m.z() > z1 || cr.norm() == 0) continue;
+            const double ph = std::fmod((m.z() - z0) / ratio, 1.0);
+            const std::size_t bin = std::size_t(int(std::floor(std::min(ph, 1.0 - ph) * 2 * kBins)) % kBins);
+            const double cosang = std::clamp(cr.normalized().dot(syn.shape->normal(syn.shape->closest_point(m))), -1.0, 1.0);
+            ang[bin] += 0.5 * cr.norm() * std::acos(cosang) * 180 / M_PI;
+            area[bin] += 0.5 * cr.norm();
+          }
+          std::cerr << "angles " << shape_name << " " << ratio << " " << c.name << ":";
+          for (int b = 0; b < kBins; ++b) std::cerr << " [" << b << "] " << ang[std::size_t(b)] / std::max(1e-12, area[std::size_t(b)]);
+          std::cerr << "\n";
+          std::cerr << "phases " << shape_name << " " << ratio << " " << c.name << ":";
+          for (int b = 0; b < kBins; ++b)
+            std::cerr << " [" << b << "] " << sum[std::size_t(b)] / std::max(1, n[std::size_t(b)]) << " / "
+                      << abs_sum[std::size_t(b)] / std::max(1, n[std::size_t(b)]);
+          std::cerr << "\n";
+        }
         // Masks: the mesh's section on every input slice against the drawn mask.
         double dice_min = 1, dice_sum = 0;
         if (kind == InputKind::Masks) {

@@ -1540,16 +1540,87 @@ PlaneRaster plane_raster(const PlanePose& pose, const Vec3d& lo, const Vec3d& hi
   return {pmin, int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, int(std::floor((pmax.y() - pmin.y()) / sp)) + 1};
 }
 
+/// The median over the sections of the distance to the nearest parallel section (mm; 0 without one).
+double median_gap(const std::vector<Section>& sections) {
+  std::vector<double> gaps;
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    const PlanePose& pose = sections[i].pose;
+    double g = kInf;
+    for (std::size_t j = 0; j < sections.size(); ++j)
+      if (j != i && std::abs(std::abs(sections[j].pose.normal().dot(pose.normal())) - 1) <= 1e-9) {
+        const double o = std::abs(pose.height(sections[j].pose.origin));
+        if (o > 0) g = std::min(g, o);
+      }
+    if (g < kInf) gaps.push_back(g);
+  }
+  if (gaps.empty()) return 0;
+  std::nth_element(gaps.begin(), gaps.begin() + std::ptrdiff_t(gaps.size() / 2), gaps.end());
+  return gaps[gaps.size() / 2];
+}
+
+/// Least factor 1/sqrt(1 + s^2) of plane_slope: a slope of 4 (the surface within 14 deg of the plane), so that
+/// a cap's empty neighbour section does not flatten the data to nothing.
+inline constexpr double kMinSlopeFactor = 0.25;
+
+/// Section i's in-plane distances `dists[i]` scaled by 1/sqrt(1 + s^2), s the change of the in-plane distance
+/// per mm along i's normal between the nearest parallel sections on either side (central difference, one-sided
+/// with one neighbour, none without), each read bilinearly at the sample's projection (outside its raster:
+/// -band). For a surface with normal n, the in-plane distance is the 3D distance over |n_plane| = 1/sqrt(1 +
+/// s^2): this is the 3D distance to first order, whose bi-Laplacian interpolation between planes has no bias
+/// (a sphere's distance is biharmonic), while the in-plane distance's in-plane Laplacian bends the field
+/// inward between planes on convex shapes.
+Grid2d slope_corrected(const std::vector<Section>& sections, const std::vector<PlaneRaster>& rasters,
+                       const std::vector<Grid2d>& dists, std::size_t i, double sp, double band) {
+  const PlanePose& pose = sections[i].pose;
+  const Vec3d n = pose.normal();
+  std::array<std::ptrdiff_t, 2> nb{-1, -1};  // nearest below, above
+  std::array<double, 2> off{-kInf, kInf};
+  for (std::size_t j = 0; j < sections.size(); ++j) {
+    if (j == i || std::abs(std::abs(sections[j].pose.normal().dot(n)) - 1) > 1e-9) continue;
+    const double o = pose.height(sections[j].pose.origin);
+    if (o < 0 && o > off[0]) off[0] = o, nb[0] = std::ptrdiff_t(j);
+    if (o > 0 && o < off[1]) off[1] = o, nb[1] = std::ptrdiff_t(j);
+  }
+  Grid2d d = dists[i];
+  if (nb[0] < 0 && nb[1] < 0) return d;
+  const auto read = [&](std::size_t j, const Vec3d& w) {
+    const PlaneRaster& r = rasters[j];
+    const Vec2d q = (sections[j].pose.to_plane(w) - r.pmin) / sp;
+    const int a = int(std::floor(q.x())), b = int(std::floor(q.y()));
+    if (a < 0 || b < 0 || a + 1 >= r.ns || b + 1 >= r.nt) return -band;
+    const double fx = q.x() - a, fy = q.y() - b;
+    const Grid2d& g = dists[j];
+    return (1 - fy) * ((1 - fx) * g(a, b) + fx * g(a + 1, b)) + fy * ((1 - fx) * g(a, b + 1) + fx * g(a + 1, b + 1));
+  };
+  const PlaneRaster& r = rasters[i];
+  for (int t = 0; t < r.nt; ++t)
+    for (int k = 0; k < r.ns; ++k) {
+      const Vec3d w = pose.to_world({r.pmin.x() + k * sp, r.pmin.y() + t * sp});
+      const double d0 = dists[i](k, t);
+      double s = 0;
+      if (nb[0] >= 0 && nb[1] >= 0)
+        s = (read(std::size_t(nb[1]), w) - read(std::size_t(nb[0]), w)) / (off[1] - off[0]);
+      else if (nb[0] >= 0)
+        s = (d0 - read(std::size_t(nb[0]), w)) / -off[0];
+      else
+        s = (read(std::size_t(nb[1]), w) - d0) / off[1];
+      d(k, t) = d0 * std::max(kMinSlopeFactor, 1 / std::sqrt(1 + s * s));
+    }
+  return d;
+}
+
 }  // namespace detail
 
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
-                                   const Field3dParams& params) {
+                                   const Field3dParams& params_in) {
   using namespace detail;
   const auto start = std::chrono::steady_clock::now();
-  params_table<Field3dParams>().validate(params);
+  params_table<Field3dParams>().validate(params_in);
   Field3dResult res;
 
-  const SectionGrid grid = section_grid(sections, label, params);
+  const SectionGrid grid = section_grid(sections, label, params_in);
+  Field3dParams params = params_in;
+  if (params.band_per_gap > 0) params.band = std::max(params.band, params.band_per_gap * median_gap(sections) / grid.h);
   const std::vector<std::vector<Polyline>>& polys = grid.polys;
   const double diag = grid.diag, h = grid.h;
   const std::array<int, 3>& cells = grid.cells;
@@ -1571,10 +1642,17 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   const double band = params.band * h;
   const auto make_samples = [&](double sp, const auto& keep) {
     std::vector<std::vector<Sample>> per(sections.size());
+    std::vector<PlaneRaster> rasters(sections.size());
+    std::vector<Grid2d> dists(sections.size());
+    tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
+      rasters[i] = plane_raster(sections[i].pose, res.origin, box_hi, sp);
+      dists[i] = signed_distance_raster(polys[i], rasters[i].pmin.x(), rasters[i].pmin.y(), sp, rasters[i].ns,
+                                        rasters[i].nt, band);
+    });
     tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
       const PlanePose& pose = sections[i].pose;
-      const auto [pmin, ns, nt] = plane_raster(pose, res.origin, box_hi, sp);
-      const Grid2d d = signed_distance_raster(polys[i], pmin.x(), pmin.y(), sp, ns, nt, band);
+      const auto [pmin, ns, nt] = rasters[i];
+      const Grid2d d = params.plane_slope ? slope_corrected(sections, rasters, dists, i, sp, band) : dists[i];
       const double eps = 1e-9 * h;
       const double wplane = params.plane_weight * (sp / h) * (sp / h);
       auto& out = per[i];

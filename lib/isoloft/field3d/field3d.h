@@ -84,6 +84,8 @@ struct Field3dParams {
   double reweight_tolerance = 5e-4;
   bool prune = true;
   double stack_spacing = 1.0;
+  bool plane_slope = false;
+  double band_per_gap = 0.0;
   bool pixel_signs = true;
   double pixel_sigma = 1.0;
   double pixel_band = 16.0;
@@ -92,6 +94,8 @@ struct Field3dParams {
   double sign_weight = 10.0;
   int sign_passes = 8;
   int pixel_resolution = 0;
+  bool pixel_slope = true;
+  double pixel_band_per_gap = 1.25;
   /// The box (world mm, low and high corners) the grid covers before its
   /// margin, instead of the label's contours' box: labels solved on one box
   /// get one grid (field3d/partition3d.h). Not a parameter row (no flag).
@@ -160,6 +164,13 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             above(0)),
       field("prune", &Field3dParams::prune, "",
             "drop closed components that enclose no sample drawn inside (spurious blobs between planes)"),
+      field("plane_slope", &Field3dParams::plane_slope, "",
+            "the in-plane distance samples scaled by 1/sqrt(1 + s^2), s its change per mm along the normal between "
+            "the nearest parallel sections on either side: an estimate of the 3D distance, which the bi-Laplacian "
+            "interpolates between planes without the in-plane distance's inward bias"),
+      field("band_per_gap", &Field3dParams::band_per_gap, "",
+            "band at least this times the median gap between neighbouring parallel sections (0: band alone)",
+            at_least(0)),
       field("pixel_signs", &Field3dParams::pixel_signs, "",
             "pixel input: every pixel centre of a label image kept on its drawn side (inside f >= sign_margin, "
             "outside f <= -sign_margin) by an active set of penalty samples"),
@@ -185,6 +196,13 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             above(0)),
       field("sign_passes", &Field3dParams::sign_passes, "passes",
             "pixel input: re-solves of the active set at most (each adds the violated pixel centres)", between(0, 32)),
+      field("pixel_slope", &Field3dParams::pixel_slope, "",
+            "pixel input: plane_slope instead of field3d.plane_slope (the mask kit: 15 of 18 rows at least as good as "
+            "marker2006 in distance and angle against 7 without; ellipsoid 8:1 0.161 -> 0.076 px)"),
+      field("pixel_band_per_gap", &Field3dParams::pixel_band_per_gap, "",
+            "pixel input: band_per_gap instead of field3d.band_per_gap (1.25: band 20 at 16 px slices, where 16 "
+            "left the ellipsoid 0.35 px inside midway and 24 broke the torus)",
+            at_least(0)),
       field("pixel_resolution", &Field3dParams::pixel_resolution, "cells",
             "pixel input: grid cells along the box's longest side instead of field3d.resolution; 0: one cell per "
             "pixel (a finer grid gained nothing on the mask kit and cost up to 50x the time)",

@@ -141,6 +141,8 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
 Field3dParams pixel_rows(Field3dParams params) {
   params.band = params.pixel_band;
   params.contour_weight = params.pixel_contour_weight;
+  params.plane_slope = params.pixel_slope;
+  params.band_per_gap = params.pixel_band_per_gap;
   return params;
 }
 
