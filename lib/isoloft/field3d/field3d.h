@@ -197,7 +197,7 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
       field("sign_passes", &Field3dParams::sign_passes, "passes",
             "pixel input: re-solves of the active set at most (each adds the violated pixel centres)", between(0, 32)),
       field("pixel_slope", &Field3dParams::pixel_slope, "",
-            "pixel input: plane_slope instead of field3d.plane_slope (the mask kit: 15 of 18 rows at least as good as "
+            "pixel input: plane_slope instead of field3d.plane_slope (with pixel_band_per_gap, the mask kit: 16 of 18 rows at least as good as "
             "marker2006 in distance and angle against 7 without; ellipsoid 8:1 0.161 -> 0.076 px)"),
       field("pixel_band_per_gap", &Field3dParams::pixel_band_per_gap, "",
             "pixel input: band_per_gap instead of field3d.band_per_gap (1.25: band 20 at 16 px slices, where 16 "
