@@ -20,6 +20,7 @@
 #include "isoloft/core/option_names.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/methods/method.h"
+#include "isoloft/objects/objects.h"
 #include "isoloft/run/volume_table.h"
 
 namespace isoloft {
@@ -55,13 +56,14 @@ std::vector<PlannedObject> planned_objects(const Inputs& in, const std::vector<s
     return out;
   }
   std::vector<std::uint32_t> seen;
-  for (const Slice& s : in.first().slices) {
-    std::uint32_t last = 0;  // labels come in runs: most pixels repeat their neighbour
-    for (const std::uint32_t v : s.image.data)
-      if (v != 0 && v != last) seen.push_back(last = v);
-    std::sort(seen.begin(), seen.end());
-    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
-  }
+  for (std::size_t k = 0; k < in.first().slices.size(); ++k)
+    detail::with_slice(in.first(), k, [&](const Slice& s) {  // lazy stacks: the image decoded now
+      std::uint32_t last = 0;  // labels come in runs: most pixels repeat their neighbour
+      for (const std::uint32_t v : s.image.data)
+        if (v != 0 && v != last) seen.push_back(last = v);
+      std::sort(seen.begin(), seen.end());
+      seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+    });
   for (const std::uint32_t l : seen)
     if (asked.empty() || std::find(asked.begin(), asked.end(), l) != asked.end()) out.push_back({0, l});
   return out;

@@ -214,12 +214,44 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
       return InputError(data_file, "corrupt gzip data (zlib: " + why + ")");
     return InputError(data_file, "voxel data truncated (" + std::to_string(got) + " of " + std::to_string(nbytes) + " bytes)");
   };
+  const bool scaled = nim->scl_slope != 0 && std::isfinite(nim->scl_slope) && std::isfinite(nim->scl_inter) &&
+                      (nim->scl_slope != 1 || nim->scl_inter != 0);
+  using detail::ScalarType;
+  const ScalarType type = dt == DT_UINT8 ? ScalarType::U8 : dt == DT_INT8 ? ScalarType::I8 : dt == DT_UINT16 ? ScalarType::U16
+                          : dt == DT_INT16 ? ScalarType::I16 : dt == DT_UINT32 ? ScalarType::U32 : dt == DT_INT32 ? ScalarType::I32
+                          : dt == DT_FLOAT32 ? ScalarType::F32 : ScalarType::F64;
+  const bool swap = nim->byteorder != nifti_short_order() && nim->swapsize > 1;
+  if (gzseek(g, z_off_t(nim->iname_offset), SEEK_SET) < 0) throw short_read(0);
   // Read in chunks, so memory follows the data the file really holds: a
   // header that claims 4 GB of a 350-byte file fails before allocating it.
   constexpr std::size_t kChunkBytes = std::size_t(16) << 20;
+  // Samples a taker may slice as stored (8- and 16-bit integers, unscaled)
+  // are read plane by plane along k, the planes all 0 kept as nothing: a
+  // sparse label volume costs its annotated planes, not its box.
+  const bool by_plane = options.take_samples && !scaled && detail::scalar_size(type) <= 2;
   std::vector<unsigned char> bytes;
-  if (gzseek(g, z_off_t(nim->iname_offset), SEEK_SET) < 0) throw short_read(0);
-  while (bytes.size() < nbytes) {
+  std::shared_ptr<std::vector<std::vector<unsigned char>>> planes;
+  if (by_plane) {
+    const std::size_t plane_bytes = std::size_t(v.nx) * std::size_t(v.ny) * std::size_t(nim->nbyper);
+    planes = std::make_shared<std::vector<std::vector<unsigned char>>>(std::size_t(v.nz));
+    std::vector<unsigned char> plane;  // grown as read, as the chunks below
+    for (std::size_t k = 0; k < std::size_t(v.nz); ++k) {
+      for (std::size_t at = 0; at < plane_bytes;) {
+        const std::size_t want = std::min(plane_bytes - at, kChunkBytes);
+        if (plane.size() < at + want) plane.resize(at + want);
+        const int got = gzread(g, plane.data() + at, unsigned(want));
+        if (got < 0 || std::size_t(got) != want) throw short_read(k * plane_bytes + at + std::size_t(std::max(got, 0)));
+        at += want;
+      }
+      unsigned char any = 0;
+      for (const unsigned char b : plane) any |= b;  // branch-free: vectorises
+      if (!any) continue;
+      if (swap) nifti_swap_Nbytes(int64_t(plane_bytes / std::size_t(nim->nbyper)), nim->swapsize, plane.data());
+      (*planes)[k] = plane;
+    }
+  }
+  // Else in chunks: memory follows the data the file really holds.
+  while (!by_plane && bytes.size() < nbytes) {
     const std::size_t at = bytes.size(), want = std::min(kChunkBytes, nbytes - at);
     bytes.resize(at + want);
     const int got = gzread(g, bytes.data() + at, unsigned(want));
@@ -234,17 +266,23 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
     }
     if (got < 0) throw short_read(nbytes);
   }
-  if (nim->byteorder != nifti_short_order() && nim->swapsize > 1)
-    nifti_swap_Nbytes(int64_t(count), nim->swapsize, bytes.data());
-  const bool scaled = nim->scl_slope != 0 && std::isfinite(nim->scl_slope) && std::isfinite(nim->scl_inter) &&
-                      (nim->scl_slope != 1 || nim->scl_inter != 0);
+  if (by_plane) {
+    v.integer = integer;
+    VolumeSamples samples{nullptr, type, std::endian::native == std::endian::big, planes};
+    v.data.clear();
+    if (options.take_samples(v, samples)) return v;
+    bytes.assign(nbytes, 0);  // not taken: the planes in one buffer, decoded below
+    for (std::size_t k = 0; k < planes->size(); ++k)
+      std::copy((*planes)[k].begin(), (*planes)[k].end(), bytes.begin() + std::ptrdiff_t(k * (nbytes / planes->size())));
+    planes.reset();
+    detail::resize_large(v.data, count);
+    detail::decode_volume(bytes.data(), type, samples.big_endian, v, path);
+    return v;
+  }
+  if (swap) nifti_swap_Nbytes(int64_t(count), nim->swapsize, bytes.data());
   const double slope = scaled ? nim->scl_slope : 1.0, inter = scaled ? nim->scl_inter : 0.0;
   v.integer = integer && (!scaled || (slope == std::floor(slope) && inter == std::floor(inter)));
   if (!scaled) {
-    using detail::ScalarType;
-    const ScalarType type = dt == DT_UINT8 ? ScalarType::U8 : dt == DT_INT8 ? ScalarType::I8 : dt == DT_UINT16 ? ScalarType::U16
-                            : dt == DT_INT16 ? ScalarType::I16 : dt == DT_UINT32 ? ScalarType::U32 : dt == DT_INT32 ? ScalarType::I32
-                            : dt == DT_FLOAT32 ? ScalarType::F32 : ScalarType::F64;
     detail::take_or_decode(bytes.data(), type, std::endian::native == std::endian::big, v, path, options);
     return v;
   }

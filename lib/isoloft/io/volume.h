@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -61,9 +62,13 @@ enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
 /// A volume's samples as its file stores them (the reader's buffer: valid
 /// during the call that is given them), x fastest, then y, then z.
 struct VolumeSamples {
-  const unsigned char* bytes = nullptr;
+  const unsigned char* bytes = nullptr;  ///< every sample in one buffer; null when `planes` holds them
   detail::ScalarType type = detail::ScalarType::U8;
   bool big_endian = false;
+  /// Else plane by plane along k (nx * ny samples each; empty: every sample 0),
+  /// shared, so a taker may keep them past the call (a reader streams a large
+  /// sparse volume this way: memory follows its non-empty planes).
+  std::shared_ptr<const std::vector<std::vector<unsigned char>>> planes;
 };
 
 /// What a volume file holds, from its header alone.

@@ -42,15 +42,20 @@ class VoxelRows {
   /// Row (j, k) as floats; `buffer` (nx floats) holds it when it is decoded.
   const float* row(int j, int k, float* buffer) const {
     if (!samples_) return v_.data.data() + v_.index(0, j, k);
-    detail::decode_scalars(samples_->bytes + v_.index(0, j, k) * size_, std::size_t(v_.nx), samples_->type,
-                           samples_->big_endian, buffer);
+    const unsigned char* b = bytes(v_.index(0, j, k));
+    if (!b) {
+      std::fill(buffer, buffer + v_.nx, 0.0f);
+      return buffer;
+    }
+    detail::decode_scalars(b, std::size_t(v_.nx), samples_->type, samples_->big_endian, buffer);
     return buffer;
   }
   /// Row (j, k) is all 0, seen without decoding it (integer samples whose
   /// bytes are all 0); false says nothing (the floats are read as they are).
   [[nodiscard]] bool known_zero(int j, int k) const {
     if (!samples_) return false;
-    const unsigned char* b = samples_->bytes + v_.index(0, j, k) * size_;
+    const unsigned char* b = bytes(v_.index(0, j, k));
+    if (!b) return true;
     unsigned char any = 0;
     for (std::size_t i = 0, n = std::size_t(v_.nx) * size_; i < n; ++i) any |= b[i];  // branch-free: vectorises
     return any == 0;
@@ -58,15 +63,28 @@ class VoxelRows {
   /// Voxel i's value.
   [[nodiscard]] float at(std::size_t i) const {
     if (!samples_) return v_.data[i];
+    const unsigned char* b = bytes(i);
+    if (!b) return 0.0f;
     float x;
-    detail::decode_scalars(samples_->bytes + i * size_, 1, samples_->type, samples_->big_endian, &x);
+    detail::decode_scalars(b, 1, samples_->type, samples_->big_endian, &x);
     return x;
   }
+  /// The samples are held plane by plane (VolumeSamples::planes).
+  [[nodiscard]] bool by_plane() const { return samples_ && samples_->planes; }
+  [[nodiscard]] const VolumeSamples& samples() const { return *samples_; }
 
  private:
   const Volume& v_;
   const VolumeSamples* samples_ = nullptr;
   std::size_t size_ = 4;
+
+  // Sample i's bytes; null when its plane is all 0 (held plane by plane).
+  [[nodiscard]] const unsigned char* bytes(std::size_t i) const {
+    if (!samples_->planes) return samples_->bytes + i * size_;
+    const std::size_t plane = std::size_t(v_.nx) * std::size_t(v_.ny);
+    const std::vector<unsigned char>& p = (*samples_->planes)[i / plane];
+    return p.empty() ? nullptr : p.data() + (i % plane) * size_;
+  }
 };
 
 using Occupancy = std::array<std::vector<std::uint8_t>, 3>;
@@ -189,7 +207,8 @@ bool borders_gap(const VolumeStack& vs, std::size_t s) {
 std::vector<std::size_t> stray_slices(const VolumeStack& vs, std::vector<std::size_t>& count) {
   const auto& sl = vs.stack.slices;
   count.assign(sl.size(), 0);
-  for (std::size_t s = 0; s < sl.size(); ++s) count[s] = nonzero(sl[s].image);
+  for (std::size_t s = 0; s < sl.size(); ++s)
+    count[s] = nonzero(vs.stack.load_image ? vs.stack.load_image(s) : sl[s].image);
   std::vector<std::size_t> out;
   for (std::size_t s = 1; s + 1 < sl.size(); ++s)
     if (borders_gap(vs, s) && double(count[s]) < kStrayFraction * double(std::min(count[s - 1], count[s + 1])))
@@ -408,27 +427,47 @@ VolumeStack slice_rows(const VoxelRows& rows, const VolumeSlicing& slicing, cons
   st.patient = frame;
   const bool masks = slicing.kind == InputKind::Masks;
   const std::int64_t* table = v.value_table.empty() ? nullptr : v.value_table.data();
-  auto pixel = [&](float val) {
+  // By value: the lazy loader below keeps it (its samples, 8- or 16-bit, have no table).
+  auto pixel = [masks, table](float val) {
     return masks ? (val != 0 ? 255u : 0u) : std::uint32_t(table ? table[std::size_t(val)] : std::int64_t(val));
   };
   st.slices.resize(out.annotated.size());
+  auto image = [pixel, a, w = st.width, h = st.height](const VoxelRows& r, int t) {
+    const Volume& g = r.volume();
+    Grid2u32 im(w, h, 0);
+    std::vector<float> buffer(std::size_t(g.nx));
+    for (int y = 0; y < h; ++y) {
+      std::uint32_t* dst = &im(0, y);
+      if (a == 0) {  // pixel (x, y) is voxel (t, x, y)
+        for (int x = 0; x < w; ++x) dst[x] = pixel(r.at(g.index(t, x, y)));
+      } else {  // a row of the slice is an x run: row (y, t) along k, (t, y) along j
+        const float* src = a == 2 ? r.row(y, t, buffer.data()) : r.row(t, y, buffer.data());
+        for (int x = 0; x < w; ++x) dst[x] = pixel(src[x]);
+      }
+    }
+    return im;
+  };
+  // Samples held plane by plane, sliced along k: the images are made when
+  // read (SliceStack::load_image) from the kept planes, not held.
+  const bool lazy = rows.by_plane() && a == 2;
   tbb::parallel_for(std::size_t(0), out.annotated.size(), [&](std::size_t i) {  // fresh images: faulted in on both threads
     const int t = out.annotated[i];
     Slice& s = st.slices[i];
     s.z = double(t) * sa / su;
     s.source = path + " slice " + std::string(1, kAxis[a]) + " = " + std::to_string(t);
-    s.image = Grid2u32(st.width, st.height, 0);
-    std::vector<float> buffer(std::size_t(v.nx));
-    for (int y = 0; y < st.height; ++y) {
-      std::uint32_t* dst = &s.image(0, y);
-      if (a == 0) {  // pixel (x, y) is voxel (t, x, y)
-        for (int x = 0; x < st.width; ++x) dst[x] = pixel(rows.at(v.index(t, x, y)));
-      } else {  // a row of the slice is an x run: row (y, t) along k, (t, y) along j
-        const float* src = a == 2 ? rows.row(y, t, buffer.data()) : rows.row(t, y, buffer.data());
-        for (int x = 0; x < st.width; ++x) dst[x] = pixel(src[x]);
-      }
-    }
+    if (!lazy) s.image = image(rows, t);
   });
+  if (lazy) {
+    struct Kept {  // the geometry and the planes, owned by the loader
+      Volume geometry;
+      VolumeSamples samples;
+    };
+    auto kept = std::make_shared<Kept>(Kept{v, rows.samples()});
+    kept->geometry.data.clear();
+    st.load_image = [kept, image, annotated = out.annotated](std::size_t k) {
+      return image(VoxelRows(kept->geometry, kept->samples), annotated[k]);
+    };
+  }
   if (labels) {
     label_warnings(rows, scan.row_any, out, path);
   } else {
@@ -478,7 +517,8 @@ LabelmapBuilder::LabelmapBuilder(const Volume& input, const VolumeStack& vs, con
   best_.assign(out_.data.size(), 0.0f);
   // The annotated slices as they were: masks 1 where non-zero, labels their value (or table index).
   for (std::size_t s = 0; s < vs.annotated.size(); ++s) {
-    const Grid2u32& image = annotated.slices[s].image;
+    const Grid2u32 lazy = annotated.load_image ? annotated.load_image(s) : Grid2u32{};
+    const Grid2u32& image = annotated.load_image ? lazy : annotated.slices[s].image;
     for (int y = 0; y < image.height; ++y)
       for (int x = 0; x < image.width; ++x) {
         const std::uint32_t l = image(x, y);
