@@ -40,6 +40,10 @@ constexpr double kFlatGradient = 0.05;
 /// (no common line; 1e-6 rad is far below any drawn angle).
 constexpr double kParallelSine = 1e-6;
 
+bool parallel_planes(const PlanePose& a, const PlanePose& b) {
+  return a.normal().cross(b.normal()).norm() < kParallelSine;
+}
+
 /// The section's source for messages, or its index.
 std::string section_name(const std::vector<Section>& sections, std::size_t i) {
   return sections[i].source.empty() ? "section " + std::to_string(i) : sections[i].source;
@@ -1547,7 +1551,7 @@ double median_gap(const std::vector<Section>& sections) {
     const PlanePose& pose = sections[i].pose;
     double g = kInf;
     for (std::size_t j = 0; j < sections.size(); ++j)
-      if (j != i && std::abs(std::abs(sections[j].pose.normal().dot(pose.normal())) - 1) <= 1e-9) {
+      if (j != i && parallel_planes(sections[j].pose, pose)) {
         const double o = std::abs(pose.height(sections[j].pose.origin));
         if (o > 0) g = std::min(g, o);
       }
@@ -1572,11 +1576,10 @@ inline constexpr double kMinSlopeFactor = 0.25;
 Grid2d slope_corrected(const std::vector<Section>& sections, const std::vector<PlaneRaster>& rasters,
                        const std::vector<Grid2d>& dists, std::size_t i, double sp, double band) {
   const PlanePose& pose = sections[i].pose;
-  const Vec3d n = pose.normal();
   std::array<std::ptrdiff_t, 2> nb{-1, -1};  // nearest below, above
   std::array<double, 2> off{-kInf, kInf};
   for (std::size_t j = 0; j < sections.size(); ++j) {
-    if (j == i || std::abs(std::abs(sections[j].pose.normal().dot(n)) - 1) > 1e-9) continue;
+    if (j == i || !parallel_planes(sections[j].pose, pose)) continue;
     const double o = pose.height(sections[j].pose.origin);
     if (o < 0 && o > off[0]) off[0] = o, nb[0] = std::ptrdiff_t(j);
     if (o > 0 && o < off[1]) off[1] = o, nb[1] = std::ptrdiff_t(j);
