@@ -1646,16 +1646,18 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   const auto make_samples = [&](double sp, const auto& keep) {
     std::vector<std::vector<Sample>> per(sections.size());
     std::vector<PlaneRaster> rasters(sections.size());
-    std::vector<Grid2d> dists(sections.size());
-    tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
-      rasters[i] = plane_raster(sections[i].pose, res.origin, box_hi, sp);
-      dists[i] = signed_distance_raster(polys[i], rasters[i].pmin.x(), rasters[i].pmin.y(), sp, rasters[i].ns,
-                                        rasters[i].nt, band);
-    });
+    const auto distances = [&](std::size_t i) {
+      return signed_distance_raster(polys[i], rasters[i].pmin.x(), rasters[i].pmin.y(), sp, rasters[i].ns,
+                                    rasters[i].nt, band);
+    };
+    for (std::size_t i = 0; i < sections.size(); ++i) rasters[i] = plane_raster(sections[i].pose, res.origin, box_hi, sp);
+    // plane_slope reads the neighbours' distances: every section's held at once only then.
+    std::vector<Grid2d> dists(params.plane_slope ? sections.size() : 0);
+    if (params.plane_slope) tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) { dists[i] = distances(i); });
     tbb::parallel_for(std::size_t(0), sections.size(), [&](std::size_t i) {
       const PlanePose& pose = sections[i].pose;
       const auto [pmin, ns, nt] = rasters[i];
-      const Grid2d d = params.plane_slope ? slope_corrected(sections, rasters, dists, i, sp, band) : dists[i];
+      const Grid2d d = params.plane_slope ? slope_corrected(sections, rasters, dists, i, sp, band) : distances(i);
       const double eps = 1e-9 * h;
       const double wplane = params.plane_weight * (sp / h) * (sp / h);
       auto& out = per[i];
