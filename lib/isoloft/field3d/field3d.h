@@ -169,8 +169,9 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "the nearest parallel sections on either side: an estimate of the 3D distance, which the bi-Laplacian "
             "interpolates between planes without the in-plane distance's inward bias"),
       field("band_per_gap", &Field3dParams::band_per_gap, "",
-            "band at least this times the median gap between neighbouring parallel sections (0: band alone)",
-            at_least(0)),
+            "band at least this times the median gap between neighbouring parallel sections (0: band alone; at "
+            "most 8 gaps, 6x the pixel default: an unbounded band made a run that never ends)",
+            between(0, 8)),
       field("pixel_signs", &Field3dParams::pixel_signs, "",
             "pixel input: every pixel centre of a label image kept on its drawn side (inside f >= sign_margin, "
             "outside f <= -sign_margin) by an active set of penalty samples"),
@@ -201,8 +202,8 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "marker2006 in distance and angle against 7 without; ellipsoid 8:1 0.161 -> 0.076 px)"),
       field("pixel_band_per_gap", &Field3dParams::pixel_band_per_gap, "",
             "pixel input: band_per_gap instead of field3d.band_per_gap (1.25: band 20 at 16 px slices, where 16 "
-            "left the ellipsoid 0.35 px inside midway and 24 broke the torus)",
-            at_least(0)),
+            "left the ellipsoid 0.35 px inside midway and 24 broke the torus; at most 8 as band_per_gap)",
+            between(0, 8)),
       field("pixel_resolution", &Field3dParams::pixel_resolution, "cells",
             "pixel input: grid cells along the box's longest side instead of field3d.resolution; 0: one cell per "
             "pixel (a finer grid gained nothing on the mask kit and cost up to 50x the time)",
