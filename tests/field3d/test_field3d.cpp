@@ -159,6 +159,25 @@ TEST(Field3d, ConjugateGradientsMatchDirectTwin) {
   EXPECT_GT(cg.iterations, 0);
 }
 
+/// The band rows end at 1024 cells: 1e308 ran without end. The refusal
+/// names the row; 1024 itself runs.
+TEST(Field3d, BandRowsRefuseUnboundedBands) {
+  const std::vector<Section> sections = twin_sections();
+  for (const char* row : {"band", "pixel_band"}) {
+    Field3dParams p = twin_params(1);
+    double& band = std::string(row) == "band" ? p.band : p.pixel_band;
+    band = 1e308;
+    try {
+      (void)reconstruct_sections(sections, 1, p);
+      ADD_FAILURE() << row << " 1e308 accepted";
+    } catch (const ParamError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(std::string(row) + ":", 0), 0u) << e.what();  // the message starts with the row
+    }
+    band = 1024;
+    EXPECT_FALSE(reconstruct_sections(sections, 1, p).mesh.empty()) << row;
+  }
+}
+
 /// Largest distance from a vertex of `a` to the surface of `b`, mm.
 double one_sided_max(const TriMesh& a, const TriMesh& b) {
   std::vector<Vec3d> pts;

@@ -118,8 +118,9 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             at_least(0)),
       field("band", &Field3dParams::band, "cells",
             "in-plane distances clamped to +-band: crossing planes disagree by at most this; 8 beat 3 on the OReX "
-            "tuning sets (eight_15 Chamfer 0.20 -> 0.11 %, balloondog 2 -> 1 component)",
-            above(0)),
+            "tuning sets (eight_15 Chamfer 0.20 -> 0.11 %, balloondog 2 -> 1 component); at most 1024 (resolution's "
+            "own bound: a wider band clamps nothing on such a grid; 1e308 ran without end, 1e6 took 14x 16's time)",
+            Range{0, 1024, true, false}),
       field("smoothness", &Field3dParams::smoothness, "",
             "weight of the bi-Laplacian energy against the plane samples (tuned on eight_15, eight_20, balloondog)",
             above(0)),
@@ -181,8 +182,8 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             between(0, 8)),
       field("pixel_band", &Field3dParams::pixel_band, "cells",
             "pixel input: the band instead of field3d.band (a cell is at most a pixel); 16 beat 8 and 32 on the mask "
-            "kit (torus 16:1 mean distance 1.25 px at 32, 0.15 at 16)",
-            above(0)),
+            "kit (torus 16:1 mean distance 1.25 px at 32, 0.15 at 16); at most 1024 as band",
+            Range{0, 1024, true, false}),
       field("pixel_contour_weight", &Field3dParams::pixel_contour_weight, "per cell",
             "pixel input: the contour weight instead of field3d.contour_weight (the boundary is smoothed; the sign "
             "constraints keep the pixels)",
