@@ -159,8 +159,9 @@ TEST(Field3d, ConjugateGradientsMatchDirectTwin) {
   EXPECT_GT(cg.iterations, 0);
 }
 
-/// The band rows end at 1024 cells: 1e308 ran without end. The refusal
-/// names the row; 1024 itself runs.
+/// The band rows end at kMaxGridCells: 1e308 ran without end. The refusal
+/// names the row; the bound itself passes (and runs: these sections are
+/// polylines, so `band` is the one used).
 TEST(Field3d, BandRowsRefuseUnboundedBands) {
   const std::vector<Section> sections = twin_sections();
   for (const char* row : {"band", "pixel_band"}) {
@@ -173,7 +174,7 @@ TEST(Field3d, BandRowsRefuseUnboundedBands) {
     } catch (const ParamError& e) {
       EXPECT_EQ(std::string(e.what()).rfind(std::string(row) + ":", 0), 0u) << e.what();  // the message starts with the row
     }
-    band = 1024;
+    band = kMaxGridCells;
     EXPECT_FALSE(reconstruct_sections(sections, 1, p).mesh.empty()) << row;
   }
 }

@@ -63,6 +63,11 @@
 
 namespace isoloft {
 
+/// The most cells the grid rows (resolution, pixel_resolution) ask for along
+/// a side, and the widest band (64x the tuned 16): an unbounded band made
+/// a run that never ends.
+inline constexpr double kMaxGridCells = 1024;
+
 struct Field3dParams {
   int resolution = 96;
   double margin = 0.1;
@@ -111,16 +116,16 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
       field("resolution", &Field3dParams::resolution, "cells",
             "grid cells along the box's longest side (96: armadillo's 26 planes within 5 s on 2 threads); polyline "
             "input only, pixel input follows pixel_resolution",
-            between(4, 1024)),
+            between(4, kMaxGridCells)),
       field("margin", &Field3dParams::margin, "",
             "box margin around the contours, share of their bounding-box diagonal (room for caps beyond the "
             "outermost contours)",
             at_least(0)),
       field("band", &Field3dParams::band, "cells",
             "in-plane distances clamped to +-band: crossing planes disagree by at most this; 8 beat 3 on the OReX "
-            "tuning sets (eight_15 Chamfer 0.20 -> 0.11 %, balloondog 2 -> 1 component); at most 1024 (resolution's "
-            "own bound: a wider band clamps nothing on such a grid; 1e308 ran without end, 1e6 took 14x 16's time)",
-            Range{0, 1024, true, false}),
+            "tuning sets (eight_15 Chamfer 0.20 -> 0.11 %, balloondog 2 -> 1 component); at most 1024 "
+            "(kMaxGridCells; 1e308 ran without end, 1e6 took 14x 16's time on a 64 px sphere)",
+            Range{0, kMaxGridCells, true, false}),
       field("smoothness", &Field3dParams::smoothness, "",
             "weight of the bi-Laplacian energy against the plane samples (tuned on eight_15, eight_20, balloondog)",
             above(0)),
@@ -183,7 +188,7 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
       field("pixel_band", &Field3dParams::pixel_band, "cells",
             "pixel input: the band instead of field3d.band (a cell is at most a pixel); 16 beat 8 and 32 on the mask "
             "kit (torus 16:1 mean distance 1.25 px at 32, 0.15 at 16); at most 1024 as band",
-            Range{0, 1024, true, false}),
+            Range{0, kMaxGridCells, true, false}),
       field("pixel_contour_weight", &Field3dParams::pixel_contour_weight, "per cell",
             "pixel input: the contour weight instead of field3d.contour_weight (the boundary is smoothed; the sign "
             "constraints keep the pixels)",
@@ -208,7 +213,7 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
       field("pixel_resolution", &Field3dParams::pixel_resolution, "cells",
             "pixel input: grid cells along the box's longest side instead of field3d.resolution; 0: one cell per "
             "pixel (a finer grid gained nothing on the mask kit and cost up to 50x the time)",
-            between(0, 1024)),
+            between(0, kMaxGridCells)),
       field("stack_spacing", &Field3dParams::stack_spacing, "cells",
             "on a parallel stack (every section normal to one grid axis), the solve's spacing along that axis: the "
             "planes' spacing split into steps of at most this many cells, each plane on a node; the field is then "
