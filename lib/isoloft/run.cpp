@@ -447,6 +447,29 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   return r;
 }
 
+namespace {
+// One object's field3d solve; lengths in mm (`s` mm per working unit).
+nlohmann::json field3d_report(const Field3dStats& f, double s) {
+  return {{"grid_nodes", f.grid},
+          {"solve_nodes", f.solve_nodes},
+          {"samples", f.samples},
+          {"iterations", f.iterations},
+          {"finest_iterations", f.finest_iterations},
+          {"multigrid_levels", f.multigrid_levels},
+          {"relative_residual", f.relative_residual},
+          {"sign_points", f.sign_points},
+          {"sign_active", f.sign_active},
+          {"sign_violated", f.sign_violated},
+          {"sign_passes", f.sign_passes},
+          {"conflicts", f.conflicts},
+          {"largest_conflict_mm", f.largest_conflict * s},
+          {"planes", f.planes},
+          {"plane_mesh_to_drawn_max_mm", f.mesh_to_drawn * s},
+          {"plane_drawn_to_mesh_max_mm", f.drawn_to_mesh * s},
+          {"seconds", f.seconds}};
+}
+}  // namespace
+
 nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method method) {
   nlohmann::json objects = nlohmann::json::array();
   for (const auto& o : r.objects) {
@@ -478,6 +501,7 @@ nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method metho
                   {"fallback_slices", ob.fit.fallback_slices},
                   {"sign_guarded_pixels", ob.fit.sign_guarded_pixels},
                   {"sign_guarded_slices", ob.fit.sign_guarded_slices}};
+    if (ob.field3d) j["field3d"] = field3d_report(*ob.field3d, s);
     objects.push_back(std::move(j));
   }
   return objects;

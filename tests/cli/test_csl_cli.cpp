@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "cli/cli_test_util.h"
+#include "isoloft/field3d/field3d.h"
 #include "isoloft/io/mesh_io.h"
 
 using namespace isoloft;
@@ -72,6 +73,22 @@ TEST_F(Cli, ReconstructsACslFileWithTheField3dMethod) {
   EXPECT_EQ(rep["input"]["planes"], 5);
   EXPECT_EQ(rep["params"]["method"], "field3d");
   EXPECT_TRUE(rep["objects"][0]["closed"].get<bool>());
+  // The solve's figures (objects[i].field3d): every plane checked, exact
+  // circles of one sphere never conflict, the solver stopped at its tolerance.
+  const auto& f = rep["objects"][0]["field3d"];
+  for (int a = 0; a < 3; ++a) EXPECT_GT(f["grid_nodes"][a].get<int>(), 1) << "axis " << a;
+  EXPECT_GT(f["samples"].get<long>(), 0);
+  EXPECT_GT(f["finest_iterations"].get<int>(), 0);
+  EXPECT_LE(f["finest_iterations"].get<int>(), f["iterations"].get<int>());
+  EXPECT_LE(f["relative_residual"].get<double>(), Field3dParams{}.tolerance);
+  EXPECT_EQ(f["conflicts"].get<int>(), 0);
+  EXPECT_EQ(f["planes"].get<int>(), 5);
+  // The mesh's section on each plane against the drawn circle: measured
+  // 0.001 mm (circles of radius 0.8-1 mm), so a hundredth of the radius.
+  constexpr double kPlaneResidual = 0.01 * kRadius;
+  EXPECT_LT(f["plane_mesh_to_drawn_max_mm"].get<double>(), kPlaneResidual);
+  EXPECT_LT(f["plane_drawn_to_mesh_max_mm"].get<double>(), kPlaneResidual);
+  EXPECT_GT(f["seconds"].get<double>(), 0);
 }
 
 // A CSL file's planes are not parallel slices: another method is refused,

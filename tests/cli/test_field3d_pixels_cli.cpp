@@ -120,6 +120,13 @@ TEST_F(Cli, Field3dReadsAMaskStack) {
   const auto rep = nlohmann::json::parse(in);
   EXPECT_TRUE(rep["objects"][0]["closed"].get<bool>());
   EXPECT_EQ(rep["objects"][0]["components"], 1);
+  // Pixel input's sign constraints in the report: pixel centres checked,
+  // those made penalties among them, none left on the wrong side.
+  const auto& f = rep["objects"][0]["field3d"];
+  EXPECT_EQ(f["planes"].get<int>(), 6);
+  EXPECT_GT(f["sign_points"].get<long>(), 0);
+  EXPECT_LE(f["sign_active"].get<long>(), f["sign_points"].get<long>());
+  EXPECT_EQ(f["sign_violated"].get<long>(), 0) << f.dump();
 }
 
 // The flags refused where they cannot apply, naming them; nothing written.

@@ -1614,6 +1614,30 @@ Grid2d slope_corrected(const std::vector<Section>& sections, const std::vector<P
 
 }  // namespace detail
 
+Field3dStats solve_stats(const Field3dResult& r, const std::vector<Field3dPlaneResidual>* planes) {
+  Field3dStats s;
+  s.grid = {r.nx, r.ny, r.nz};
+  s.solve_nodes = r.solve_nodes;
+  s.samples = r.samples;
+  s.iterations = r.iterations;
+  s.finest_iterations = r.finest_iterations;
+  s.multigrid_levels = r.multigrid_levels;
+  s.relative_residual = r.residual;
+  s.sign_points = r.sign_points;
+  s.sign_active = r.sign_active;
+  s.sign_violated = r.sign_violated;
+  s.sign_passes = r.sign_passes;
+  s.conflicts = r.conflicts.size();
+  for (const Field3dConflict& c : r.conflicts) s.largest_conflict = std::max(s.largest_conflict, c.size);
+  for (const Field3dPlaneResidual& p : planes ? *planes : r.planes) {
+    ++s.planes;
+    s.mesh_to_drawn = std::max(s.mesh_to_drawn, p.mesh_to_drawn);
+    s.drawn_to_mesh = std::max(s.drawn_to_mesh, p.drawn_to_mesh);
+  }
+  s.seconds = r.seconds;
+  return s;
+}
+
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
                                    const Field3dParams& params_in) {
   using namespace detail;

@@ -271,6 +271,29 @@ struct Field3dResult {
   double sign_seconds = 0;                   ///< wall time of the active set (checks and re-solves, field and mesh)
 };
 
+/// One field's solve, for a run's report (`objects[i].field3d`): the grid,
+/// the solver's work and residual, the sign constraints, the conflicts and
+/// how far the mesh lies from the drawn contours on the input planes.
+struct Field3dStats {
+  std::array<int, 3> grid{};         ///< Field3dResult::nx, ny, nz
+  std::array<int, 3> solve_nodes{};  ///< Field3dResult::solve_nodes
+  std::size_t samples = 0;
+  int iterations = 0, finest_iterations = 0, multigrid_levels = 0;
+  double relative_residual = 0;      ///< Field3dResult::residual
+  std::size_t sign_points = 0, sign_active = 0, sign_violated = 0;
+  int sign_passes = 0;
+  std::size_t conflicts = 0;
+  double largest_conflict = 0;       ///< mm (0: none)
+  std::size_t planes = 0;            ///< sections with a residual
+  double mesh_to_drawn = 0;          ///< largest over the planes (Field3dPlaneResidual), mm
+  double drawn_to_mesh = 0;          ///< largest over the planes, mm
+  double seconds = 0;                ///< the field's wall time
+};
+
+/// The report's figures of `r`; `planes` replaces r.planes where the mesh
+/// is not r's own (a partition's label meshed against its neighbours).
+Field3dStats solve_stats(const Field3dResult& r, const std::vector<Field3dPlaneResidual>* planes = nullptr);
+
 /// The surface of `label` from every section: one field over all planes.
 /// \throw ParamError for params out of range, or direct with a grid above kMaxDirectNodes;
 ///        InputError naming the section (Section::source) for a non-orthonormal pose,

@@ -177,13 +177,13 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
       Partition3dObject& ob = res.objects[group[k]];
       ob.label = labels[group[k]];
       ob.group = g;
-      ob.iterations = fields[k].iterations;
       ob.conflicts = fields[k].conflicts;
       ob.warnings = fields[k].warnings;
       if (group.size() == 1) {  // alone: reconstruct_sections()'s own surface and residuals
         ob.mesh = std::move(fields[k].mesh);
         ob.check = fields[k].check;
         ob.planes = std::move(fields[k].planes);
+        ob.stats = solve_stats(fields[k], &ob.planes);
         continue;
       }
       ob.mesh = partition_mesh(fields, k, p.band);
@@ -194,6 +194,7 @@ Partition3dResult reconstruct_partition(const std::vector<Section>& sections, co
         ob.planes[i] = plane_section_distance(ob.mesh, sections[i].pose, polys[i]);
         ob.planes[i].section = i;
       }
+      ob.stats = solve_stats(fields[k], &ob.planes);
     }
   }
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -45,7 +45,7 @@ struct Partition3dObject {
   std::size_t group = 0;                     ///< index into Partition3dResult::groups
   std::vector<Field3dConflict> conflicts;    ///< its field's, as reconstruct_sections() finds them
   std::vector<std::string> warnings;         ///< one per conflict
-  int iterations = 0;                        ///< conjugate-gradient iterations of its field
+  Field3dStats stats;                        ///< its field's solve; the planes those of `mesh`
 };
 
 struct Partition3dResult {

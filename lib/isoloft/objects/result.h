@@ -14,6 +14,7 @@
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
 #include "isoloft/eval/point_mesh.h"
+#include "isoloft/field3d/field3d.h"
 #include "isoloft/fit/mpu.h"
 #include "isoloft/mesh/mesh_check.h"
 
@@ -57,6 +58,8 @@ struct ObjectResult {
   /// empty neighbour, spline knots and tangents (bounded by the window unless
   /// the natural spline or an empty slice needs more; docs/decisions.md).
   long peak_resident_fields = 0;
+  /// field3d: its field's solve (the run's report); unset for the column methods.
+  std::optional<Field3dStats> field3d;
 };
 
 /// One slice's intermediate fields (marker2006), for --dump-stages.

@@ -219,6 +219,7 @@ ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructPa
       Partition3dObject p = in.partition->take(o.sections, o.label, params.field3d, o.pixel, r.times.interp, before);
       ob.mesh = std::move(p.mesh);
       ob.check = p.check;
+      ob.field3d = p.stats;
       for (auto& w : p.warnings) r.warnings.push_back(std::move(w));
     } else {
       const Field3dParams fp = o.pixel > 0 ? pixel_params(o.sections, o.label, o.pixel, params.field3d) : params.field3d;
@@ -226,6 +227,7 @@ ReconstructResult reconstruct_field3d(const MethodInput& in, const ReconstructPa
       Field3dResult f = reconstruct_sections(o.sections, o.label, fp);
       ob.mesh = std::move(f.mesh);
       ob.check = f.check;
+      ob.field3d = solve_stats(f);
       r.times.interp += f.seconds;
       for (auto& w : f.warnings) r.warnings.push_back(std::move(w));
     }
