@@ -26,6 +26,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "isoloft/field3d/image_sections.h"
@@ -125,7 +126,14 @@ int main(int argc, char** argv) {
       sp.size = size;
       sp.z_spacing = ratio;
       sp.kind = kind;
-      const SynthResult syn = synthesize(*make_default_shape(shape_name, size), sp);
+      std::optional<SynthResult> made;
+      try {
+        made = synthesize(*make_default_shape(shape_name, size), sp);
+      } catch (const ParamError& e) {  // e.g. the 64 px torus at 16:1 meets fewer than 2 slices: the row is left out
+        std::cerr << shape_name << " " << ratio << ":1 skipped: " << e.what() << "\n";
+        continue;
+      }
+      const SynthResult& syn = *made;
       const double z0 = syn.stack.slices.front().z, z1 = syn.stack.slices.back().z;
       std::ostringstream key;
       key << shape_name << " " << ratio << ":1";

@@ -179,6 +179,33 @@ TEST(Field3d, BandRowsRefuseUnboundedBands) {
   }
 }
 
+/// The per-gap plane weight rows: out of range refused naming the row; on
+/// polylines the pixel row is not read (the field keeps its bytes) and the
+/// general one, off by default, acts when set.
+TEST(Field3d, PlaneWeightPerGapRowsBoundedAndPolylinesKeepTheirField) {
+  const auto s = sphere();
+  const std::vector<Section> sections = analytic_sections(*s, parallel_poses(*s, 6), kSectionPixel);
+  for (const char* row : {"plane_weight_per_gap", "pixel_plane_weight_per_gap"})
+    for (double bad : {-1.0, 1e308}) {
+      Field3dParams p = twin_params(1);
+      (std::string(row) == "plane_weight_per_gap" ? p.plane_weight_per_gap : p.pixel_plane_weight_per_gap) = bad;
+      try {
+        (void)reconstruct_sections(sections, 1, p);
+        ADD_FAILURE() << row << " " << bad << " accepted";
+      } catch (const ParamError& e) {
+        EXPECT_EQ(std::string(e.what()).rfind(std::string(row) + ":", 0), 0u) << e.what();
+      }
+    }
+  const Field3dParams base = twin_params(1);
+  const Field3dResult plain = reconstruct_sections(sections, 1, base);
+  Field3dParams pixel_row = base;
+  pixel_row.pixel_plane_weight_per_gap = 1;
+  EXPECT_EQ(reconstruct_sections(sections, 1, pixel_row).field, plain.field);
+  Field3dParams general_row = base;
+  general_row.plane_weight_per_gap = 1;
+  EXPECT_NE(reconstruct_sections(sections, 1, general_row).field, plain.field);
+}
+
 /// Largest distance from a vertex of `a` to the surface of `b`, mm.
 double one_sided_max(const TriMesh& a, const TriMesh& b) {
   std::vector<Vec3d> pts;

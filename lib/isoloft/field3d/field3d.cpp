@@ -1647,7 +1647,10 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
 
   const SectionGrid grid = section_grid(sections, label, params_in);
   Field3dParams params = params_in;
-  if (params.band_per_gap > 0) params.band = std::max(params.band, params.band_per_gap * median_gap(sections) / grid.h);
+  const double gap = median_gap(sections) / grid.h;  // cells
+  if (params.band_per_gap > 0) params.band = std::max(params.band, params.band_per_gap * gap);
+  // The planes' data per unit volume falls as 1 / gap against the bi-Laplacian's: plane_weight_per_gap keeps it.
+  params.plane_weight = std::max(params.plane_weight, params.plane_weight_per_gap * gap);
   const std::vector<std::vector<Polyline>>& polys = grid.polys;
   const double diag = grid.diag, h = grid.h;
   const std::array<int, 3>& cells = grid.cells;

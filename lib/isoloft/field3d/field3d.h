@@ -91,6 +91,7 @@ struct Field3dParams {
   double stack_spacing = 1.0;
   bool plane_slope = false;
   double band_per_gap = 0.0;
+  double plane_weight_per_gap = 0.0;
   bool pixel_signs = true;
   double pixel_sigma = 1.0;
   double pixel_band = 16.0;
@@ -101,6 +102,7 @@ struct Field3dParams {
   int pixel_resolution = 0;
   bool pixel_slope = true;
   double pixel_band_per_gap = 1.25;
+  double pixel_plane_weight_per_gap = 0.0;
   /// The box (world mm, low and high corners) the grid covers before its
   /// margin, instead of the label's contours' box: labels solved on one box
   /// get one grid (field3d/partition3d.h). Not a parameter row (no flag).
@@ -178,6 +180,11 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "band at least this times the median gap between neighbouring parallel sections (0: band alone; at "
             "most 8 gaps, 6x the pixel default: an unbounded band made a run that never ends)",
             between(0, 8)),
+      field("plane_weight_per_gap", &Field3dParams::plane_weight_per_gap, "per cell^2 per cell",
+            "plane weight at least this times the median gap (cells) between neighbouring parallel sections: the "
+            "planes' data per unit volume falls as 1 / gap against the bi-Laplacian's, and this keeps it (0: "
+            "plane_weight alone; at most 1)",
+            between(0, 1)),
       field("pixel_signs", &Field3dParams::pixel_signs, "",
             "pixel input: every pixel centre of a label image kept on its drawn side (inside f >= sign_margin, "
             "outside f <= -sign_margin) by an active set of penalty samples"),
@@ -210,6 +217,10 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "pixel input: band_per_gap instead of field3d.band_per_gap (1.25: band 20 at 16 px slices, where 16 "
             "left the ellipsoid 0.35 px inside midway and 24 broke the torus; at most 8 as band_per_gap)",
             between(0, 8)),
+      field("pixel_plane_weight_per_gap", &Field3dParams::pixel_plane_weight_per_gap, "per cell^2 per cell",
+            "pixel input: plane_weight_per_gap instead of field3d.plane_weight_per_gap (0: off; 0.00625, weight 0.1 "
+            "at 16 px gaps, met marker2006 on all six 16:1 kit rows at 128 px, 8:1 and 64 px rows unmeasured)",
+            between(0, 1)),
       field("pixel_resolution", &Field3dParams::pixel_resolution, "cells",
             "pixel input: grid cells along the box's longest side instead of field3d.resolution; 0: one cell per "
             "pixel (a finer grid gained nothing on the mask kit and cost up to 50x the time)",

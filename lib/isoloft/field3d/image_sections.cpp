@@ -143,6 +143,7 @@ Field3dParams pixel_rows(Field3dParams params) {
   params.contour_weight = params.pixel_contour_weight;
   params.plane_slope = params.pixel_slope;
   params.band_per_gap = params.pixel_band_per_gap;
+  params.plane_weight_per_gap = params.pixel_plane_weight_per_gap;
   return params;
 }
 
