@@ -135,6 +135,9 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
     try {
       decimate_stage(plan.part(run, group[m]), plan.objects[group[m]]);
       check_stage(plan.part(run, group[m]), plan.objects[group[m]]);
+      ObjectResult& obj = plan.objects[group[m]];
+      const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
+      if (run.options.on_object && listed && obj.slices_with_contours > 0) run.options.on_object(obj);
     } catch (...) {
       errors[m] = std::current_exception();
     }
