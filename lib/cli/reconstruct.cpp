@@ -168,6 +168,7 @@ int Commands::reconstruct() {
   run.report_path = o.report;
   run.read_files = {{"--params", o.params_file}, {"--reference", o.reference}};
   run.allow_empty = o.allow_empty;
+  run.free_meshes = true;  // nothing below reads a mesh, only its counts
 
   std::unique_ptr<tbb::global_control> threads;
   if (o.threads > 0)
@@ -205,7 +206,7 @@ int Commands::reconstruct() {
     if (!rtstruct_out.empty()) std::cerr << "isoloft: wrote " << rtstruct_out << " (RT Structure Set)\n";
     for (const auto& ob : result.objects)
       if (!dcm_output)
-        std::cerr << "isoloft: wrote " << terminal_text(ob.file) << " (" << ob.object.mesh.triangles.size() << " triangles"
+        std::cerr << "isoloft: wrote " << terminal_text(ob.file) << " (" << ob.object.triangle_count() << " triangles"
                   << (ob.object.check.closed && ob.object.check.manifold ? ", closed manifold" : ", NOT closed manifold")
                   << ")\n";
     if (!dcm_output && several_outputs(in, result)) std::cerr << "isoloft: wrote " << o.output << " (all objects, coloured)\n";

@@ -100,7 +100,8 @@ Plan plan_objects(const Run& run) {
     }
     plan.parts[l].times.contour += seconds_since(t0);
     if (run.options.on_estimate && obj.slices_with_contours > 0)
-      run.options.on_estimate(detail::estimate_work(part, plan.masks[l], obj));
+      run.options.on_estimate(
+          detail::estimate_work(part, plan.masks[l], obj, partition ? detail::partition_slice_window(labels.size()) : 0));
   }
   for (std::size_t i = 0; i < asked.size(); ++i)
     plan.listed.push_back(partition ? std::size_t(std::find(labels.begin(), labels.end(), asked[i]) - labels.begin()) : i);
@@ -135,6 +136,9 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
     try {
       decimate_stage(plan.part(run, group[m]), plan.objects[group[m]]);
       check_stage(plan.part(run, group[m]), plan.objects[group[m]]);
+      ObjectResult& obj = plan.objects[group[m]];
+      const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
+      if (run.options.on_object && listed && obj.slices_with_contours > 0) run.options.on_object(obj);
     } catch (...) {
       errors[m] = std::current_exception();
     }

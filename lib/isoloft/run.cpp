@@ -236,7 +236,7 @@ void check_surfaces(const Inputs& in, const RunResult& r, bool allow_empty) {
     throw InputError(path, "nothing to reconstruct: no slice has an inside (a closed contour, or mask pixels)");
   if (allow_empty) return;
   for (const RunObject& ob : r.objects) {
-    if (!ob.object.mesh.triangles.empty()) continue;
+    if (ob.object.triangle_count() > 0) continue;
     const std::string& roi = in.jobs[ob.job].name;
     throw InputError(path, (roi.empty() ? "" : "ROI '" + roi + "': ") +
                                (ob.object.label ? "label " + std::to_string(ob.object.label) : "the surface") +
@@ -357,9 +357,15 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   auto activity = [&](const std::string& what) {
     if (o.activity) o.activity(what);
   };
+  // The output that writes each object once final, if the run may free the meshes.
+  RunOutput* streamer = nullptr;
+  if (o.free_meshes && std::none_of(o.outputs.begin(), o.outputs.end(), [](const auto& out) { return out->reads_meshes(); }))
+    for (const auto& out : o.outputs)
+      if (out->streams_objects(in)) streamer = out.get();
   // Per object, after its contour stage and before its fit: memory and files against the budget.
   const double in_bytes = input_bytes(in);
   // What the objects estimated so far hold at once: their meshes until written
+  // (streamed, each is freed once final: only a partition's are held together)
   // and, for a label partition (every label's fields streamed in lockstep),
   // their fields too. 16,384 labels of 2x2 px: 1.2 GiB of fields together.
   const bool joint_fields = params.label_partition && in.labels();
@@ -376,8 +382,10 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     check_budget(option_name("--max-memory"), what, in_bytes + e.field_bytes + e.mesh_bytes, o.budget.max_memory);
     {
       std::lock_guard lock(held_mutex);
-      held_bytes += e.mesh_bytes + (joint_fields ? e.field_bytes : 0.0);
-      if (!joint_fields) job_fields[&job - in.jobs.data()] = std::max(job_fields[&job - in.jobs.data()], e.field_bytes);
+      held_bytes += (streamer && !joint_fields ? 0.0 : e.mesh_bytes) + (joint_fields ? e.field_bytes : 0.0);
+      if (!joint_fields)  // streamed, the object's mesh is held only while it runs
+        job_fields[&job - in.jobs.data()] =
+            std::max(job_fields[&job - in.jobs.data()], e.field_bytes + (streamer ? e.mesh_bytes : 0.0));
       double in_flight = 0;
       for (const double b : job_fields) in_flight += b;
       check_budget(option_name("--max-memory"),
@@ -407,6 +415,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     r = run_jobs(in, params, o.labels, [&](std::size_t j, ReconstructOptions& ropt) {
       for (const auto& out : o.outputs) out->start_job(ctx, j, hooks[j]);
       hooks[j].apply(ropt);
+      if (streamer) ropt.on_object = [&, j](ObjectResult& ob) { as_output(files, streamer->option(), [&] { streamer->object_done(ctx, j, ob); }); };
       const Job& job = in.jobs[j];
       ropt.on_estimate = [&, j](const WorkEstimate& e) {
         check_object(in.jobs[j], e);
@@ -479,8 +488,8 @@ nlohmann::json objects_report(const Inputs& in, const RunResult& r, Method metho
     nlohmann::json j = {{"label", ob.label}, {"file", o.file}};
     if (!job.name.empty()) j["roi"] = job.name;
     if (ob.label && !in.label_name(ob.label).empty()) j["name"] = in.label_name(ob.label);
-    j["vertices"] = ob.mesh.vertices.size();
-    j["triangles"] = ob.mesh.triangles.size();
+    j["vertices"] = ob.vertex_count();
+    j["triangles"] = ob.triangle_count();
     j["triangles_before_decimation"] = ob.triangles_before_decimation;
     if (ob.contour_distance) j["contour_vertex_distance"] = ob.contour_distance->to_json(s);
     j["slices_with_contours"] = ob.slices_with_contours;

@@ -75,6 +75,10 @@ struct RunOptions {
   /// Files read besides the input (the --params file, a --reference): no output may replace them.
   std::vector<ReadFile> read_files;
   bool allow_empty = false;  ///< an object with no triangles is kept instead of an error
+  /// The mesh output may write each object once final and free its mesh
+  /// (RunOutput::streams_objects(); the result keeps its counts:
+  /// ObjectResult::vertex_count()), unless another output reads the meshes.
+  bool free_meshes = false;
   int threads = 0;           ///< worker threads (0 = all the environment allows)
   std::function<void(const RunProgress&)> progress;
   /// Every warning, once the jobs are done (before the surfaces are checked).

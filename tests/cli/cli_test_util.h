@@ -15,6 +15,7 @@
 
 #include "isoloft/core/grid.h"
 #include "isoloft/io/png.h"
+#include "isoloft/io/volume.h"
 
 namespace isoloft::test {
 
@@ -78,6 +79,23 @@ class Cli : public ::testing::Test {
 };
 
 /// The shared RT Structure Set (data/rtstruct).
+/// Two boxes, label 4 (12 x 10 voxels) and label 9 (6 x 14), on slices 1, 3,
+/// 5, 7 (1 x 1 x 2 mm voxels), as a label volume at `path`.
+inline void write_two_labels(const std::string& path) {
+  Volume v;
+  v.nx = 32, v.ny = 28, v.nz = 9;
+  v.spacing = {1.0, 1.0, 2.0};
+  v.integer = true;
+  v.data.assign(std::size_t(v.nx) * v.ny * v.nz, 0.0f);
+  for (int k = 1; k < 8; k += 2) {
+    for (int j = 6; j < 16; ++j)
+      for (int i = 4; i < 16; ++i) v.data[v.index(i, j, k)] = 4;
+    for (int j = 8; j < 22; ++j)
+      for (int i = 20; i < 26; ++i) v.data[v.index(i, j, k)] = 9;
+  }
+  write_volume(path, v);
+}
+
 inline const std::string kRtss = std::string(ISOLOFT_SOURCE_DIR) + "/data/rtstruct/rtss.dcm";
 
 }  // namespace isoloft::test

@@ -1,6 +1,8 @@
 #include "isoloft/io/mesh_io.h"
 
 #include <Eigen/Dense>
+#include <fcntl.h>
+#include <unistd.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <algorithm>
@@ -247,6 +249,98 @@ TriMesh merge_meshes(const std::vector<TriMesh>& parts, const std::vector<Rgb>& 
   std::vector<const TriMesh*> pointers;
   for (const TriMesh& p : parts) pointers.push_back(&p);
   return merge_meshes(pointers, part_colors, vertex_colors);
+}
+
+// ---------------------------------------------------------------- PlyPartWriter
+
+namespace {
+// Vertices or triangles moved between the scratch file and memory at once
+// (12 bytes each: 12 MiB): bounds what write() holds whatever the parts.
+constexpr std::size_t kSpillChunk = std::size_t(1) << 20;
+}  // namespace
+
+PlyPartWriter::PlyPartWriter(const std::string& scratch_dir) : dir_(scratch_dir.empty() ? "." : scratch_dir) {
+  std::string name = dir_ + "/.isoloft-parts-XXXXXX";
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) throw Error(dir_ + ": cannot make a scratch file (" + std::strerror(errno) + ")");
+  ::unlink(name.c_str());  // unnamed: nothing left behind, whatever ends the run
+  fp_ = ::fdopen(fd, "w+b");
+  if (!fp_) {
+    ::close(fd);
+    throw Error(dir_ + ": cannot open a scratch file (" + std::strerror(errno) + ")");
+  }
+}
+
+PlyPartWriter::~PlyPartWriter() {
+  if (fp_) std::fclose(fp_);
+}
+
+std::size_t PlyPartWriter::add(const TriMesh& m, const std::function<Vec3f(const Vec3f&)>& place, bool flip) {
+  auto put = [&](const void* data, std::size_t bytes) {
+    if (::fseeko(fp_, end_, SEEK_SET) != 0 || std::fwrite(data, 1, bytes, fp_) != bytes)
+      throw Error(dir_ + ": cannot write the scratch file of the combined mesh (" + std::strerror(errno) + ")");
+    end_ += std::int64_t(bytes);
+  };
+  parts_.push_back({end_, m.vertices.size(), m.triangles.size()});
+  std::vector<std::array<float, 3>> v;
+  for (std::size_t b = 0; b < m.vertices.size(); b += kSpillChunk) {
+    v.clear();
+    for (std::size_t i = b; i < std::min(m.vertices.size(), b + kSpillChunk); ++i) {
+      const Vec3f p = place(m.vertices[i]);
+      v.push_back({p.x(), p.y(), p.z()});
+    }
+    put(v.data(), v.size() * sizeof(v[0]));
+  }
+  std::vector<std::array<std::int32_t, 3>> t;
+  for (std::size_t b = 0; b < m.triangles.size(); b += kSpillChunk) {
+    t.clear();
+    for (std::size_t i = b; i < std::min(m.triangles.size(), b + kSpillChunk); ++i) {
+      const auto& a = m.triangles[i];
+      t.push_back(flip ? std::array<std::int32_t, 3>{a[0], a[2], a[1]} : std::array<std::int32_t, 3>{a[0], a[1], a[2]});
+    }
+    put(t.data(), t.size() * sizeof(t[0]));
+  }
+  return parts_.size() - 1;
+}
+
+void PlyPartWriter::write(const std::string& path, const std::vector<std::size_t>& order, const std::vector<Rgb>& colours,
+                          const std::string& space) const {
+  std::size_t nv = 0, nt = 0;
+  for (const std::size_t k : order) nv += parts_.at(k).vertices, nt += parts_.at(k).triangles;
+  if (nv > std::size_t(std::numeric_limits<std::int32_t>::max())) throw Error(path + ": too many vertices");
+  auto get = [&](std::int64_t at, void* data, std::size_t bytes) {
+    if (::fseeko(fp_, at, SEEK_SET) != 0 || std::fread(data, 1, bytes, fp_) != bytes)
+      throw Error(path + ": cannot read back the scratch file of its parts (" + std::strerror(errno) + ")");
+  };
+  AtomicFile file(path);
+  {
+    detail::Out o(path, file.temp_path());
+    detail::write_ply_header(o, nv, nt, true, false, space);
+    std::vector<std::array<float, 3>> v;
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      const Part& p = parts_[order[k]];
+      const Rgb c = colours.at(k);
+      for (std::size_t b = 0; b < p.vertices; b += kSpillChunk) {
+        v.resize(std::min(p.vertices - b, kSpillChunk));
+        get(p.offset + std::int64_t(b * sizeof(v[0])), v.data(), v.size() * sizeof(v[0]));
+        for (const auto& x : v) o.bin(x[0], x[1], x[2], c.r, c.g, c.b);
+      }
+    }
+    std::vector<std::array<std::int32_t, 3>> t;
+    std::int32_t first = 0;  // the part's first vertex in the file
+    for (const std::size_t k : order) {
+      const Part& p = parts_[k];
+      const std::int64_t at = p.offset + std::int64_t(p.vertices * sizeof(v[0]));
+      for (std::size_t b = 0; b < p.triangles; b += kSpillChunk) {
+        t.resize(std::min(p.triangles - b, kSpillChunk));
+        get(at + std::int64_t(b * sizeof(t[0])), t.data(), t.size() * sizeof(t[0]));
+        for (const auto& a : t) o.bin(std::uint8_t(3), a[0] + first, a[1] + first, a[2] + first);
+      }
+      first += std::int32_t(p.vertices);
+    }
+    o.close();
+  }
+  file.commit();
 }
 
 }  // namespace isoloft

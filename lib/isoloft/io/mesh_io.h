@@ -5,6 +5,8 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -94,5 +96,39 @@ TriMesh merge_meshes(const std::vector<TriMesh>& parts, const std::vector<Rgb>& 
 /// The same for parts held elsewhere (no copy of them), copied side by side.
 TriMesh merge_meshes(const std::vector<const TriMesh*>& parts, const std::vector<Rgb>& part_colors = {},
                      std::vector<Rgb>* vertex_colors = nullptr);
+
+/// A binary PLY of many parts written without holding them (a run's combined
+/// mesh, run/outputs.h): add() spills each part's vertices, as `place` puts
+/// them, and its triangles to an unnamed scratch file (gone with the writer or
+/// the process); write() joins the parts in the order given, each part's
+/// vertices in one colour: the bytes write_mesh() writes for merge_meshes()
+/// of the placed parts with those colours.
+class PlyPartWriter {
+ public:
+  /// \throw Error naming `scratch_dir` if no scratch file can be made there.
+  explicit PlyPartWriter(const std::string& scratch_dir);
+  ~PlyPartWriter();
+  PlyPartWriter(const PlyPartWriter&) = delete;
+  PlyPartWriter& operator=(const PlyPartWriter&) = delete;
+  /// Spills `m` (not thread-safe): vertex i as place(m.vertices[i]), each
+  /// triangle reversed if `flip`. \return the part's number (0, 1, ...).
+  /// \throw Error if the scratch file cannot be written (disk full).
+  std::size_t add(const TriMesh& m, const std::function<Vec3f(const Vec3f&)>& place, bool flip);
+  /// Writes `path` atomically: parts order[k] (add()'s numbers) coloured
+  /// colours[k]; `space` named in the header as write_mesh() does ("": none).
+  /// \throw Error naming `path` if writing fails or there are too many vertices.
+  void write(const std::string& path, const std::vector<std::size_t>& order, const std::vector<Rgb>& colours,
+             const std::string& space) const;
+
+ private:
+  struct Part {
+    std::int64_t offset = 0;
+    std::size_t vertices = 0, triangles = 0;
+  };
+  std::string dir_;
+  std::FILE* fp_ = nullptr;
+  std::int64_t end_ = 0;
+  std::vector<Part> parts_;
+};
 
 }  // namespace isoloft

@@ -198,6 +198,22 @@ void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::ui
   ++planes_;
 }
 
+namespace {
+
+// The mesh grows by a quarter, not by doubling: a label partition holds
+// every label's growing mesh at once (docs/decisions.md, large label
+// stacks), so unused capacity (a quarter at most, not a half) matters more
+// than the extra copies. Finish() shrinks it to size either way.
+constexpr std::size_t kMeshGrowthDivisor = 4;
+constexpr std::size_t kMeshMinGrowth = 1024;  // elements: small meshes grow without many copies
+
+template <class T>
+void grow_mesh_array(std::vector<T>& v) {
+  if (v.size() == v.capacity()) v.reserve(v.size() + v.size() / kMeshGrowthDivisor + kMeshMinGrowth);
+}
+
+}  // namespace
+
 void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std::vector<std::uint8_t>* active) {
   const int W = width_, H = height_;
   const float iso = params_.iso;
@@ -235,18 +251,22 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
         };
         const Vec3d p = pos(a) + t * (pos(b) - pos(a));
         id = std::int32_t(mesh_.vertices.size());
+        grow_mesh_array(mesh_.vertices);
         mesh_.vertices.push_back(p.cast<float>());
         return id;
       };
-      for (const auto& tri : detail::mc_case_triangles(mask))
-        mesh_.triangles.push_back({vertex(tri[0]), vertex(tri[1]), vertex(tri[2])});
+      for (const auto& tri : detail::mc_case_triangles(mask)) {
+        const std::array<std::int32_t, 3> t{vertex(tri[0]), vertex(tri[1]), vertex(tri[2])};
+        grow_mesh_array(mesh_.triangles);
+        mesh_.triangles.push_back(t);
+      }
     }
   }
 }
 
 TriMesh MarchingCubes::finish() {
   TriMesh out = std::move(mesh_);
-  // Grown by doubling: up to half of each array unused, held with the mesh until it is written.
+  // Grown by quarters (grow_mesh_array): up to a fifth of each array unused, held with the mesh until it is written.
   out.vertices.shrink_to_fit();
   out.triangles.shrink_to_fit();
   mesh_ = TriMesh{};

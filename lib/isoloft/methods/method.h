@@ -76,6 +76,7 @@ struct ZSchemeInput {
   int width = 0, height = 0;  ///< the crop box
   ZStream::NextKnot next;     ///< the knots' fields in z order, one per call
   ResidentCount* count = nullptr;  ///< counts the fields held
+  std::size_t block = 0;  ///< columns: intervals per ZStream block (0: kZStreamBlock)
 };
 
 /// A z scheme: the slice fields to the planes Marching Cubes reads.

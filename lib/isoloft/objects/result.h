@@ -60,6 +60,20 @@ struct ObjectResult {
   long peak_resident_fields = 0;
   /// field3d: its field's solve (the run's report); unset for the column methods.
   std::optional<Field3dStats> field3d;
+
+  /// ReconstructOptions::on_object wrote the mesh and freed it: its counts
+  /// stay here (vertex_count(), triangle_count()).
+  bool mesh_freed = false;
+  std::size_t freed_vertices = 0, freed_triangles = 0;
+
+  [[nodiscard]] std::size_t vertex_count() const { return mesh_freed ? freed_vertices : mesh.vertices.size(); }
+  [[nodiscard]] std::size_t triangle_count() const { return mesh_freed ? freed_triangles : mesh.triangles.size(); }
+  /// After its mesh is written: the memory returned, its counts kept.
+  void free_mesh() {
+    if (!mesh_freed) freed_vertices = mesh.vertices.size(), freed_triangles = mesh.triangles.size();
+    mesh_freed = true;
+    mesh = TriMesh{};
+  }
 };
 
 /// One slice's intermediate fields (marker2006), for --dump-stages.
@@ -113,6 +127,10 @@ struct ReconstructOptions {
   /// Every slice field computed over the whole crop box, not only where it
   /// can reach the mesh (the same mesh bit for bit; methods/columns/field_band.h).
   bool whole_fields = false;
+  /// Each object asked for, once final (decimated and checked), from worker
+  /// threads; it may write the mesh and free it (ObjectResult::free_mesh()).
+  /// Called by the columns family (methods with a family of their own do not).
+  std::function<void(ObjectResult&)> on_object;
 };
 
 struct ReconstructResult {

@@ -41,6 +41,8 @@ std::size_t slice_window() { return kSlicesPerThread * std::size_t(std::max(1, t
 
 std::size_t slices_in_flight() { return 2 * slice_window(); }
 
+std::size_t partition_slice_window(std::size_t labels) { return std::max<std::size_t>(1, slice_window() / std::max<std::size_t>(1, labels)); }
+
 SliceMasks slice_masks(const SliceStack& stack, const Slice& s, const ReconstructParams& p, std::uint32_t label) {
   SliceMasks m;
   if (stack.has_polygons()) {

@@ -40,6 +40,12 @@ std::size_t slice_window();
 /// out, and the next computing while it is meshed (2 x slice_window()).
 std::size_t slices_in_flight();
 
+/// Slices computed at once per label of a label partition of `labels`:
+/// slice_window() shared among them, at least 1. Its labels' streams are
+/// pulled side by side, so each needs no window of its own (docs/decisions.md,
+/// large label stacks). The fields are the same.
+std::size_t partition_slice_window(std::size_t labels);
+
 /// The part of g inside b (b within g).
 template <class T>
 Grid2<T> crop(const Grid2<T>& g, const PixelBox& b) {

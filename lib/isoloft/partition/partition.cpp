@@ -22,6 +22,13 @@ namespace isoloft::detail {
 
 namespace {
 
+// Intervals per z block of every label's and the union's columns stream
+// (kZStreamBlock alone: 8): streamed in lockstep, every label holds its
+// block's knots and tangents at once, (block + 2 reach + 1) x 2 fields, so a
+// short block bounds the partition's fields; its tangents are recomputed
+// over more overlap (the same values: the same knots within reach).
+constexpr std::size_t kPartitionZBlock = 2;
+
 // What bounds a label's partition field psi_l = phi_l - max(phi_m (m != l),
 // -phi_union) over a knot interval, for cell skipping: the background's
 // competitor is -phi_union, so psi_l <= phi_l + phi_union, and a cell is
@@ -139,7 +146,9 @@ class UnionStream {
   UnionStream(const Run& run, ObjectResult& obj, std::size_t labels)
       : run_(run), obj_(obj), labels_(labels), z_(knot_z(run)) {
     stream_ = z_scheme_spec(run.params.z_scheme)
-                  .make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, run.params);
+                  .make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_,
+                                     kPartitionZBlock},
+                        run.params);
   }
   [[nodiscard]] PlaneSource& field() { return *stream_; }
 
@@ -218,7 +227,8 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
   for (std::size_t l = 0; l < labels; ++l)
     streams[l] = std::make_unique<ObjectStream>(
         objects[l].run, objects[l].obj, std::move(objects[l].masks),
-        [&uni, box = boxes[l]](std::size_t i, const Grid2f& f) { uni.deposit(i, f, box); });
+        [&uni, box = boxes[l]](std::size_t i, const Grid2f& f) { uni.deposit(i, f, box); }, std::nullopt,
+        partition_slice_window(labels), kPartitionZBlock);
   const std::vector<double>& knots = streams[0]->knots();
   // Heights in order: every plane, and every sample height within the knots.
   struct Height {

@@ -351,8 +351,57 @@ std::vector<PlannedFile> MeshOutput::planned_files(const Inputs& in, const std::
   return out;
 }
 
+MeshOutput::~MeshOutput() = default;
+
+bool MeshOutput::streams_objects(const Inputs& in) const {
+  // Labels of an image stack: several files whatever the count, and the
+  // volume table reads no mesh (its end caps are measured on polygon stacks).
+  // A device or FIFO is written in place: no folder for the scratch file.
+  return in.labels() && !in.first().has_polygons() && !ascii_ && mesh_format_from_path(path_) == MeshFormat::Ply &&
+         output_node(path_) != OutputNode::Stream;
+}
+
+void MeshOutput::stream_object(const RunContext& ctx, std::size_t job, const ObjectResult& ob) {
+  const MeshWriteOptions mo = run_mesh_options(ctx.in, ascii_);
+  RunObject named{job, {}, {}, {}};
+  named.object.label = ob.label;
+  const std::string staged = ctx.files.stage(with_suffix(path_, object_suffix(ctx.in, job, ob.label)));
+  write_mesh(staged, ob.mesh, object_mesh_options(ctx.in, named, mo));
+  if (!parts_) parts_ = std::make_unique<PlyPartWriter>(fs::path(staged).parent_path().string());  // its folder exists now
+  // As write_run_meshes() places the combined mesh: each part through its
+  // job's frame (place_parts()), then as write_mesh() writes it.
+  const std::optional<PatientFrame>& patient = ctx.in.jobs[job].stack.patient;
+  const std::optional<PatientFrame> part = mo.frame && patient ? std::optional(placing_frame(*patient)) : std::nullopt;
+  const auto place = [&](const Vec3f& v) -> Vec3f {
+    if (mo.frame) return patient_point(*mo.frame, mo.ras, part ? patient_point(*part, false, v) : v);
+    return mo.scale == 1.0 ? v : Vec3f((v.cast<double>() * mo.scale).cast<float>());
+  };
+  spilled_[{job, ob.label}] = parts_->add(ob.mesh, place, part && part->axes.determinant() < 0);
+}
+
+void MeshOutput::object_done(const RunContext& ctx, std::size_t job, ObjectResult& ob) {
+  const std::lock_guard lock(mutex_);
+  if (spilled_.count({job, ob.label})) return;  // a label asked twice: written once
+  stream_object(ctx, job, ob);
+  ob.free_mesh();
+}
+
 void MeshOutput::finish(const RunContext& ctx, RunResult& r) {
-  write_run_meshes(path_, ctx.in, r, run_mesh_options(ctx.in, ascii_), [&](const std::string& p) { return ctx.files.stage(p); });
+  if (parts_) {  // streamed: the objects not yet written (methods that call no object_done()), then the join
+    std::vector<std::size_t> order;
+    std::vector<Rgb> colours;
+    for (RunObject& o : r.objects) {
+      if (!spilled_.count({o.job, o.object.label})) stream_object(ctx, o.job, o.object);
+      o.file = with_suffix(path_, object_suffix(ctx.in, o.job, o.object.label));
+      order.push_back(spilled_.at({o.job, o.object.label}));
+      colours.push_back(o.colour);
+    }
+    const MeshWriteOptions mo = run_mesh_options(ctx.in, ascii_);
+    parts_->write(ctx.files.stage(path_), order, colours, mo.frame ? (mo.ras ? "RAS" : "LPS") : "");
+    parts_.reset();
+  } else {
+    write_run_meshes(path_, ctx.in, r, run_mesh_options(ctx.in, ascii_), [&](const std::string& p) { return ctx.files.stage(p); });
+  }
   files_.clear();
   for (const auto& o : r.objects) files_.push_back(o.file);
   if (several_outputs(ctx.in, r)) files_.push_back(path_);

@@ -205,6 +205,14 @@ class RunOutput {
   [[nodiscard]] virtual std::string output_directory() const { return {}; }
   /// Said after the object in a --max-output error (" with --volume").
   [[nodiscard]] virtual std::string budget_note() const { return {}; }
+  /// Whether finish() reads the objects' meshes (then none is freed before it).
+  [[nodiscard]] virtual bool reads_meshes() const { return false; }
+  /// Whether it writes each object once final (object_done()) and frees its
+  /// mesh, when the run allows (RunOptions::free_meshes). At most one output does.
+  [[nodiscard]] virtual bool streams_objects(const Inputs&) const { return false; }
+  /// An object final (decimated, checked), from worker threads: written now
+  /// (staged), its mesh freed.
+  virtual void object_done(const RunContext&, std::size_t /*job*/, ObjectResult&) {}
   /// After every job, the surfaces checked: writes what it holds (staged).
   virtual void finish(const RunContext&, RunResult&) {}
   /// Adds to the run's report.
@@ -213,22 +221,33 @@ class RunOutput {
   [[nodiscard]] virtual std::vector<std::string> files() const = 0;
 };
 
-/// -o: the meshes, written at the end (write_run_meshes).
+/// -o: the meshes, written at the end (write_run_meshes); or, streamed
+/// (labels of an image stack to binary PLY), each label's file written once
+/// it is final and its mesh freed, its part of the combined file spilled
+/// (PlyPartWriter) and the combined file joined at the end: the same bytes.
 class MeshOutput final : public RunOutput {
  public:
   /// \throw ParamError for an unknown mesh extension.
   explicit MeshOutput(std::string path, bool ascii = false);
+  ~MeshOutput() override;
   [[nodiscard]] std::string option() const override { return "-o"; }
   [[nodiscard]] std::string target() const override { return path_; }
   [[nodiscard]] double file_bytes(const Inputs&, const WorkEstimate& e) const override;
   [[nodiscard]] std::vector<PlannedFile> planned_files(const Inputs& in, const std::vector<PlannedObject>& objects) const override;
+  [[nodiscard]] bool streams_objects(const Inputs& in) const override;
+  void object_done(const RunContext& ctx, std::size_t job, ObjectResult& ob) override;
   void finish(const RunContext& ctx, RunResult& r) override;
   [[nodiscard]] std::vector<std::string> files() const override { return files_; }
 
  private:
+  // Writes object (job, ob)'s own file and spills its part (mutex_ held).
+  void stream_object(const RunContext& ctx, std::size_t job, const ObjectResult& ob);
   std::string path_;
   bool ascii_;
   std::vector<std::string> files_;
+  std::mutex mutex_;                                         // object_done() runs on worker threads
+  std::unique_ptr<PlyPartWriter> parts_;                     // the combined file's parts, once one is streamed
+  std::map<std::pair<std::size_t, std::uint32_t>, std::size_t> spilled_;  // (job, label) -> its part
 };
 
 /// --volume: each object's interpolated signed distance volume (float NRRD,

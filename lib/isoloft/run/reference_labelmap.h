@@ -71,6 +71,7 @@ class ReferenceLabelmapOutput final : public RunOutput {
   ~ReferenceLabelmapOutput() override;
   [[nodiscard]] std::string option() const override { return "--labelmap"; }
   [[nodiscard]] std::string target() const override { return path_; }
+  [[nodiscard]] bool reads_meshes() const override { return true; }  // an object beyond the grid: its vertices
   /// \throw ParamError unless the input has a patient frame (an RT Structure Set or a volume).
   void check_format(InputFormat format) const override;
   /// \throw InputError naming the reference if a DICOM reference's frame of

@@ -120,6 +120,7 @@ class RtStructOutput final : public RunOutput {
                           std::string contours_csv = "");
   [[nodiscard]] std::string option() const override { return option_; }
   [[nodiscard]] std::string target() const override { return path_; }
+  [[nodiscard]] bool reads_meshes() const override { return true; }  // its contours are the meshes' sections
   /// \throw ParamError unless the input is an RT Structure Set or a volume.
   void check_format(InputFormat format) const override;
   /// \throw InputError naming the volume and the option if its slices are

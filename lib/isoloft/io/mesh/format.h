@@ -116,6 +116,9 @@ inline std::uint32_t cell_label(const MeshOut& m, std::size_t t) { return m.labe
 Vec3f facet_normal(const Vec3f& a, const Vec3f& b, const Vec3f& c);
 
 void write_ply(const std::string& path, Out& o, const MeshOut& m);
+/// The PLY header write_ply() writes (PlyPartWriter shares it).
+void write_ply_header(Out& o, std::size_t vertices, std::size_t triangles, bool colors, bool ascii,
+                      const std::string& space);
 void write_obj(const std::string& path, Out& o, const MeshOut& m);
 void write_stl(const std::string& path, Out& o, const MeshOut& m);
 void write_off(const std::string& path, Out& o, const MeshOut& m);

@@ -13,16 +13,21 @@
 
 namespace isoloft::detail {
 
+void write_ply_header(Out& o, std::size_t vertices, std::size_t triangles, bool colors, bool ascii,
+                      const std::string& space) {
+  o.text("ply\nformat ", ascii ? "ascii" : "binary_little_endian", " 1.0\ncomment written by isoloft\n");
+  if (!space.empty()) o.text("comment SPACE=", space, '\n');
+  o.text("element vertex ", vertices, "\nproperty float x\nproperty float y\nproperty float z\n");
+  if (colors) o.text("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+  o.text("element face ", triangles, "\nproperty list uchar int vertex_indices\nend_header\n");
+}
+
 void write_ply(const std::string& /*path*/, Out& o, const MeshOut& mo) {
   const TriMesh& m = mo.mesh;
   const Scaled& v = mo.vertices;
   const std::vector<Rgb>* colors = mo.colors;
   const bool ascii = mo.ascii;
-  o.text("ply\nformat ", ascii ? "ascii" : "binary_little_endian", " 1.0\ncomment written by isoloft\n");
-  if (!mo.space.empty()) o.text("comment SPACE=", mo.space, '\n');
-  o.text("element vertex ", m.vertices.size(), "\nproperty float x\nproperty float y\nproperty float z\n");
-  if (colors) o.text("property uchar red\nproperty uchar green\nproperty uchar blue\n");
-  o.text("element face ", m.triangles.size(), "\nproperty list uchar int vertex_indices\nend_header\n");
+  write_ply_header(o, m.vertices.size(), m.triangles.size(), colors != nullptr, ascii, mo.space);
   for (std::size_t i = 0; i < m.vertices.size(); ++i) {
     const Vec3f p = v[i];
     if (ascii) {

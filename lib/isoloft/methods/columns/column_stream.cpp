@@ -53,13 +53,14 @@ void warn_fit(const Run& run, const std::vector<std::size_t>& fallbacks, const F
 class SliceFields {
  public:
   // band: the fields are exact only where they reach the mesh (methods/columns/field_band.h).
+  // window: slices computed at once (0: slice_window()).
   SliceFields(const Run& run, ObjectResult& obj, std::vector<PackedMasks>& masks, ResidentCount& count,
-              const std::optional<FieldBand::Setup>& band)
+              const std::optional<FieldBand::Setup>& band, std::size_t window)
       : run_(run),
         obj_(obj),
         masks_(masks),
         count_(count),
-        window_(slice_window()),
+        window_(window > 0 ? window : slice_window()),
         method_(method_spec(run.params.method.name())) {
     if (band) band_.emplace(masks, obj.box, *band);
   }
@@ -364,7 +365,7 @@ bool thinner_than_a_step(const std::vector<double>& z, double step) { return (z.
 class ObjectStream::Impl {
  public:
   Impl(const Run& run, ObjectResult& obj, std::vector<PackedMasks> masks, KnotTap tap = {},
-               const std::optional<FieldBand::Setup>& band = std::nullopt)
+               const std::optional<FieldBand::Setup>& band = std::nullopt, std::size_t window = 0, std::size_t z_block = 0)
       : run_(run), obj_(obj), masks_(std::move(masks)), empty_(masks_.size()), z_(knot_z(run)), tap_(std::move(tap)) {
     const ReconstructParams& p = run.params;
     for (std::size_t k = 0; k < masks_.size(); ++k) empty_[k] = masks_[k].empty;
@@ -375,9 +376,10 @@ class ObjectStream::Impl {
         << " / the slice z)";
       throw InputError(run.stack.slices.front().source, o.str());
     }
-    slices_.emplace(run, obj, masks_, count_, band);
+    slices_.emplace(run, obj, masks_, count_, band, window);
     feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_);
-    stream_ = z_scheme_spec(p.z_scheme).make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_}, p);
+    stream_ = z_scheme_spec(p.z_scheme).make(
+        ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_, z_block}, p);
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
@@ -423,8 +425,8 @@ class ObjectStream::Impl {
 };
 
 ObjectStream::ObjectStream(const Run& run, ObjectResult& obj, std::vector<PackedMasks> masks, KnotTap tap,
-                           const std::optional<FieldBand::Setup>& band)
-    : impl_(std::make_unique<Impl>(run, obj, std::move(masks), std::move(tap), band)) {}
+                           const std::optional<FieldBand::Setup>& band, std::size_t window, std::size_t z_block)
+    : impl_(std::make_unique<Impl>(run, obj, std::move(masks), std::move(tap), band, window, z_block)) {}
 ObjectStream::~ObjectStream() = default;
 PlaneSource& ObjectStream::field() { return impl_->field(); }
 const std::vector<double>& ObjectStream::knots() const { return impl_->knots(); }

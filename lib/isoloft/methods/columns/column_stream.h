@@ -26,8 +26,10 @@ namespace isoloft::detail {
 std::vector<double> knot_z(const Run& run);
 
 /// One object's cost from its packed masks, before any fit (the budget
-/// check; docs/decisions.md, work budget).
-WorkEstimate estimate_work(const Run& run, const std::vector<PackedMasks>& masks, const ObjectResult& obj);
+/// check; docs/decisions.md, work budget); `window`: its slices computed at
+/// once (0: slice_window()).
+WorkEstimate estimate_work(const Run& run, const std::vector<PackedMasks>& masks, const ObjectResult& obj,
+                           std::size_t window = 0);
 
 /// One object's interpolated field, streamed (paper 2.1-2.4): the slice fields
 /// computed a window at a time, the knot feed, the z scheme's plane source;
@@ -37,10 +39,13 @@ class ObjectStream {
   /// Each knot the stream pulls, with its index, goes to `tap` too (if set).
   using KnotTap = std::function<void(std::size_t, const Grid2f&)>;
 
-  /// band: the fields are exact only where they reach the mesh (methods/columns/field_band.h).
+  /// band: the fields are exact only where they reach the mesh (methods/columns/field_band.h);
+  /// window: slices computed at once (0: slice_window(); a partition's labels: partition_slice_window());
+  /// z_block: intervals per z block of the columns scheme (ZSchemeInput::block; 0: its default).
   /// \throw InputError if the knots span less than one plane step.
   ObjectStream(const Run& run, ObjectResult& obj, std::vector<PackedMasks> masks, KnotTap tap = {},
-               const std::optional<FieldBand::Setup>& band = std::nullopt);
+               const std::optional<FieldBand::Setup>& band = std::nullopt, std::size_t window = 0,
+               std::size_t z_block = 0);
   ~ObjectStream();
   ObjectStream(const ObjectStream&) = delete;
   ObjectStream& operator=(const ObjectStream&) = delete;

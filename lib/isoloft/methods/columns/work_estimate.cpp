@@ -47,7 +47,8 @@ double run_pixels(const std::vector<std::uint32_t>& runs) {
 // other's; the caps add their end contour's band and ~2 triangles per
 // inside pixel of the end slices. Fields resident at once: the slices
 // computed together, the spline's knots around a block, the caps.
-WorkEstimate estimate_work(const Run& run, const std::vector<PackedMasks>& masks, const ObjectResult& obj) {
+WorkEstimate estimate_work(const Run& run, const std::vector<PackedMasks>& masks, const ObjectResult& obj,
+                           std::size_t window) {
   const ReconstructParams& p = run.params;
   WorkEstimate e;
   e.label = obj.label;
@@ -69,8 +70,9 @@ WorkEstimate estimate_work(const Run& run, const std::vector<PackedMasks>& masks
   const double pixels = double(obj.box.width()) * double(obj.box.height());
   e.plane_bytes = double(obj.box.width() + 2) * double(obj.box.height() + 2) * sizeof(float);
   const std::optional<std::size_t> knots = z_scheme_spec(p.z_scheme).resident_knots(p);
-  const double window = double(slices_in_flight()) + (knots ? double(*knots) : double(n)) + 2;
-  e.field_bytes = std::min(double(n + 2), window) * pixels * sizeof(float) * kFieldCopies;
+  const double batches = 2.0 * double(window > 0 ? window : slice_window());  // the batch handed out and the next
+  const double resident = batches + (knots ? double(*knots) : double(n)) + 2;
+  e.field_bytes = std::min(double(n + 2), resident) * pixels * sizeof(float) * kFieldCopies;
   if (run.stack.kind == InputKind::Polylines && fits_curves(p.method) && p.polyline_raster_width > 0) {
     const double k = double(p.polyline_raster_width) / run.stack.width;
     const double in_flight = std::min(double(n), double(tbb::this_task_arena::max_concurrency()));

@@ -19,7 +19,7 @@ ZSchemeSpec columns_z_scheme() {
       },
       .make = [](ZSchemeInput in, const ReconstructParams& p) -> std::unique_ptr<PlaneSource> {
         return std::make_unique<ZStream>(std::move(in.z), p.interp.spline, in.width, in.height, std::move(in.next),
-                                         in.count);
+                                         in.count, in.block > 0 ? in.block : kZStreamBlock);
       },
   };
 }
