@@ -336,7 +336,7 @@ struct Field3dWork {
   int nx = 0, ny = 0, nz = 0;  ///< the field's grid nodes per axis (Field3dResult::nx, ny, nz)
   double solve_nodes = 0;      ///< the finest solve's nodes (Field3dResult::solve_nodes)
   double samples = 0;          ///< plane and contour samples
-  double sign_points = 0;      ///< pixel input: label-image pixel centres inside the box (Field3dResult::sign_points)
+  double sign_points = 0;      ///< label-image pixel centres inside the box and polyline plane samples (plane_signs; Field3dResult::sign_points)
   double triangles = 0;        ///< Marching Cubes triangles (the contours' box as an ellipsoid)
   double solve_bytes = 0;      ///< held at the finest solve: grid vectors, samples, operators, multigrid
   double field_bytes = 0;      ///< the finished field (Field3dResult::field)
