@@ -14,7 +14,7 @@
 //
 // usage: field3d_kit [--out FILE.csv] [--threads N] [--resolution R] [--smoothness S] [--contour-weight W]
 //                    [--band B] [--plane-weight P] [--refinement R] [--refine-width W] [--reweight-passes P] [--reweight-factor F]
-//                    [--reweight-tolerance T] [--no-prune]
+//                    [--reweight-tolerance T] [--no-prune] [--plane-signs 0|1] [--plane-sign-distance D]
 //                    [--csl FILE --ref MESH --name NAME [--allow-self-intersections] [--write MESH]]
 #include <tbb/global_control.h>
 
@@ -128,6 +128,8 @@ int main(int argc, char** argv) {
     else if (a == "--reweight-factor") params.reweight_factor = std::stod(next());
     else if (a == "--reweight-tolerance") params.reweight_tolerance = std::stod(next());
     else if (a == "--no-prune") params.prune = false;
+    else if (a == "--plane-signs") params.plane_signs = std::stoi(next()) != 0;
+    else if (a == "--plane-sign-distance") params.plane_sign_distance = std::stod(next());
     else if (a == "--write") mesh_out = next();
     else if (a == "--csl") csl = next();
     else if (a == "--ref") ref = next();

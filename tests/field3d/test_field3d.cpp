@@ -283,6 +283,44 @@ TEST(Field3d, PruneUnsupportedComponents) {
   EXPECT_EQ(detail::prune_unsupported(m, inside), 0u);  // nothing more to drop
 }
 
+/// Two circles 12 mm apart and, midway, a plane where nothing was drawn (all
+/// outside): the smooth field alone bridges it (its plane samples weigh
+/// plane_weight), plane_signs keeps the surface off that plane.
+TEST(Field3d, PlaneSignsKeepTheSurfaceOffAnEmptyPlane) {
+  const auto at_z = [](double z) {
+    PlanePose p = axis_pose(Vec3d::UnitX(), Vec3d::UnitY());
+    p.origin = Vec3d(0, 0, z);
+    return p;
+  };
+  Section empty;
+  empty.pose = at_z(0);
+  const std::vector<Section> sections{circle_section(at_z(-6), 20), empty, circle_section(at_z(6), 20)};
+  // Triangles whose vertices lie on both sides of z = 0: the mesh crosses the empty plane.
+  const auto crossing = [](const TriMesh& m) {
+    int n = 0;
+    for (const auto& t : m.triangles) {
+      bool below = false, above = false;
+      for (int c = 0; c < 3; ++c) (m.vertices[std::size_t(t[c])].z() < 0 ? below : above) = true;
+      n += below && above;
+    }
+    return n;
+  };
+  Field3dParams p;
+  p.resolution = 32;  // the default 96 would take seconds; any grid shows the bridge
+  p.plane_signs = false;
+  const Field3dResult off = reconstruct_sections(sections, 1, p);
+  ASSERT_GT(crossing(off.mesh), 0) << "the case no longer needs the sign constraints";
+  EXPECT_EQ(off.check.components, 1);
+  p.plane_signs = true;
+  const Field3dResult on = reconstruct_sections(sections, 1, p);
+  EXPECT_EQ(on.sign_violated, 0u);
+  EXPECT_GT(on.sign_active, 0u);
+  EXPECT_EQ(crossing(on.mesh), 0);
+  EXPECT_EQ(on.check.components, 2);
+  EXPECT_TRUE(on.check.closed);
+  EXPECT_TRUE(on.check.manifold);
+}
+
 /// Two orthogonal circles through the z axis disagreeing by 3 mm at both
 /// ends of their common line: two conflicts of 3 mm, named in warnings.
 TEST(Field3d, ConflictsAtCrossingsReported) {

@@ -1127,13 +1127,23 @@ std::size_t reweight(std::vector<Sample>& samples, const std::vector<std::size_t
   return raised;
 }
 
-/// Pixel centres of the label images as sign constraints: positions in
-/// finest cells from the grid origin, +1 inside (label), -1 outside.
+/// Sign constraints: pixel centres of the label images, or plane samples of
+/// polyline sections (plane_signs); positions in finest cells from the grid
+/// origin, +1 inside (label), -1 outside.
 struct SignPoints {
   std::vector<Vec3d> g;
   std::vector<std::int8_t> sign;
-  std::vector<std::uint32_t> section, pixel;  ///< the section's index and the pixel's index in its image
+  std::vector<std::uint32_t> section, pixel;  ///< the section's index and the pixel's index in its image (kNoPixel: a plane sample)
+
+  void append(SignPoints&& o) {
+    g.insert(g.end(), o.g.begin(), o.g.end());
+    sign.insert(sign.end(), o.sign.begin(), o.sign.end());
+    section.insert(section.end(), o.section.begin(), o.section.end());
+    pixel.insert(pixel.end(), o.pixel.begin(), o.pixel.end());
+  }
 };
+/// SignPoints::pixel of a polyline section's plane sample (no image to check the mesh against).
+constexpr std::uint32_t kNoPixel = std::numeric_limits<std::uint32_t>::max();
 
 /// Every pixel centre of `sections`' label images inside the box [lo, hi]
 /// (world mm; grid spacing h, origin lo).
@@ -1155,13 +1165,28 @@ SignPoints sign_points(const std::vector<Section>& sections, std::uint32_t label
       }
   });
   SignPoints all;
-  for (auto& p : per) {
-    all.g.insert(all.g.end(), p.g.begin(), p.g.end());
-    all.sign.insert(all.sign.end(), p.sign.begin(), p.sign.end());
-    all.section.insert(all.section.end(), p.section.begin(), p.section.end());
-    all.pixel.insert(all.pixel.end(), p.pixel.begin(), p.pixel.end());
-  }
+  for (auto& p : per) all.append(std::move(p));
   return all;
+}
+
+/// Polyline sections' plane samples at least `dist` (cells) from their
+/// drawn contours, signed by side. section_end[i]: one past section i's
+/// samples in `samples` (make_samples' order).
+SignPoints plane_sign_points(const std::vector<Section>& sections, const std::vector<Sample>& samples,
+                             const std::vector<std::size_t>& section_end, double dist) {
+  SignPoints sp;
+  for (std::size_t i = 0, k = 0; i < sections.size(); k = section_end[i++]) {
+    if (sections[i].is_image()) continue;  // its pixels are its sign points (pixel_signs)
+    for (; k < section_end[i]; ++k) {
+      const Sample& s = samples[k];
+      if (s.contour || std::abs(s.value) < dist) continue;
+      sp.g.push_back(s.g);
+      sp.sign.push_back(s.value > 0 ? 1 : -1);
+      sp.section.push_back(std::uint32_t(i));
+      sp.pixel.push_back(kNoPixel);
+    }
+  }
+  return sp;
 }
 
 /// The sign points on the wrong side of +-margin (cells) of the field x on lv.
@@ -1206,7 +1231,7 @@ std::vector<std::size_t> mesh_mismatches(const SignPoints& sp, const std::vector
   });
   std::vector<std::size_t> out;
   for (std::size_t k = 0; k < sp.g.size(); ++k)
-    if ((drawn[sp.section[k]].data[sp.pixel[k]] != 0) != (sp.sign[k] > 0)) out.push_back(k);
+    if (sp.pixel[k] != kNoPixel && (drawn[sp.section[k]].data[sp.pixel[k]] != 0) != (sp.sign[k] > 0)) out.push_back(k);
   return out;
 }
 
@@ -1670,6 +1695,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   // Samples: every plane's raster inside the box, and along every contour, at
   // spacing sp (mm); positions in base cells; `keep` filters them (the band).
   const double band = params.band * h;
+  std::vector<std::size_t> section_end;  // per section: one past its samples in make_samples' result
   const auto make_samples = [&](double sp, const auto& keep) {
     std::vector<std::vector<Sample>> per(sections.size());
     std::vector<PlaneRaster> rasters(sections.size());
@@ -1709,10 +1735,15 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
           }
     });
     std::vector<Sample> all;
-    for (auto& v : per) all.insert(all.end(), v.begin(), v.end());
+    section_end.clear();
+    for (auto& v : per) {
+      all.insert(all.end(), v.begin(), v.end());
+      section_end.push_back(all.size());
+    }
     return all;
   };
   std::vector<Sample> samples = make_samples(params.sample_spacing * h, [](const Vec3d&) { return true; });
+  const std::vector<std::size_t> base_section_end = section_end;
   res.samples = samples.size();
   const double miss_tol = params.reweight_tolerance * diag / h;  // cells
   const bool refine = params.refinement > 1;
@@ -1779,6 +1810,10 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   };
   const auto signs_start = std::chrono::steady_clock::now();
   if (params.pixel_signs) signs = sign_points(sections, label, res.origin, box_hi, h);
+  if (params.plane_signs) {
+    if (!signs) signs.emplace();
+    signs->append(plane_sign_points(sections, samples, base_section_end, params.plane_sign_distance));
+  }
   if (signs && signs->g.empty()) signs.reset();
   if (signs) {
     res.sign_points = signs->g.size();
@@ -1842,7 +1877,10 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   };
   // Pixel input: the pixels the mesh itself draws wrong, put back (the base grid's mesh).
   const auto mesh_signs_start = std::chrono::steady_clock::now();
-  for (int pass = 0; signs && !refine && pass < params.sign_passes; ++pass) {
+  // Only pixel sign points have a drawn image to compare the mesh with.
+  const bool mesh_checks = signs && std::any_of(signs->pixel.begin(), signs->pixel.end(),
+                                                [](std::uint32_t px) { return px != kNoPixel; });
+  for (int pass = 0; mesh_checks && !refine && pass < params.sign_passes; ++pass) {
     const std::vector<std::size_t> missed = mesh_mismatches(*signs, sections, base_mesh());
     res.sign_violated = missed.size();
     if (missed.empty()) break;
@@ -2038,6 +2076,11 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
       if (s.is_image())
         w.sign_points += raster_points_inside(s.pose, PlaneRaster{Vec2d::Zero(), s.labels.width, s.labels.height},
                                               s.pixel_size, g.origin, g.box_hi, 1e-9 * g.h);
+  // plane_signs: a polyline section's plane samples (all of them, an upper bound).
+  if (params.plane_signs)
+    for (const Section& s : sections)
+      if (!s.is_image()) w.sign_points += raster_points_inside(s.pose, plane_raster(s.pose, g.origin, g.box_hi, sp), sp,
+                                                              g.origin, g.box_hi, 1e-9 * g.h);
   const double solve_samples = w.samples + kSignActiveShare * w.sign_points;
   // The multigrid hierarchy under the finest grid (Multigrid's halving rule):
   // its nodes, and its cells with samples (a plane crosses a cell of H
