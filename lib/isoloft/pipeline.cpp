@@ -9,6 +9,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <exception>
@@ -16,6 +17,7 @@
 #include <optional>
 #include <utility>
 
+#include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/partition/partition.h"
 #include "isoloft/methods/columns/column_stream.h"
 #include "isoloft/objects/objects.h"
@@ -133,15 +135,21 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
   const std::size_t meshed = group.size() == 1 ? 1 : group.size() - 1;
   std::vector<std::exception_ptr> errors(meshed);
   tbb::parallel_for(std::size_t(0), meshed, [&](std::size_t m) {
-    try {
-      decimate_stage(plan.part(run, group[m]), plan.objects[group[m]]);
-      check_stage(plan.part(run, group[m]), plan.objects[group[m]]);
+    // Isolated: a thread waiting in the decimator's or check's own tasks
+    // does not start another object (and read back another spilled mesh).
+    tbb::this_task_arena::isolate([&] { try {
       ObjectResult& obj = plan.objects[group[m]];
+      if (obj.spilled) {  // read back from its scratch file (partition_stages)
+        obj.mesh = obj.spilled->load();
+        obj.spilled.reset();
+      }
+      decimate_stage(plan.part(run, group[m]), obj);
+      check_stage(plan.part(run, group[m]), obj);
       const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
       if (run.options.on_object && listed && obj.slices_with_contours > 0) run.options.on_object(obj);
     } catch (...) {
       errors[m] = std::current_exception();
-    }
+    } });
   });
   for (const auto& e : errors)
     if (e) std::rethrow_exception(e);

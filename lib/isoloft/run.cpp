@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -362,6 +363,14 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   if (o.free_meshes && std::none_of(o.outputs.begin(), o.outputs.end(), [](const auto& out) { return out->reads_meshes(); }))
     for (const auto& out : o.outputs)
       if (out->streams_objects(in)) streamer = out.get();
+  // Streamed, a label partition's meshes wait in scratch files beside the
+  // output (ReconstructOptions::mesh_spill_dir) until each is written.
+  std::string spill_dir;
+  if (streamer) {
+    spill_dir = std::filesystem::path(streamer->target()).parent_path().string();
+    if (spill_dir.empty()) spill_dir = ".";
+    files.create_directories(spill_dir);
+  }
   // Per object, after its contour stage and before its fit: memory and files against the budget.
   const double in_bytes = input_bytes(in);
   // What the objects estimated so far hold at once: their meshes until written
@@ -370,6 +379,9 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
   // their fields too. 16,384 labels of 2x2 px: 1.2 GiB of fields together.
   const bool joint_fields = params.label_partition && in.labels();
   double held_bytes = 0;
+  // A streamed partition's meshes are read back one per thread: the largest so far, that many times.
+  double largest_mesh = 0;
+  const double loaded_meshes = o.threads > 0 ? o.threads : double(tbb::this_task_arena::max_concurrency());
   // The files written so far count against --max-output together (every
   // object's meshes and volumes, and the label maps' once).
   double output_bytes = 0, output_memory = 0;
@@ -382,7 +394,9 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     check_budget(option_name("--max-memory"), what, in_bytes + e.field_bytes + e.mesh_bytes, o.budget.max_memory);
     {
       std::lock_guard lock(held_mutex);
-      held_bytes += (streamer && !joint_fields ? 0.0 : e.mesh_bytes) + (joint_fields ? e.field_bytes : 0.0);
+      // Streamed, no mesh is held past its object (a partition's wait on disk).
+      held_bytes += (streamer ? 0.0 : e.mesh_bytes) + (joint_fields ? e.field_bytes : 0.0);
+      largest_mesh = std::max(largest_mesh, e.mesh_bytes);
       if (!joint_fields)  // streamed, the object's mesh is held only while it runs
         job_fields[&job - in.jobs.data()] =
             std::max(job_fields[&job - in.jobs.data()], e.field_bytes + (streamer ? e.mesh_bytes : 0.0));
@@ -392,7 +406,9 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
                    (joint_fields ? "the labels' fields and meshes held together up to "
                                  : "the meshes held and the fields of the jobs running up to ") +
                        what,
-                   in_bytes + held_bytes + output_memory + (joint_fields ? 0.0 : in_flight), o.budget.max_memory);
+                   in_bytes + held_bytes + output_memory + (joint_fields ? 0.0 : in_flight) +
+                       (streamer && joint_fields ? loaded_meshes * largest_mesh : 0.0),
+                   o.budget.max_memory);
     }
     double bytes = 0;
     std::string note;
@@ -415,7 +431,10 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     r = run_jobs(in, params, o.labels, [&](std::size_t j, ReconstructOptions& ropt) {
       for (const auto& out : o.outputs) out->start_job(ctx, j, hooks[j]);
       hooks[j].apply(ropt);
-      if (streamer) ropt.on_object = [&, j](ObjectResult& ob) { as_output(files, streamer->option(), [&] { streamer->object_done(ctx, j, ob); }); };
+      if (streamer) {
+        ropt.on_object = [&, j](ObjectResult& ob) { as_output(files, streamer->option(), [&] { streamer->object_done(ctx, j, ob); }); };
+        ropt.mesh_spill_dir = spill_dir;
+      }
       const Job& job = in.jobs[j];
       ropt.on_estimate = [&, j](const WorkEstimate& e) {
         check_object(in.jobs[j], e);

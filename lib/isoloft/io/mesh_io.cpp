@@ -259,29 +259,13 @@ namespace {
 constexpr std::size_t kSpillChunk = std::size_t(1) << 20;
 }  // namespace
 
-PlyPartWriter::PlyPartWriter(const std::string& scratch_dir) : dir_(scratch_dir.empty() ? "." : scratch_dir) {
-  std::string name = dir_ + "/.isoloft-parts-XXXXXX";
-  const int fd = ::mkstemp(name.data());
-  if (fd < 0) throw Error(dir_ + ": cannot make a scratch file (" + std::strerror(errno) + ")");
-  ::unlink(name.c_str());  // unnamed: nothing left behind, whatever ends the run
-  fp_ = ::fdopen(fd, "w+b");
-  if (!fp_) {
-    ::close(fd);
-    throw Error(dir_ + ": cannot open a scratch file (" + std::strerror(errno) + ")");
-  }
-}
+PlyPartWriter::PlyPartWriter(const std::string& scratch_dir) : file_(scratch_dir, "the combined mesh's parts") {}
 
-PlyPartWriter::~PlyPartWriter() {
-  if (fp_) std::fclose(fp_);
-}
+PlyPartWriter::~PlyPartWriter() = default;
 
 std::size_t PlyPartWriter::add(const TriMesh& m, const std::function<Vec3f(const Vec3f&)>& place, bool flip) {
-  auto put = [&](const void* data, std::size_t bytes) {
-    if (::fseeko(fp_, end_, SEEK_SET) != 0 || std::fwrite(data, 1, bytes, fp_) != bytes)
-      throw Error(dir_ + ": cannot write the scratch file of the combined mesh (" + std::strerror(errno) + ")");
-    end_ += std::int64_t(bytes);
-  };
-  parts_.push_back({end_, m.vertices.size(), m.triangles.size()});
+  const auto put = [&](const void* data, std::size_t bytes) { file_.append(data, bytes); };
+  parts_.push_back({file_.size(), m.vertices.size(), m.triangles.size()});
   std::vector<std::array<float, 3>> v;
   for (std::size_t b = 0; b < m.vertices.size(); b += kSpillChunk) {
     v.clear();
@@ -308,10 +292,7 @@ void PlyPartWriter::write(const std::string& path, const std::vector<std::size_t
   std::size_t nv = 0, nt = 0;
   for (const std::size_t k : order) nv += parts_.at(k).vertices, nt += parts_.at(k).triangles;
   if (nv > std::size_t(std::numeric_limits<std::int32_t>::max())) throw Error(path + ": too many vertices");
-  auto get = [&](std::int64_t at, void* data, std::size_t bytes) {
-    if (::fseeko(fp_, at, SEEK_SET) != 0 || std::fread(data, 1, bytes, fp_) != bytes)
-      throw Error(path + ": cannot read back the scratch file of its parts (" + std::strerror(errno) + ")");
-  };
+  const auto get = [&](std::int64_t at, void* data, std::size_t bytes) { file_.read(at, data, bytes); };
   AtomicFile file(path);
   {
     detail::Out o(path, file.temp_path());

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "isoloft/core/mesh.h"
+#include "isoloft/core/scratch_file.h"
 #include "isoloft/core/slice_stack.h"
 
 namespace isoloft {
@@ -125,9 +126,7 @@ class PlyPartWriter {
     std::int64_t offset = 0;
     std::size_t vertices = 0, triangles = 0;
   };
-  std::string dir_;
-  std::FILE* fp_ = nullptr;
-  std::int64_t end_ = 0;
+  ScratchFile file_;
   std::vector<Part> parts_;
 };
 

@@ -184,6 +184,10 @@ void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::ui
                      std::to_string(std::size_t(width_ - 1) * std::size_t(height_ - 1)));
   if (planes_ > 0) {
     triangulate_layer(values, z, active);
+    if (spill_ && mesh_.triangles.size() >= spill_piece_) {
+      spilled_vertices_ += mesh_.vertices.size();
+      spill_->take(mesh_);
+    }
     for (std::size_t a : {kXBottom, kYBottom, kZ}) {  // then the top plane's become the bottom's
       for (std::int32_t* id : set_[a]) *id = -1;
       set_[a].clear();
@@ -241,7 +245,7 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
         std::int32_t& id = *slot[e];
         if (id >= 0) return id;
         set_[kEdgeArray[std::size_t(e)]].push_back(&id);
-        if (mesh_.vertices.size() >= std::size_t(std::numeric_limits<std::int32_t>::max()))
+        if (spilled_vertices_ + mesh_.vertices.size() >= std::size_t(std::numeric_limits<std::int32_t>::max()))
           throw Error("marching cubes: more than 2^31 - 1 vertices");
         const int a = detail::kCubeEdgeCorners[e][0], b = detail::kCubeEdgeCorners[e][1];
         const double fa = v[a], fb = v[b];
@@ -250,7 +254,7 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
           return Vec3d(x0_ + i + (c & 1), y0_ + j + ((c >> 1) & 1), (c >> 2) & 1 ? z_top : z_bottom);
         };
         const Vec3d p = pos(a) + t * (pos(b) - pos(a));
-        id = std::int32_t(mesh_.vertices.size());
+        id = std::int32_t(spilled_vertices_ + mesh_.vertices.size());
         grow_mesh_array(mesh_.vertices);
         mesh_.vertices.push_back(p.cast<float>());
         return id;
@@ -265,6 +269,10 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
 }
 
 TriMesh MarchingCubes::finish() {
+  if (spill_) {
+    spill_->take(mesh_);
+    spilled_vertices_ = 0;
+  }
   TriMesh out = std::move(mesh_);
   // Grown by quarters (grow_mesh_array): up to a fifth of each array unused, held with the mesh until it is written.
   out.vertices.shrink_to_fit();

@@ -20,6 +20,7 @@
 #include "isoloft/core/grid.h"
 #include "isoloft/core/mesh.h"
 #include "isoloft/core/params.h"
+#include "isoloft/mesh/mesh_spill.h"
 
 namespace isoloft {
 
@@ -39,6 +40,11 @@ inline const ParamTable<MarchingCubesParams>& params_table<MarchingCubesParams>(
 }
 
 /// Streaming builder: add_plane() per plane in increasing z, then finish().
+/// Triangles a spilling builder holds at most past a layer (12 bytes each,
+/// about as many vertices): 64 Ki keeps ~1 MB per builder, 50 labels of a
+/// partition ~60 MB, against their whole meshes (1 GB on the large stack).
+inline constexpr std::size_t kSpillTriangles = std::size_t(1) << 16;
+
 class MarchingCubes {
  public:
   /// Planes of width x height samples at (x0 + i, y0 + j), pixel units.
@@ -53,7 +59,16 @@ class MarchingCubes {
   void add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active = nullptr);
 
   /// The mesh (pixel units); resets the builder. Fewer than 2 planes: empty.
+  /// With a spill: the mesh is in the spill, and finish() returns it empty.
   TriMesh finish();
+
+  /// From now on the mesh goes to `spill` in pieces of at least `piece`
+  /// triangles, one per layer that passes it (vertex ids count what the
+  /// spill holds); nullptr: kept.
+  void spill_into(MeshSpill* spill, std::size_t piece = kSpillTriangles) {
+    spill_ = spill;
+    spill_piece_ = piece;
+  }
 
   [[nodiscard]] int planes_added() const { return planes_; }
 
@@ -74,6 +89,9 @@ class MarchingCubes {
                                                           kYTop,    kYTop,    kZ,    kZ,    kZ,       kZ};
   std::array<std::vector<std::int32_t*>, 5> set_;
   TriMesh mesh_;
+  MeshSpill* spill_ = nullptr;
+  std::size_t spill_piece_ = kSpillTriangles;
+  std::size_t spilled_vertices_ = 0;  // vertex ids below this are in spill_
 };
 
 /// Cells to visit: all but those whose four corners share one known side

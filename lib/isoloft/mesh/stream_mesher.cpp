@@ -121,6 +121,7 @@ StreamMesher::StreamMesher(const PlaneSource& field, double x0, double y0, const
       x0_(x0),
       y0_(y0) {
   if (!(options_.outside <= mc.iso)) throw ParamError("mesh_interpolated_field: the pad value must be outside (<= iso)");
+  builder_.spill_into(options_.spill);
 }
 
 StreamMesher::~StreamMesher() = default;

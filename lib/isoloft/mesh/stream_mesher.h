@@ -40,6 +40,7 @@ struct StreamMeshOptions {
   bool skip_cells = true;  ///< false: visit every cell (the oracle of the skipping)
   PlaneCallback on_plane;  ///< optional
   std::function<void(long done, long total)> progress;  ///< optional, once per plane
+  MeshSpill* spill = nullptr;  ///< optional: the mesh goes there as it grows (finish() returns it empty)
 };
 
 struct StreamMeshResult {

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +20,8 @@
 #include "isoloft/mesh/mesh_check.h"
 
 namespace isoloft {
+
+class MeshSpill;
 
 struct FitStats {
   long points = 0, leaves = 0, leaves_over_tol = 0;
@@ -61,6 +64,9 @@ struct ObjectResult {
   /// field3d: its field's solve (the run's report); unset for the column methods.
   std::optional<Field3dStats> field3d;
 
+  /// A label partition's mesh while it waits in a scratch file
+  /// (ReconstructOptions::mesh_spill_dir); `mesh` is empty until it is loaded.
+  std::shared_ptr<MeshSpill> spilled;
   /// ReconstructOptions::on_object wrote the mesh and freed it: its counts
   /// stay here (vertex_count(), triangle_count()).
   bool mesh_freed = false;
@@ -131,6 +137,10 @@ struct ReconstructOptions {
   /// threads; it may write the mesh and free it (ObjectResult::free_mesh()).
   /// Called by the columns family (methods with a family of their own do not).
   std::function<void(ObjectResult&)> on_object;
+  /// With on_object: a label partition's meshes wait in scratch files in
+  /// this folder while its labels stream ("": held in memory); each is read
+  /// back for its decimation, check and on_object, one object per thread.
+  std::string mesh_spill_dir;
 };
 
 struct ReconstructResult {

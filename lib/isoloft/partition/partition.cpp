@@ -15,6 +15,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/methods/method.h"
+#include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/methods/columns/column_stream.h"
 
@@ -246,11 +247,16 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
   PartitionSides::UnionSides union_sides(uni.field());
   std::vector<PartitionSides> bounds;
   std::vector<std::unique_ptr<StreamMesher>> meshers(labels);
+  // Every label's mesh grows until the last plane: out of memory meanwhile
+  // when the objects are written one by one (on_object) anyway.
+  std::vector<std::shared_ptr<MeshSpill>> spills(labels);
+  const bool spill = run.options.on_object && !run.options.mesh_spill_dir.empty();
   bounds.reserve(labels);
   for (std::size_t l = 0; l < labels; ++l) {
     bounds.emplace_back(streams[l]->field(), boxes[l], union_sides, ubox);
     StreamMeshOptions o = mesh_options(objects[l].run, objects[l].obj);
     o.progress = nullptr;  // once per plane for all labels, below
+    if (spill) o.spill = (spills[l] = std::make_shared<MeshSpill>(run.options.mesh_spill_dir)).get();
     meshers[l] = std::make_unique<StreamMesher>(bounds[l], boxes[l].x0, boxes[l].y0, run.params.mc, std::move(o));
   }
   std::vector<Grid2f> phi(labels + 1), psi(labels);
@@ -291,7 +297,10 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
       for (std::size_t l = 0; l < labels; ++l) objects[l].run.progress("interpolate+mesh", done, count);
     }
   }
-  for (std::size_t l = 0; l < labels; ++l) streams[l]->finish(meshers[l]->finish(), seconds[l]);
+  for (std::size_t l = 0; l < labels; ++l) {
+    objects[l].obj.spilled = spills[l];
+    streams[l]->finish(meshers[l]->finish(), seconds[l]);
+  }
   uni.finish(seconds[labels]);
 }
 

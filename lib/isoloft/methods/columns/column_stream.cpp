@@ -15,6 +15,7 @@
 
 #include "isoloft/core/error.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/methods/columns/slice_methods.h"
 #include "isoloft/objects/slice_fields.h"
@@ -395,7 +396,7 @@ class ObjectStream::Impl {
   void finish(StreamMeshResult r, double interp_seconds) {
     const ReconstructParams& p = run_.params;
     obj_.mesh = std::move(r.mesh);
-    if (obj_.mesh.triangles.empty()) obj_.empty_reason = empty_reason(run_, slices_->top(), obj_);
+    if (obj_.mesh.triangles.empty() && !(obj_.spilled && obj_.spilled->triangles() > 0)) obj_.empty_reason = empty_reason(run_, slices_->top(), obj_);
     obj_.peak_resident_fields = count_.peak;
     slices_->add_times(run_.result.times);
     run_.result.times.interp += interp_seconds + stream_->setup_seconds();
