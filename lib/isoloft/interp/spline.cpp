@@ -12,11 +12,13 @@ namespace isoloft {
 namespace {
 
 // Three-point (parabolic) derivative estimate at interior knot i; one-sided
-// three-point at the ends (exact for quadratics, any spacing).
-double parabolic_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+// three-point at the ends (exact for quadratics, any spacing). f(k): knot k's
+// value (a column's span, or one pixel of each knot's plane).
+template <class F>
+double parabolic_tangent_at(std::span<const double> z, const F& f, std::size_t i) {
   const std::size_t n = z.size();
-  if (n == 2) return (f[1] - f[0]) / (z[1] - z[0]);
-  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
+  if (n == 2) return (f(1) - f(0)) / (z[1] - z[0]);
+  auto slope = [&](std::size_t k) { return (f(k + 1) - f(k)) / (z[k + 1] - z[k]); };
   if (i == 0) {
     const double h0 = z[1] - z[0], h1 = z[2] - z[1];
     return ((2 * h0 + h1) * slope(0) - h0 * slope(1)) / (h0 + h1);
@@ -29,6 +31,10 @@ double parabolic_tangent(std::span<const double> z, std::span<const double> f, s
   return (hr * slope(i - 1) + hl * slope(i)) / (hl + hr);
 }
 
+double parabolic_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+  return parabolic_tangent_at(z, [&](std::size_t k) { return f[k]; }, i);
+}
+
 // Hyman's filter: clamp m into the monotone region given the neighbouring secants.
 double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
   if (!has_l) dl = dr;
@@ -37,6 +43,15 @@ double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
   const double bound = 3.0 * std::min(std::abs(dl), std::abs(dr));
   const double s = dl > 0 ? 1.0 : -1.0;
   return s * std::clamp(s * m, 0.0, bound);
+}
+
+// The monotone (Hyman) tangent at knot i; f as parabolic_tangent_at's.
+template <class F>
+double monotone_tangent(std::span<const double> z, const F& f, std::size_t i) {
+  const std::size_t n = z.size();
+  auto slope = [&](std::size_t k) { return (f(k + 1) - f(k)) / (z[k + 1] - z[k]); };
+  const bool has_l = i > 0, has_r = i + 1 < n;
+  return hyman_clamp(parabolic_tangent_at(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
 }
 
 // Derivative at z[i] of the parabola through knots a < b < c (one of them i).
@@ -110,10 +125,7 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
       }
       return;
     case SplineKind::Monotone:
-      for (std::size_t i = lo; i <= hi; ++i) {
-        const bool has_l = i > 0, has_r = i + 1 < n;
-        m[i] = hyman_clamp(parabolic_tangent(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
-      }
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = monotone_tangent(z, [&](std::size_t k) { return f[k]; }, i);
       return;
     case SplineKind::ExtremumPreserving:
       for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, f, i);
@@ -186,6 +198,16 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
   tangents_.assign(n, Grid2f(w, h, 0.0f));
   if (kind_ == SplineKind::Linear) return;
+  if (kind_ == SplineKind::Monotone) {  // the default: knot by knot over contiguous pixels (its tangent reads 3 knots)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
+      for (std::size_t k = lo; k <= hi; ++k) {
+        float* out = tangents_[k].data.data();
+        for (std::size_t p = r.begin(); p != r.end(); ++p)
+          out[p] = float(monotone_tangent(z_, [&](std::size_t j) { return double(slices_[j].data[p]); }, k));
+      }
+    });
+    return;
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
     std::vector<double> f(n), m(n);
     for (std::size_t p = r.begin(); p != r.end(); ++p) {
