@@ -231,11 +231,13 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
   }
 }
 
-// The monotone tangents are computed knot by knot over the planes (not
-// column by column): the same bits as spline_tangents() on each column, for
-// 2 and 3 knots, the ends, flat and sign-changing data, and a knot subrange.
-TEST(ZInterpolator, MonotoneTangentsAreTheColumnsBitForBit) {
+// Monotone and extremum-preserving tangents are computed knot by knot over
+// the planes (not column by column): the same bits as spline_tangents() on
+// each column, for 2 and 3 knots, the ends, flat and sign-changing data
+// (smooth extrema), and a knot subrange.
+TEST(ZInterpolator, KnotByKnotTangentsAreTheColumnsBitForBit) {
   const int w = 5, h = 3;
+  for (const SplineKind kind : {SplineKind::Monotone, SplineKind::ExtremumPreserving})
   for (const std::vector<double>& z : {std::vector<double>{0, 3}, std::vector<double>{0, 1, 4},
                                        std::vector<double>{-2, 0, 0.5, 3, 7, 8}}) {
     const std::size_t n = z.size();
@@ -247,20 +249,20 @@ TEST(ZInterpolator, MonotoneTangentsAreTheColumnsBitForBit) {
       slices.push_back(g);
     }
     for (const auto& [lo, hi] : {std::pair<std::size_t, std::size_t>{0, n - 1}, {n > 2 ? 1 : 0, n - 1}}) {
-      const ZInterpolator zi(slices, z, SplineKind::Monotone, lo, hi);
+      const ZInterpolator zi(slices, z, kind, lo, hi);
       const std::size_t k = lo == 0 ? 0 : lo;  // an interval whose two tangents are held
       if (k + 1 > hi) continue;
       const double q = 0.3 * z[k] + 0.7 * z[k + 1];
       Grid2f out;
       zi.evaluate(q, out);
-      const HermiteBasis basis(SplineKind::Monotone, z[k], z[k + 1], q);
+      const HermiteBasis basis(kind, z[k], z[k + 1], q);
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
           std::vector<double> f, m(n);
           for (const auto& s : slices) f.push_back(s(x, y));
-          spline_tangents(SplineKind::Monotone, z, f, m);
+          spline_tangents(kind, z, f, m);
           const float want = float(basis.value(f[k], f[k + 1], double(float(m[k])), double(float(m[k + 1]))));
-          EXPECT_EQ(out(x, y), want) << n << " knots, pixel (" << x << ", " << y << ")";
+          EXPECT_EQ(out(x, y), want) << to_string(kind) << " " << n << " knots, pixel (" << x << ", " << y << ")";
         }
     }
   }

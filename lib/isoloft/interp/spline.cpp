@@ -31,10 +31,6 @@ double parabolic_tangent_at(std::span<const double> z, const F& f, std::size_t i
   return (hr * slope(i - 1) + hl * slope(i)) / (hl + hr);
 }
 
-double parabolic_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
-  return parabolic_tangent_at(z, [&](std::size_t k) { return f[k]; }, i);
-}
-
 // Hyman's filter: clamp m into the monotone region given the neighbouring secants.
 double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
   if (!has_l) dl = dr;
@@ -55,9 +51,10 @@ double monotone_tangent(std::span<const double> z, const F& f, std::size_t i) {
 }
 
 // Derivative at z[i] of the parabola through knots a < b < c (one of them i).
-double parabola_slope(std::span<const double> z, std::span<const double> f, std::size_t a, std::size_t i) {
+template <class F>
+double parabola_slope(std::span<const double> z, const F& f, std::size_t a, std::size_t i) {
   const double za = z[a], zb = z[a + 1], zc = z[a + 2], x = z[i];
-  const double d1 = (f[a + 1] - f[a]) / (zb - za), d2 = (f[a + 2] - f[a + 1]) / (zc - zb);
+  const double d1 = (f(a + 1) - f(a)) / (zb - za), d2 = (f(a + 2) - f(a + 1)) / (zc - zb);
   const double c2 = (d2 - d1) / (zc - za);  // second divided difference
   return d1 + c2 * ((x - za) + (x - zb));
 }
@@ -69,10 +66,11 @@ double parabola_slope(std::span<const double> z, std::span<const double> f, std:
 // noise), limited to 1.5x the smallest of them, and to 3 |f_i| / h on the side
 // it moves toward 0, so no interval whose knots share a sign crosses 0 (DEH's
 // nonnegativity condition).
-double extremum_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+template <class F>
+double extremum_tangent(std::span<const double> z, const F& f, std::size_t i) {
   const std::size_t n = z.size();
-  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
-  const double p0 = parabolic_tangent(z, f, i);
+  auto slope = [&](std::size_t k) { return (f(k + 1) - f(k)) / (z[k + 1] - z[k]); };
+  const double p0 = parabolic_tangent_at(z, f, i);
   if (i == 0 || i + 1 == n) return hyman_clamp(p0, i > 0 ? slope(i - 1) : 0.0, i + 1 < n ? slope(i) : 0.0, i > 0, i + 1 < n);
   const double dl = slope(i - 1), dr = slope(i);
   if (dl * dr > 0.0) return hyman_clamp(p0, dl, dr, true, true);
@@ -98,8 +96,9 @@ double extremum_tangent(std::span<const double> z, std::span<const double> f, st
   }
   if (!smooth) return 0.0;  // three knots: nothing tells a smooth extremum from a kink
   // Moving toward 0: into the right interval if p0 and f_i differ in sign.
-  const double h = p0 * f[i] < 0.0 ? z[i + 1] - z[i] : z[i] - z[i - 1];
-  bound = std::min(bound, 3.0 * std::abs(f[i]) / h);
+  const double fi = f(i);
+  const double h = p0 * fi < 0.0 ? z[i + 1] - z[i] : z[i] - z[i - 1];
+  bound = std::min(bound, 3.0 * std::abs(fi) / h);
   return p0 > 0.0 ? bound : -bound;
 }
 
@@ -128,7 +127,7 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
       for (std::size_t i = lo; i <= hi; ++i) m[i] = monotone_tangent(z, [&](std::size_t k) { return f[k]; }, i);
       return;
     case SplineKind::ExtremumPreserving:
-      for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, f, i);
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, [&](std::size_t k) { return f[k]; }, i);
       return;
     case SplineKind::Natural: {
       // Second derivatives M with M_0 = M_{n-1} = 0 (Thomas algorithm), then
@@ -198,14 +197,23 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
   tangents_.assign(n, Grid2f(w, h, 0.0f));
   if (kind_ == SplineKind::Linear) return;
-  if (kind_ == SplineKind::Monotone) {  // the default: knot by knot over contiguous pixels (its tangent reads 3 knots)
+  // Monotone and extremum-preserving (the default) tangents read knots
+  // i-2..i+2 only: knot by knot over contiguous pixels, not column by column.
+  auto knot_by_knot = [&](const auto& tangent) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
       for (std::size_t k = lo; k <= hi; ++k) {
         float* out = tangents_[k].data.data();
         for (std::size_t p = r.begin(); p != r.end(); ++p)
-          out[p] = float(monotone_tangent(z_, [&](std::size_t j) { return double(slices_[j].data[p]); }, k));
+          out[p] = float(tangent(std::span<const double>(z_), [&](std::size_t j) { return double(slices_[j].data[p]); }, k));
       }
     });
+  };
+  if (kind_ == SplineKind::Monotone) {
+    knot_by_knot([](std::span<const double> z, const auto& f, std::size_t i) { return monotone_tangent(z, f, i); });
+    return;
+  }
+  if (kind_ == SplineKind::ExtremumPreserving) {
+    knot_by_knot([](std::span<const double> z, const auto& f, std::size_t i) { return extremum_tangent(z, f, i); });
     return;
   }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
