@@ -234,7 +234,7 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
 // Monotone and extremum-preserving tangents are computed knot by knot over
 // the planes (not column by column): the same bits as spline_tangents() on
 // each column, for 2 and 3 knots, the ends, flat and sign-changing data
-// (smooth extrema), and a knot subrange.
+// (smooth extrema), and knot subranges (secants held from the one two knots below).
 TEST(ZInterpolator, KnotByKnotTangentsAreTheColumnsBitForBit) {
   const int w = 5, h = 3;
   for (const SplineKind kind : {SplineKind::Monotone, SplineKind::ExtremumPreserving})
@@ -248,7 +248,7 @@ TEST(ZInterpolator, KnotByKnotTangentsAreTheColumnsBitForBit) {
         for (int x = 0; x < w; ++x) g(x, y) = x == 0 ? 1.5f : float(std::sin(0.7 * double(k) * (x + 1) + y) * (y + 1));
       slices.push_back(g);
     }
-    for (const auto& [lo, hi] : {std::pair<std::size_t, std::size_t>{0, n - 1}, {n > 2 ? 1 : 0, n - 1}}) {
+    for (const auto& [lo, hi] : {std::pair<std::size_t, std::size_t>{0, n - 1}, {n > 2 ? 1 : 0, n - 1}, {n > 4 ? 3 : 0, n - 2}}) {
       const ZInterpolator zi(slices, z, kind, lo, hi);
       const std::size_t k = lo == 0 ? 0 : lo;  // an interval whose two tangents are held
       if (k + 1 > hi) continue;
