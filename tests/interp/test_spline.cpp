@@ -231,6 +231,43 @@ TEST(ZInterpolator, MatchesTheScalarSplineAtEveryPixel) {
   }
 }
 
+// Monotone and extremum-preserving tangents are computed knot by knot over
+// the planes (not column by column): the same bits as spline_tangents() on
+// each column, for 2 and 3 knots, the ends, flat and sign-changing data
+// (smooth extrema), and knot subranges (secants held from the one two knots below).
+TEST(ZInterpolator, KnotByKnotTangentsAreTheColumnsBitForBit) {
+  const int w = 5, h = 3;
+  for (const SplineKind kind : {SplineKind::Monotone, SplineKind::ExtremumPreserving})
+  for (const std::vector<double>& z : {std::vector<double>{0, 3}, std::vector<double>{0, 1, 4},
+                                       std::vector<double>{-2, 0, 0.5, 3, 7, 8}}) {
+    const std::size_t n = z.size();
+    std::vector<Grid2f> slices;
+    for (std::size_t k = 0; k < n; ++k) {
+      Grid2f g(w, h);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) g(x, y) = x == 0 ? 1.5f : float(std::sin(0.7 * double(k) * (x + 1) + y) * (y + 1));
+      slices.push_back(g);
+    }
+    for (const auto& [lo, hi] : {std::pair<std::size_t, std::size_t>{0, n - 1}, {n > 2 ? 1 : 0, n - 1}, {n > 4 ? 3 : 0, n - 2}}) {
+      const ZInterpolator zi(slices, z, kind, lo, hi);
+      const std::size_t k = lo == 0 ? 0 : lo;  // an interval whose two tangents are held
+      if (k + 1 > hi) continue;
+      const double q = 0.3 * z[k] + 0.7 * z[k + 1];
+      Grid2f out;
+      zi.evaluate(q, out);
+      const HermiteBasis basis(kind, z[k], z[k + 1], q);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          std::vector<double> f, m(n);
+          for (const auto& s : slices) f.push_back(s(x, y));
+          spline_tangents(kind, z, f, m);
+          const float want = float(basis.value(f[k], f[k + 1], double(float(m[k])), double(float(m[k + 1]))));
+          EXPECT_EQ(out(x, y), want) << to_string(kind) << " " << n << " knots, pixel (" << x << ", " << y << ")";
+        }
+    }
+  }
+}
+
 // evaluate() on pixel runs (the streaming mesher's band) and on the whole
 // plane are twins: the same bits on the runs, the other pixels untouched.
 TEST(ZInterpolator, RunsGiveTheWholePlanesValuesThereAndLeaveTheRest) {

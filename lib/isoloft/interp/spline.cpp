@@ -12,11 +12,13 @@ namespace isoloft {
 namespace {
 
 // Three-point (parabolic) derivative estimate at interior knot i; one-sided
-// three-point at the ends (exact for quadratics, any spacing).
-double parabolic_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+// three-point at the ends (exact for quadratics, any spacing). f(k): knot k's
+// value (a column's span, or one pixel of each knot's plane); slope(k): the
+// secant (f(k + 1) - f(k)) / (z[k + 1] - z[k]) (computed, or held).
+template <class S>
+double parabolic_tangent_at(std::span<const double> z, const S& slope, std::size_t i) {
   const std::size_t n = z.size();
-  if (n == 2) return (f[1] - f[0]) / (z[1] - z[0]);
-  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
+  if (n == 2) return slope(0);
   if (i == 0) {
     const double h0 = z[1] - z[0], h1 = z[2] - z[1];
     return ((2 * h0 + h1) * slope(0) - h0 * slope(1)) / (h0 + h1);
@@ -39,10 +41,19 @@ double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
   return s * std::clamp(s * m, 0.0, bound);
 }
 
+// The monotone (Hyman) tangent at knot i; slope as parabolic_tangent_at's.
+template <class S>
+double monotone_tangent(std::span<const double> z, const S& slope, std::size_t i) {
+  const std::size_t n = z.size();
+  const bool has_l = i > 0, has_r = i + 1 < n;
+  return hyman_clamp(parabolic_tangent_at(z, slope, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
+}
+
 // Derivative at z[i] of the parabola through knots a < b < c (one of them i).
-double parabola_slope(std::span<const double> z, std::span<const double> f, std::size_t a, std::size_t i) {
+template <class S>
+double parabola_slope(std::span<const double> z, const S& slope, std::size_t a, std::size_t i) {
   const double za = z[a], zb = z[a + 1], zc = z[a + 2], x = z[i];
-  const double d1 = (f[a + 1] - f[a]) / (zb - za), d2 = (f[a + 2] - f[a + 1]) / (zc - zb);
+  const double d1 = slope(a), d2 = slope(a + 1);
   const double c2 = (d2 - d1) / (zc - za);  // second divided difference
   return d1 + c2 * ((x - za) + (x - zb));
 }
@@ -54,10 +65,10 @@ double parabola_slope(std::span<const double> z, std::span<const double> f, std:
 // noise), limited to 1.5x the smallest of them, and to 3 |f_i| / h on the side
 // it moves toward 0, so no interval whose knots share a sign crosses 0 (DEH's
 // nonnegativity condition).
-double extremum_tangent(std::span<const double> z, std::span<const double> f, std::size_t i) {
+template <class F, class S>
+double extremum_tangent(std::span<const double> z, const F& f, const S& slope, std::size_t i) {
   const std::size_t n = z.size();
-  auto slope = [&](std::size_t k) { return (f[k + 1] - f[k]) / (z[k + 1] - z[k]); };
-  const double p0 = parabolic_tangent(z, f, i);
+  const double p0 = parabolic_tangent_at(z, slope, i);
   if (i == 0 || i + 1 == n) return hyman_clamp(p0, i > 0 ? slope(i - 1) : 0.0, i + 1 < n ? slope(i) : 0.0, i > 0, i + 1 < n);
   const double dl = slope(i - 1), dr = slope(i);
   if (dl * dr > 0.0) return hyman_clamp(p0, dl, dr, true, true);
@@ -70,21 +81,22 @@ double extremum_tangent(std::span<const double> z, std::span<const double> f, st
   double bound = std::abs(p0);
   bool smooth = false;
   if (i >= 2) {  // left parabola (i-2, i-1, i)
-    const double pl = parabola_slope(z, f, i - 2, i);
+    const double pl = parabola_slope(z, slope, i - 2, i);
     if (pl * p0 <= 0.0 || (dl - slope(i - 2)) * curvature <= 0.0) return 0.0;
     bound = std::min(bound, 1.5 * std::abs(pl));
     smooth = true;
   }
   if (i + 2 < n) {  // right parabola (i, i+1, i+2)
-    const double pr = parabola_slope(z, f, i, i);
+    const double pr = parabola_slope(z, slope, i, i);
     if (pr * p0 <= 0.0 || (slope(i + 1) - dr) * curvature <= 0.0) return 0.0;
     bound = std::min(bound, 1.5 * std::abs(pr));
     smooth = true;
   }
   if (!smooth) return 0.0;  // three knots: nothing tells a smooth extremum from a kink
   // Moving toward 0: into the right interval if p0 and f_i differ in sign.
-  const double h = p0 * f[i] < 0.0 ? z[i + 1] - z[i] : z[i] - z[i - 1];
-  bound = std::min(bound, 3.0 * std::abs(f[i]) / h);
+  const double fi = f(i);
+  const double h = p0 * fi < 0.0 ? z[i + 1] - z[i] : z[i] - z[i - 1];
+  bound = std::min(bound, 3.0 * std::abs(fi) / h);
   return p0 > 0.0 ? bound : -bound;
 }
 
@@ -110,13 +122,10 @@ void spline_tangents(SplineKind kind, std::span<const double> z, std::span<const
       }
       return;
     case SplineKind::Monotone:
-      for (std::size_t i = lo; i <= hi; ++i) {
-        const bool has_l = i > 0, has_r = i + 1 < n;
-        m[i] = hyman_clamp(parabolic_tangent(z, f, i), has_l ? slope(i - 1) : 0.0, has_r ? slope(i) : 0.0, has_l, has_r);
-      }
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = monotone_tangent(z, slope, i);
       return;
     case SplineKind::ExtremumPreserving:
-      for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, f, i);
+      for (std::size_t i = lo; i <= hi; ++i) m[i] = extremum_tangent(z, [&](std::size_t k) { return f[k]; }, slope, i);
       return;
     case SplineKind::Natural: {
       // Second derivatives M with M_0 = M_{n-1} = 0 (Thomas algorithm), then
@@ -186,6 +195,39 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
   tangents_.assign(n, Grid2f(w, h, 0.0f));
   if (kind_ == SplineKind::Linear) return;
+  // Monotone and extremum-preserving (the default) tangents read knots
+  // i-2..i+2 only: knot by knot over contiguous pixels, not column by
+  // column, each secant of the intervals they read divided once per pixel.
+  const std::size_t s0 = lo - std::min<std::size_t>(lo, 2), s1 = std::min(n - 2, hi + 1);  // secants s0..s1
+  auto knot_by_knot = [&](const auto& tangent) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
+      const std::size_t np = r.size();
+      std::vector<double> secant((s1 - s0 + 1) * np);
+      for (std::size_t k = s0; k <= s1; ++k) {
+        const float *a = slices_[k].data.data() + r.begin(), *b = slices_[k + 1].data.data() + r.begin();
+        const double dz = z_[k + 1] - z_[k];
+        double* sk = secant.data() + (k - s0) * np;
+        for (std::size_t q = 0; q < np; ++q) sk[q] = (double(b[q]) - double(a[q])) / dz;
+      }
+      for (std::size_t k = lo; k <= hi; ++k) {
+        float* out = tangents_[k].data.data();
+        for (std::size_t p = r.begin(); p != r.end(); ++p) {
+          const std::size_t q = p - r.begin();
+          out[p] = float(tangent([&](std::size_t j) { return double(slices_[j].data[p]); },
+                                 [&](std::size_t j) { return secant[(j - s0) * np + q]; }, k));
+        }
+      }
+    });
+  };
+  const std::span<const double> zs(z_);
+  if (kind_ == SplineKind::Monotone) {
+    knot_by_knot([&](const auto&, const auto& slope, std::size_t i) { return monotone_tangent(zs, slope, i); });
+    return;
+  }
+  if (kind_ == SplineKind::ExtremumPreserving) {
+    knot_by_knot([&](const auto& f, const auto& slope, std::size_t i) { return extremum_tangent(zs, f, slope, i); });
+    return;
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(w) * h, 4096), [&](const auto& r) {
     std::vector<double> f(n), m(n);
     for (std::size_t p = r.begin(); p != r.end(); ++p) {
