@@ -364,7 +364,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     for (const auto& out : o.outputs)
       if (out->streams_objects(in)) streamer = out.get();
   // Streamed, a label partition's meshes wait in scratch files beside the
-  // output (ReconstructOptions::mesh_spill_dir) until each is written.
+  // output (ReconstructOptions::scratch_dir) until each is written.
   std::string spill_dir;
   if (streamer) {
     spill_dir = std::filesystem::path(streamer->target()).parent_path().string();
@@ -433,7 +433,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
       hooks[j].apply(ropt);
       if (streamer) {
         ropt.on_object = [&, j](ObjectResult& ob) { as_output(files, streamer->option(), [&] { streamer->object_done(ctx, j, ob); }); };
-        ropt.mesh_spill_dir = spill_dir;
+        ropt.scratch_dir = spill_dir;
       }
       const Job& job = in.jobs[j];
       ropt.on_estimate = [&, j](const WorkEstimate& e) {

@@ -16,18 +16,11 @@
 #include "isoloft/core/grid.h"
 #include "isoloft/io/png.h"
 #include "isoloft/io/volume.h"
+#include "io/io_test_util.h"  // read_text
 
 namespace isoloft::test {
 
 namespace fs = std::filesystem;
-
-/// The whole file as bytes ("" if it cannot be read).
-inline std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 struct CliRun {
   int code;

@@ -17,6 +17,7 @@
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/synth/synth.h"
+#include "io/io_test_util.h"
 
 using namespace isoloft;
 
@@ -68,9 +69,11 @@ struct Streamed {
   std::map<double, Grid2f> samples;
 };
 
-Streamed streamed(const SliceStack& st, const ReconstructParams& p, const std::vector<double>& sample_z) {
+Streamed streamed(const SliceStack& st, const ReconstructParams& p, const std::vector<double>& sample_z,
+                  const std::string& scratch_dir = "") {
   Streamed s;
   ReconstructOptions o;
+  o.scratch_dir = scratch_dir;
   o.sample_z = sample_z;
   o.on_sample = [&](std::uint32_t, const Grid2f& f, const PixelBox&, double z) { s.samples[z] = f; };
   ReconstructResult r = reconstruct(st, p, o);
@@ -123,9 +126,11 @@ TEST(Streaming, EqualsHoldingEverySliceWithEmptySlicesAnywhere) {
     const Resident want = resident_oracle(st, p, sample_z);
     ASSERT_FALSE(want.mesh.empty()) << v.name;
     ASSERT_EQ(want.samples.size(), 3u) << v.name << ": the sample below the caps is out of range";
-    for (const bool lazily : {false, true}) {
-      const std::string what = v.name + (lazily ? ", lazy images" : "");
-      const Streamed got = streamed(lazily ? lazy(st) : st, p, sample_z);
+    const test::TempDir dir;
+    for (const int way : {0, 1, 2}) {  // held, lazy images, fields computed early on disk
+      const bool lazily = way == 1;
+      const std::string what = v.name + (lazily ? ", lazy images" : way == 2 ? ", scratch folder" : "");
+      const Streamed got = streamed(lazily ? lazy(st) : st, p, sample_z, way == 2 ? dir.path().string() : "");
       EXPECT_EQ(got.object.mesh.vertices, want.mesh.vertices) << what;
       EXPECT_EQ(got.object.mesh.triangles, want.mesh.triangles) << what;
       ASSERT_EQ(got.samples.size(), want.samples.size()) << what;
@@ -160,6 +165,36 @@ TEST(Streaming, SliceFieldsHeldAtOnceDoNotGrowWithTheSlices) {
     natural.interp.spline = SplineKind::Natural;
     EXPECT_GT(streamed(lazy(st), natural, {}).object.peak_resident_fields, n) << n << " slices";
   }
+}
+
+// An empty slice with no non-empty neighbour takes the lowest value of all
+// the object's fields, so the feed computes them before it. With a scratch
+// folder those fields wait on disk (no name) until their knot: the same mesh
+// bit for bit, and the fields held at once keep the window's bound.
+TEST(Streaming, FieldsComputedEarlyWaitOnDiskWithAScratchFolder) {
+  SliceStack st = sphere_stack(32, 0.1);
+  const std::size_t n = st.slices.size();
+  const long bound = long(detail::slices_in_flight()) + kFeedFields + kStreamFields;
+  for (std::size_t k = 0; k < n / 2; ++k) std::fill(st.slices[k].image.data.begin(), st.slices[k].image.data.end(), 0u);
+  ASSERT_GT(long(n - n / 2), 2 * bound) << "too few non-empty slices to tell a bound from holding them all";
+  const ReconstructParams p = undecimated();
+  const ReconstructResult held = reconstruct(st, p);
+  ASSERT_EQ(held.objects.size(), 1u);
+  EXPECT_GT(held.objects.front().peak_resident_fields, 2 * bound) << "in memory, the fields computed early are all held";
+  const test::TempDir dir;
+  ReconstructOptions o;
+  o.scratch_dir = dir.path().string();
+  const ReconstructResult parked = reconstruct(st, p, o);
+  ASSERT_EQ(parked.objects.size(), 1u);
+  EXPECT_LE(parked.objects.front().peak_resident_fields, bound);
+  const TriMesh& want = held.objects.front().mesh;
+  const TriMesh& got = parked.objects.front().mesh;
+  ASSERT_FALSE(want.triangles.empty());
+  ASSERT_EQ(got.vertices.size(), want.vertices.size());
+  ASSERT_EQ(got.triangles.size(), want.triangles.size());
+  for (std::size_t i = 0; i < want.vertices.size(); ++i) ASSERT_EQ(got.vertices[i], want.vertices[i]) << "vertex " << i;
+  for (std::size_t i = 0; i < want.triangles.size(); ++i) ASSERT_EQ(got.triangles[i], want.triangles[i]) << "triangle " << i;
+  EXPECT_EQ(dir.entries().size(), 0u) << "the scratch files have no name";
 }
 
 // The next batch of slices computes while the last is meshed: an error in it

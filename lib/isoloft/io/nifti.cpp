@@ -230,10 +230,10 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
   // sparse label volume costs its annotated planes, not its box.
   const bool by_plane = options.take_samples && !scaled && detail::scalar_size(type) <= 2;
   std::vector<unsigned char> bytes;
-  std::shared_ptr<std::vector<std::vector<unsigned char>>> planes;
+  std::shared_ptr<std::vector<SamplePlane>> planes;
   if (by_plane) {
     const std::size_t plane_bytes = std::size_t(v.nx) * std::size_t(v.ny) * std::size_t(nim->nbyper);
-    planes = std::make_shared<std::vector<std::vector<unsigned char>>>(std::size_t(v.nz));
+    planes = std::make_shared<std::vector<SamplePlane>>(std::size_t(v.nz));
     std::vector<unsigned char> plane;  // grown as read, as the chunks below
     for (std::size_t k = 0; k < std::size_t(v.nz); ++k) {
       for (std::size_t at = 0; at < plane_bytes;) {
@@ -247,7 +247,7 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
       for (const unsigned char b : plane) any |= b;  // branch-free: vectorises
       if (!any) continue;
       if (swap) nifti_swap_Nbytes(int64_t(plane_bytes / std::size_t(nim->nbyper)), nim->swapsize, plane.data());
-      (*planes)[k] = plane;
+      (*planes)[k] = SamplePlane(plane.data(), v.nx, v.ny, std::size_t(nim->nbyper));
     }
   }
   // Else in chunks: memory follows the data the file really holds.
@@ -272,8 +272,10 @@ Volume read_nifti(const std::string& path, const VolumeReadOptions& options) {
     v.data.clear();
     if (options.take_samples(v, samples)) return v;
     bytes.assign(nbytes, 0);  // not taken: the planes in one buffer, decoded below
+    const std::size_t row_bytes = std::size_t(v.nx) * std::size_t(nim->nbyper);
     for (std::size_t k = 0; k < planes->size(); ++k)
-      std::copy((*planes)[k].begin(), (*planes)[k].end(), bytes.begin() + std::ptrdiff_t(k * (nbytes / planes->size())));
+      for (int j = 0; !(*planes)[k].empty() && j < v.ny; ++j)
+        (*planes)[k].row(j, bytes.data() + (k * std::size_t(v.ny) + std::size_t(j)) * row_bytes);
     planes.reset();
     detail::resize_large(v.data, count);
     detail::decode_volume(bytes.data(), type, samples.big_endian, v, path);

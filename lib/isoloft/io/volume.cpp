@@ -274,4 +274,87 @@ void take_or_decode(const unsigned char* src, ScalarType t, bool big_endian, Vol
 }
 
 }  // namespace detail
+
+SamplePlane::SamplePlane(const unsigned char* samples, int nx, int ny, std::size_t sample_bytes)
+    : nx_(nx), ny_(ny), size_(sample_bytes) {
+  if (sample_bytes != 1 && sample_bytes != 2)
+    throw ParamError("SamplePlane: samples of " + std::to_string(sample_bytes) + " bytes (1 or 2 are held as runs)");
+  const auto value = [&](std::size_t i) {
+    std::uint16_t v = 0;
+    std::memcpy(&v, samples + i * size_, size_);
+    return v;
+  };
+  row_first_.reserve(std::size_t(ny) + 1);
+  bool any = false;
+  for (int j = 0; j < ny; ++j) {
+    row_first_.push_back(std::uint32_t(run_end_.size()));
+    const std::size_t row = std::size_t(j) * std::size_t(nx);
+    for (int i = 0; i < nx;) {
+      const std::uint16_t v = value(row + std::size_t(i));
+      int e = i + 1;
+      while (e < nx && value(row + std::size_t(e)) == v) ++e;
+      run_end_.push_back(std::uint32_t(e));
+      value_.push_back(v);
+      any |= v != 0;
+      i = e;
+    }
+  }
+  row_first_.push_back(std::uint32_t(run_end_.size()));
+  if (!any) {  // all 0: nothing held but the size
+    row_first_ = {};
+    run_end_ = {};
+    value_ = {};
+    return;
+  }
+  runs_ = run_end_.size();
+  run_end_.shrink_to_fit();
+  value_.shrink_to_fit();
+}
+
+bool SamplePlane::row_zero(int j) const {
+  if (empty()) return true;
+  for (std::uint32_t r = row_first_[std::size_t(j)]; r < row_first_[std::size_t(j) + 1]; ++r)
+    if (value_[r] != 0) return false;
+  return true;
+}
+
+void SamplePlane::row(int j, unsigned char* out) const {
+  if (empty()) {
+    std::memset(out, 0, std::size_t(nx_) * size_);
+    return;
+  }
+  std::uint32_t x = 0;
+  for (std::uint32_t r = row_first_[std::size_t(j)]; r < row_first_[std::size_t(j) + 1]; ++r)
+    for (; x < run_end_[r]; ++x) std::memcpy(out + std::size_t(x) * size_, &value_[r], size_);
+}
+
+void SamplePlane::row_floats(int j, detail::ScalarType type, bool big_endian, float* out) const {
+  if (empty()) {
+    std::fill(out, out + nx_, 0.0f);
+    return;
+  }
+  std::uint32_t x = 0;
+  for (std::uint32_t r = row_first_[std::size_t(j)]; r < row_first_[std::size_t(j) + 1]; ++r) {
+    float f;
+    detail::decode_scalars(reinterpret_cast<const unsigned char*>(&value_[r]), 1, type, big_endian, &f);
+    std::fill(out + x, out + run_end_[r], f);
+    x = run_end_[r];
+  }
+}
+
+float SamplePlane::at(int i, int j, detail::ScalarType type, bool big_endian) const {
+  if (empty()) return 0.0f;
+  const std::uint32_t* first = run_end_.data() + row_first_[std::size_t(j)];
+  const std::uint32_t* last = run_end_.data() + row_first_[std::size_t(j) + 1];
+  const std::size_t r = std::size_t(std::upper_bound(first, last, std::uint32_t(i)) - run_end_.data());
+  float f;
+  detail::decode_scalars(reinterpret_cast<const unsigned char*>(&value_[r]), 1, type, big_endian, &f);
+  return f;
+}
+
+std::size_t SamplePlane::bytes() const {
+  return row_first_.capacity() * sizeof(std::uint32_t) + run_end_.capacity() * sizeof(std::uint32_t) +
+         value_.capacity() * sizeof(std::uint16_t);
+}
+
 }  // namespace isoloft

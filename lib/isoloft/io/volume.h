@@ -59,16 +59,48 @@ namespace detail {
 enum class ScalarType { U8, I8, U16, I16, U32, I32, F32, F64 };
 }  // namespace detail
 
+/// One plane of samples (nx x ny, 1 or 2 bytes each, as stored) held as runs
+/// of equal samples row by row: a label plane costs its runs, not its pixels.
+/// @warning A default-made plane (every sample 0, empty()) has no width: its
+/// row() and row_floats() write nothing; the caller fills the row.
+class SamplePlane {
+ public:
+  SamplePlane() = default;
+  /// Encodes nx * ny samples of `sample_bytes` (1 or 2) bytes each, x fastest.
+  /// \throw ParamError for another sample size.
+  SamplePlane(const unsigned char* samples, int nx, int ny, std::size_t sample_bytes);
+  /// Every sample 0.
+  [[nodiscard]] bool empty() const { return runs_ == 0; }
+  /// Row j holds only 0 samples.
+  [[nodiscard]] bool row_zero(int j) const;
+  /// Row j's samples as stored into `out` (nx samples).
+  void row(int j, unsigned char* out) const;
+  /// Row j as floats (`decode`: the file's type and byte order) into `out`.
+  void row_floats(int j, detail::ScalarType type, bool big_endian, float* out) const;
+  /// Sample (i, j) as a float.
+  [[nodiscard]] float at(int i, int j, detail::ScalarType type, bool big_endian) const;
+  /// Bytes held.
+  [[nodiscard]] std::size_t bytes() const;
+
+ private:
+  int nx_ = 0, ny_ = 0;
+  std::size_t size_ = 1;
+  std::size_t runs_ = 0;                 // 0: every sample 0 (nothing stored)
+  std::vector<std::uint32_t> row_first_;  // per row its first run, then the run count (ny + 1)
+  std::vector<std::uint32_t> run_end_;    // per run: the x one past its last sample
+  std::vector<std::uint16_t> value_;      // per run: its sample's bytes as stored
+};
+
 /// A volume's samples as its file stores them (the reader's buffer: valid
 /// during the call that is given them), x fastest, then y, then z.
 struct VolumeSamples {
   const unsigned char* bytes = nullptr;  ///< every sample in one buffer; null when `planes` holds them
   detail::ScalarType type = detail::ScalarType::U8;
   bool big_endian = false;
-  /// Else plane by plane along k (nx * ny samples each; empty: every sample 0),
-  /// shared, so a taker may keep them past the call (a reader streams a large
-  /// sparse volume this way: memory follows its non-empty planes).
-  std::shared_ptr<const std::vector<std::vector<unsigned char>>> planes;
+  /// Else plane by plane along k (1- or 2-byte samples as runs), shared, so a
+  /// taker may keep them past the call (a reader streams a large sparse
+  /// volume this way: memory follows its planes' runs).
+  std::shared_ptr<const std::vector<SamplePlane>> planes;
 };
 
 /// What a volume file holds, from its header alone.

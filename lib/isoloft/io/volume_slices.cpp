@@ -42,6 +42,15 @@ class VoxelRows {
   /// Row (j, k) as floats; `buffer` (nx floats) holds it when it is decoded.
   const float* row(int j, int k, float* buffer) const {
     if (!samples_) return v_.data.data() + v_.index(0, j, k);
+    if (samples_->planes) {
+      const SamplePlane& p = (*samples_->planes)[std::size_t(k)];
+      if (p.empty()) {  // an all-0 plane (the reader keeps none of it)
+        std::fill(buffer, buffer + v_.nx, 0.0f);
+      } else {
+        p.row_floats(j, samples_->type, samples_->big_endian, buffer);
+      }
+      return buffer;
+    }
     const unsigned char* b = bytes(v_.index(0, j, k));
     if (!b) {
       std::fill(buffer, buffer + v_.nx, 0.0f);
@@ -54,6 +63,7 @@ class VoxelRows {
   /// bytes are all 0); false says nothing (the floats are read as they are).
   [[nodiscard]] bool known_zero(int j, int k) const {
     if (!samples_) return false;
+    if (samples_->planes) return (*samples_->planes)[std::size_t(k)].row_zero(j);
     const unsigned char* b = bytes(v_.index(0, j, k));
     if (!b) return true;
     unsigned char any = 0;
@@ -63,6 +73,11 @@ class VoxelRows {
   /// Voxel i's value.
   [[nodiscard]] float at(std::size_t i) const {
     if (!samples_) return v_.data[i];
+    if (samples_->planes) {
+      const std::size_t plane = std::size_t(v_.nx) * std::size_t(v_.ny), in = i % plane;
+      return (*samples_->planes)[i / plane].at(int(in % std::size_t(v_.nx)), int(in / std::size_t(v_.nx)), samples_->type,
+                                               samples_->big_endian);
+    }
     const unsigned char* b = bytes(i);
     if (!b) return 0.0f;
     float x;
@@ -78,13 +93,8 @@ class VoxelRows {
   const VolumeSamples* samples_ = nullptr;
   std::size_t size_ = 4;
 
-  // Sample i's bytes; null when its plane is all 0 (held plane by plane).
-  [[nodiscard]] const unsigned char* bytes(std::size_t i) const {
-    if (!samples_->planes) return samples_->bytes + i * size_;
-    const std::size_t plane = std::size_t(v_.nx) * std::size_t(v_.ny);
-    const std::vector<unsigned char>& p = (*samples_->planes)[i / plane];
-    return p.empty() ? nullptr : p.data() + (i % plane) * size_;
-  }
+  // Sample i's bytes in the one buffer (not held plane by plane).
+  [[nodiscard]] const unsigned char* bytes(std::size_t i) const { return samples_->bytes + i * size_; }
 };
 
 using Occupancy = std::array<std::vector<std::uint8_t>, 3>;

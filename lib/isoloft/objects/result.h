@@ -65,7 +65,7 @@ struct ObjectResult {
   std::optional<Field3dStats> field3d;
 
   /// A label partition's mesh while it waits in a scratch file
-  /// (ReconstructOptions::mesh_spill_dir); `mesh` is empty until it is loaded.
+  /// (ReconstructOptions::scratch_dir); `mesh` is empty until it is loaded.
   std::shared_ptr<MeshSpill> spilled;
   /// ReconstructOptions::on_object wrote the mesh and freed it: its counts
   /// stay here (vertex_count(), triangle_count()).
@@ -137,10 +137,12 @@ struct ReconstructOptions {
   /// threads; it may write the mesh and free it (ObjectResult::free_mesh()).
   /// Called by the columns family (methods with a family of their own do not).
   std::function<void(ObjectResult&)> on_object;
-  /// With on_object: a label partition's meshes wait in scratch files in
-  /// this folder while its labels stream ("": held in memory); each is read
-  /// back for its decimation, check and on_object, one object per thread.
-  std::string mesh_spill_dir;
+  /// Scratch files go in this folder ("": all held in memory): the slice
+  /// fields computed early only for an empty slice's value wait there until
+  /// their knot (column methods); with on_object, a label partition's meshes
+  /// wait there while its labels stream, each read back for its decimation,
+  /// check and on_object, one object per thread.
+  std::string scratch_dir;
 };
 
 struct ReconstructResult {

@@ -250,13 +250,13 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
   // Every label's mesh grows until the last plane: out of memory meanwhile
   // when the objects are written one by one (on_object) anyway.
   std::vector<std::shared_ptr<MeshSpill>> spills(labels);
-  const bool spill = run.options.on_object && !run.options.mesh_spill_dir.empty();
+  const bool spill = run.options.on_object && !run.options.scratch_dir.empty();
   bounds.reserve(labels);
   for (std::size_t l = 0; l < labels; ++l) {
     bounds.emplace_back(streams[l]->field(), boxes[l], union_sides, ubox);
     StreamMeshOptions o = mesh_options(objects[l].run, objects[l].obj);
     o.progress = nullptr;  // once per plane for all labels, below
-    if (spill) o.spill = (spills[l] = std::make_shared<MeshSpill>(run.options.mesh_spill_dir)).get();
+    if (spill) o.spill = (spills[l] = std::make_shared<MeshSpill>(run.options.scratch_dir)).get();
     meshers[l] = std::make_unique<StreamMesher>(bounds[l], boxes[l].x0, boxes[l].y0, run.params.mc, std::move(o));
   }
   std::vector<Grid2f> phi(labels + 1), psi(labels);

@@ -7,13 +7,16 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <deque>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
 
 #include "isoloft/core/error.h"
+#include "isoloft/core/scratch_file.h"
 #include "isoloft/core/option_names.h"
 #include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/methods/method.h"
@@ -188,16 +191,20 @@ class SliceFields {
 // The knots of the z splines in z order (paper 2.4): the end cap below, every
 // slice's field (empty slices closed as fill_empty_slices does), the
 // end cap above. Holds a slice's field while a neighbour may still need it.
+// An empty slice with no non-empty neighbour takes the lowest value of all
+// the object's fields, so the feed computes them all before it: with a
+// scratch folder those not needed yet wait on disk (parked) until their knot.
 class KnotFeed {
  public:
-  // z: the knot heights (knot_z: slice k at z[k + 1]).
+  // z: the knot heights (knot_z: slice k at z[k + 1]). scratch_dir: "" holds
+  // the fields computed early in memory.
   KnotFeed(SliceFields& slices, const std::vector<char>& empty, const std::vector<double>& z, const PixelBox& box,
-           const InterpParams& interp, ResidentCount& count)
-      : slices_(slices), empty_(empty), z_(z), box_(box), interp_(interp), count_(count) {
+           const InterpParams& interp, ResidentCount& count, std::string scratch_dir)
+      : slices_(slices), empty_(empty), z_(z), box_(box), interp_(interp), count_(count), scratch_dir_(std::move(scratch_dir)) {
     const auto last = std::find(empty.rbegin(), empty.rend(), char(0));
     last_nonempty_ = std::size_t(empty.rend() - last) - 1;
   }
-  ~KnotFeed() { count_.remove(long(raw_.size()) + long(!pending_.empty()) + long(!before_.empty())); }
+  ~KnotFeed() { count_.remove(held_ + long(!pending_.empty()) + long(!before_.empty())); }
   KnotFeed(const KnotFeed&) = delete;
   KnotFeed& operator=(const KnotFeed&) = delete;
 
@@ -237,13 +244,44 @@ class KnotFeed {
     return interp_.cap_shape == CapShape::Slab || interp_.cap_shape == CapShape::Round;
   }
 
-  // Slice k's raw field, pulling slices up to k.
+  // Slice k's raw field, pulling slices up to k (parked ones read back).
   Grid2f& raw(std::size_t k) {
+    pull(k, false);
+    const std::size_t i = k - raw_first_;
+    if (where_[i] >= 0) {
+      Grid2f& f = raw_[i];
+      f = Grid2f(box_.width(), box_.height());
+      park_->read(where_[i], f.data.data(), f.size() * sizeof(float));
+      where_[i] = kHeld;
+      ++held_;
+      count_.add(1);
+    }
+    return raw_[i];
+  }
+
+  // Pulls the raw fields up to slice k; `park`: a non-empty one goes to the
+  // scratch file (when there is a folder) until raw() asks for it. An empty
+  // slice's field holds nothing: not counted.
+  void pull(std::size_t k, bool park) {
     while (raw_first_ + raw_.size() <= k) {
       raw_.push_back(slices_.take(raw_first_ + raw_.size()));
-      lowest_ = most_negative(lowest_, raw_.back());
+      Grid2f& f = raw_.back();
+      lowest_ = most_negative(lowest_, f);
+      where_.push_back(f.empty() ? kNothing : kHeld);
+      if (f.empty()) {
+        count_.remove(1);
+        continue;
+      }
+      ++held_;
+      if (!park || scratch_dir_.empty()) continue;
+      if (f.width != box_.width() || f.height != box_.height()) throw Error("KnotFeed: a slice field is not the object's box");
+      if (!park_) park_.emplace(scratch_dir_, "the slice fields computed ahead");
+      where_.back() = park_->size();
+      park_->append(f.data.data(), f.size() * sizeof(float));
+      f = Grid2f();
+      --held_;
+      count_.remove(1);
     }
-    return raw_[k - raw_first_];
   }
 
   // Slice k's knot field, once for each k in order.
@@ -258,16 +296,20 @@ class KnotFeed {
       const Grid2f* above = k + 1 < n ? &raw(k + 1) : nullptr;  // deque references survive push_back
       const Grid2f* below = k > 0 ? &raw(k - 1) : nullptr;
       const bool isolated = (!above || above->empty()) && (!below || below->empty());
-      // The most negative value of all fields: pull (and hold) the slices up
-      // to the last non-empty one first.
-      if (isolated && last_nonempty_ > k) raw(last_nonempty_);
+      // The most negative value of all fields: pull the slices up to the
+      // last non-empty one first, parked until the feed reaches them.
+      if (isolated && last_nonempty_ > k) pull(last_nonempty_, true);
       out = empty_slice_field(below, above, lowest_, box_, interp_, k > 0 ? z_[k + 1] - z_[k] : 0.0,
                                       k + 1 < n ? z_[k + 2] - z_[k + 1] : 0.0);
     }
     // Slices below k are no longer anyone's neighbour.
     for (; raw_first_ < k; ++raw_first_) {
+      if (where_.front() == kHeld) {
+        --held_;
+        count_.remove(1);
+      }
       raw_.pop_front();
-      count_.remove(1);
+      where_.pop_front();
     }
     return out;
   }
@@ -280,6 +322,12 @@ class KnotFeed {
   ResidentCount& count_;
   std::size_t last_nonempty_ = 0;
   std::deque<Grid2f> raw_;  // slices [raw_first_, raw_first_ + size)
+  // Per raw_ entry: its offset in park_, or kHeld (in memory), kNothing (empty).
+  static constexpr std::int64_t kHeld = -1, kNothing = -2;
+  std::deque<std::int64_t> where_;
+  long held_ = 0;  // raw_ entries in memory and counted
+  std::string scratch_dir_;
+  std::optional<ScratchFile> park_;
   std::size_t raw_first_ = 0;
   float lowest_ = -1.0f;  // most_negative of the slices pulled
   std::size_t knot_ = 0;
@@ -378,7 +426,7 @@ class ObjectStream::Impl {
       throw InputError(run.stack.slices.front().source, o.str());
     }
     slices_.emplace(run, obj, masks_, count_, band, window);
-    feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_);
+    feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_, run.options.scratch_dir);
     stream_ = z_scheme_spec(p.z_scheme).make(
         ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_, z_block}, p);
   }
