@@ -588,6 +588,16 @@ constexpr double kChebyshevRatio = 30;
 /// underestimated lmax would amplify the top modes).
 constexpr int kPowerSteps = 20;
 constexpr double kLmaxSafety = 1.2;
+/// Power-iteration steps from the previous solve's vector on the same grids
+/// (an active-set pass: the operator changed by a few penalty samples, so
+/// the top eigenvector barely moved).
+constexpr int kWarmPowerSteps = 5;
+
+/// The top eigenvectors of D^-1 A per multigrid level from one solve, for
+/// the next solve on the same grids to start its power iterations from.
+struct PowerStart {
+  std::vector<Eigen::VectorXd> v;
+};
 
 /// A geometric multigrid V-cycle as the preconditioner of conjugate
 /// gradients on one level: the grids halved (nested nodes, the coarse box
@@ -604,7 +614,11 @@ constexpr double kLmaxSafety = 1.2;
 /// residual and the correction; no copy of the samples.
 class Multigrid {
  public:
-  Multigrid(const Level& top, const Operator& A, const std::vector<Sample>& samples, const Field3dParams& p) : top_(&A) {
+  /// start: the previous solve's top eigenvectors on the same grids (null or
+  /// not matching: a cold start); updated to this hierarchy's.
+  Multigrid(const Level& top, const Operator& A, const std::vector<Sample>& samples, const Field3dParams& p,
+            PowerStart* start = nullptr)
+      : top_(&A) {
     lv_.push_back(top);
     while (lv_.back().size() > kCoarsestNodes && int(lv_.size()) < kMaxMultigridLevels) {
       const Level c = coarser(lv_.back());
@@ -613,7 +627,14 @@ class Multigrid {
       coarse_.push_back(std::make_unique<CellOperator>(lv_.back(), samples, p));
     }
     work_.resize(lv_.size());
-    for (std::size_t l = 0; l + 1 < lv_.size(); ++l) lmax_.push_back(kLmaxSafety * largest_eigenvalue(l));
+    const bool warm = start && start->v.size() + 1 == lv_.size();
+    if (start && !warm) start->v.assign(lv_.size() - 1, Eigen::VectorXd());
+    for (std::size_t l = 0; l + 1 < lv_.size(); ++l) {
+      Eigen::VectorXd scratch;
+      Eigen::VectorXd& v = start ? start->v[l] : scratch;
+      const bool from_v = warm && v.size() == Eigen::Index(lv_[l].size());
+      lmax_.push_back(kLmaxSafety * largest_eigenvalue(l, v, from_v));
+    }
     coarsest_.compute(coarse_.empty() ? CellOperator(top, samples, p).assemble() : coarse_.back()->assemble());
     if (coarsest_.info() != Eigen::Success) throw Error("field3d: the multigrid's coarsest factorisation failed");
   }
@@ -638,16 +659,21 @@ class Multigrid {
     return l == 0 ? top_->diagonal() : coarse_[l - 1]->diagonal();
   }
 
-  [[nodiscard]] double largest_eigenvalue(std::size_t l) const {
-    // A pseudo-random start: every mode present (a smooth start holds almost
-    // none of the top modes, and the estimate stays far below lmax).
-    Eigen::VectorXd v(Eigen::Index(lv_[l].size())), Av;
-    for (Eigen::Index n = 0; n < v.size(); ++n) {
-      const double q = std::sin(double(n) * 12.9898 + 78.233) * 43758.5453;
-      v[n] = q - std::floor(q) - 0.5;
+  /// lmax of D^-1 A on level l by power iteration; v: the start when `warm`
+  /// (kWarmPowerSteps), left holding the last iterate.
+  [[nodiscard]] double largest_eigenvalue(std::size_t l, Eigen::VectorXd& v, bool warm) const {
+    Eigen::VectorXd Av;
+    if (!warm) {
+      // A pseudo-random start: every mode present (a smooth start holds almost
+      // none of the top modes, and the estimate stays far below lmax).
+      v.resize(Eigen::Index(lv_[l].size()));
+      for (Eigen::Index n = 0; n < v.size(); ++n) {
+        const double q = std::sin(double(n) * 12.9898 + 78.233) * 43758.5453;
+        v[n] = q - std::floor(q) - 0.5;
+      }
     }
     double lmax = 0;
-    for (int s = 0; s < kPowerSteps; ++s) {
+    for (int s = 0; s < (warm ? kWarmPowerSteps : kPowerSteps); ++s) {
       v /= v.norm();
       apply(l, v, Av);
       Av = Av.cwiseQuotient(diagonal(l));
@@ -1264,9 +1290,11 @@ TriMesh march(int fx, int fy, int fz, double outside, const F& value) {
 }
 
 /// The field on one level for `samples`, directly (the twin) or by
-/// multigrid-preconditioned conjugate gradients warm from x; adds the iterations to res.
+/// multigrid-preconditioned conjugate gradients warm from x; adds the
+/// iterations to res. power: the multigrid's power-iteration starts, kept
+/// from one solve on these grids to the next (null: a cold start).
 void solve_level(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p, bool direct,
-                 Eigen::VectorXd& x, Field3dResult& res) {
+                 Eigen::VectorXd& x, Field3dResult& res, PowerStart* power = nullptr) {
   const Operator A(lv, samples, p);
   if (direct) {
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
@@ -1277,7 +1305,7 @@ void solve_level(const Level& lv, const std::vector<Sample>& samples, const Fiel
     res.residual = (Ax - A.rhs()).norm() / A.rhs().norm();
     return;
   }
-  const Multigrid M(lv, A, samples, p);
+  const Multigrid M(lv, A, samples, p, power);
   const int it = preconditioned_cg(A, M, x, p.tolerance, p.max_iterations, res.residual);
   res.iterations += it;
   res.finest_iterations = it;
@@ -1756,6 +1784,8 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     levels.push_back({cells[0] / f + 1, cells[1] / f + 1, cells[2] / f + 1, double(f) * grid.step});
   }
   Eigen::VectorXd x;
+  // The base grid's multigrid power-iteration starts, kept for its re-solves.
+  PowerStart power;
   for (std::size_t l = 0; l < levels.size(); ++l) {
     // Without a band the base grid is the last: its passes re-weight missed samples.
     const bool last = l + 1 == levels.size();
@@ -1765,7 +1795,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
       if (!direct && pass == 0)  // later passes start from the previous solution
         x = l == 0 ? Eigen::VectorXd::Constant(Eigen::Index(levels[l].size()), -params.band)
                    : prolong(levels[l - 1], x, levels[l]);
-      solve_level(levels[l], samples, params, direct, x, res);
+      solve_level(levels[l], samples, params, direct, x, res, last ? &power : nullptr);
       if (pass == passes) break;
       std::vector<std::size_t> all(samples.size());
       for (std::size_t s = 0; s < all.size(); ++s) all[s] = s;
@@ -1798,10 +1828,11 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   const std::size_t sign_first = samples.size();
   std::optional<SignPoints> signs;
   std::vector<std::int64_t> sign_sample;  // per sign point: its penalty sample, -1 while inactive
-  // One active-set re-solve on the base grid, conjugate gradients warm from the previous solution x.
+  // One active-set re-solve on the base grid, conjugate gradients warm from
+  // the previous solution x, the multigrid's power iterations from the last solve's.
   const auto sign_solve = [&](bool direct) {
     const int before = res.iterations;
-    solve_level(base, samples, params, direct, x, res);
+    solve_level(base, samples, params, direct, x, res, &power);
     res.sign_iterations += res.iterations - before;
     ++res.sign_passes;
   };
