@@ -16,8 +16,8 @@
 #include <utility>
 
 #include "isoloft/core/error.h"
-#include "isoloft/core/scratch_file.h"
 #include "isoloft/core/option_names.h"
+#include "isoloft/core/scratch_file.h"
 #include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/methods/method.h"
 #include "isoloft/methods/columns/slice_methods.h"
