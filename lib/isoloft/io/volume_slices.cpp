@@ -52,10 +52,6 @@ class VoxelRows {
       return buffer;
     }
     const unsigned char* b = bytes(v_.index(0, j, k));
-    if (!b) {
-      std::fill(buffer, buffer + v_.nx, 0.0f);
-      return buffer;
-    }
     detail::decode_scalars(b, std::size_t(v_.nx), samples_->type, samples_->big_endian, buffer);
     return buffer;
   }
@@ -65,7 +61,6 @@ class VoxelRows {
     if (!samples_) return false;
     if (samples_->planes) return (*samples_->planes)[std::size_t(k)].row_zero(j);
     const unsigned char* b = bytes(v_.index(0, j, k));
-    if (!b) return true;
     unsigned char any = 0;
     for (std::size_t i = 0, n = std::size_t(v_.nx) * size_; i < n; ++i) any |= b[i];  // branch-free: vectorises
     return any == 0;
@@ -79,7 +74,6 @@ class VoxelRows {
                                                samples_->big_endian);
     }
     const unsigned char* b = bytes(i);
-    if (!b) return 0.0f;
     float x;
     detail::decode_scalars(b, 1, samples_->type, samples_->big_endian, &x);
     return x;
