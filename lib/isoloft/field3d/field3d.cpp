@@ -378,6 +378,27 @@ class CellOperator {
 
   [[nodiscard]] const Eigen::VectorXd& diagonal() const { return diag_; }
 
+  /// Adds sample s's B^T W B with weight dw (a penalty sample added, or its
+  /// weight changed by dw) to its cell's block (new if the cell had none) and
+  /// to the diagonal: the operator built with the new weight, up to float
+  /// rounding of the block sums (their order differs).
+  void add(const Sample& s, double dw) {
+    std::array<double, 8> w{};
+    const auto [i, j, k] = sample_cell(lv_, s, w);
+    std::int32_t& slot = slot_[cell(i, j, k)];
+    if (slot < 0) {
+      slot = std::int32_t(block_.size() / kPackedBlock);
+      block_.resize(block_.size() + kPackedBlock, 0.0F);
+    }
+    float* B = &block_[std::size_t(slot) * kPackedBlock];
+    const std::size_t n0 = lv_.index(i, j, k);
+    for (int a = 0; a < 8; ++a) {
+      const float before = B[packed(a, a)];
+      for (int b = a; b < 8; ++b) B[packed(a, b)] += float(dw * w[std::size_t(a)] * w[std::size_t(b)]);
+      diag_[Eigen::Index(n0 + corner(a))] += double(B[packed(a, a)]) - double(before);
+    }
+  }
+
   /// y = A x.
   void apply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
     apply_energy(lv_, e_, x, lap_, y, [&](int i, int j, int k, std::size_t) {
@@ -599,6 +620,32 @@ struct PowerStart {
   std::vector<Eigen::VectorXd> v;
 };
 
+/// A multigrid's coarse operators kept from one solve to the next on the
+/// same grids (the base grid's active-set passes): samples before `first`
+/// unchanged, those from `first` on (penalty samples) added or re-weighted,
+/// so each pass adds the changed samples' B^T W B instead of summing all
+/// samples again per level (docs/decisions.md: field3d memory and work budget).
+struct CoarseReuse {
+  std::size_t first = 0;
+  std::vector<std::shared_ptr<CellOperator>> ops;  // levels 1, 2, ...; empty: none built yet
+  std::vector<double> weight;                      // samples[first + i].weight as ops hold it
+
+  /// The changed samples' deltas added to ops at every level.
+  void update(const std::vector<Sample>& samples) {
+    for (std::size_t k = first; k < samples.size(); ++k) {
+      const std::size_t i = k - first;
+      const double dw = samples[k].weight - (i < weight.size() ? weight[i] : 0.0);
+      if (dw != 0)
+        for (const auto& op : ops) op->add(samples[k], dw);
+    }
+    remember(samples);
+  }
+  void remember(const std::vector<Sample>& samples) {
+    weight.clear();
+    for (std::size_t k = first; k < samples.size(); ++k) weight.push_back(samples[k].weight);
+  }
+};
+
 /// A geometric multigrid V-cycle as the preconditioner of conjugate
 /// gradients on one level: the grids halved (nested nodes, the coarse box
 /// covering the fine one; each coarse operator rediscretised from the same
@@ -616,15 +663,26 @@ class Multigrid {
  public:
   /// start: the previous solve's top eigenvectors on the same grids (null or
   /// not matching: a cold start); updated to this hierarchy's.
+  /// reuse: the coarse operators of the last solve on these grids, updated
+  /// for the changed samples (null, or none yet: built from all samples; kept there).
   Multigrid(const Level& top, const Operator& A, const std::vector<Sample>& samples, const Field3dParams& p,
-            PowerStart* start = nullptr)
+            PowerStart* start = nullptr, CoarseReuse* reuse = nullptr)
       : top_(&A) {
     lv_.push_back(top);
     while (lv_.back().size() > kCoarsestNodes && int(lv_.size()) < kMaxMultigridLevels) {
       const Level c = coarser(lv_.back());
       if (c.size() == lv_.back().size()) break;
       lv_.push_back(c);
-      coarse_.push_back(std::make_unique<CellOperator>(lv_.back(), samples, p));
+    }
+    if (reuse && !reuse->ops.empty() && reuse->ops.size() + 1 == lv_.size()) {
+      reuse->update(samples);
+      coarse_ = reuse->ops;
+    } else {
+      for (std::size_t l = 1; l < lv_.size(); ++l) coarse_.push_back(std::make_shared<CellOperator>(lv_[l], samples, p));
+      if (reuse) {
+        reuse->ops = coarse_;
+        reuse->remember(samples);
+      }
     }
     work_.resize(lv_.size());
     const bool warm = start && start->v.size() + 1 == lv_.size();
@@ -724,7 +782,7 @@ class Multigrid {
 
   std::vector<Level> lv_;
   const Operator* top_;
-  std::vector<std::unique_ptr<CellOperator>> coarse_;  // levels 1, 2, ...
+  std::vector<std::shared_ptr<CellOperator>> coarse_;  // levels 1, 2, ... (shared with a CoarseReuse)
   std::vector<double> lmax_;
   mutable std::vector<Work> work_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> coarsest_;
@@ -1292,9 +1350,10 @@ TriMesh march(int fx, int fy, int fz, double outside, const F& value) {
 /// The field on one level for `samples`, directly (the twin) or by
 /// multigrid-preconditioned conjugate gradients warm from x; adds the
 /// iterations to res. power: the multigrid's power-iteration starts, kept
-/// from one solve on these grids to the next (null: a cold start).
+/// from one solve on these grids to the next (null: a cold start); reuse:
+/// its coarse operators, likewise (Multigrid).
 void solve_level(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p, bool direct,
-                 Eigen::VectorXd& x, Field3dResult& res, PowerStart* power = nullptr) {
+                 Eigen::VectorXd& x, Field3dResult& res, PowerStart* power = nullptr, CoarseReuse* reuse = nullptr) {
   const Operator A(lv, samples, p);
   if (direct) {
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
@@ -1305,7 +1364,7 @@ void solve_level(const Level& lv, const std::vector<Sample>& samples, const Fiel
     res.residual = (Ax - A.rhs()).norm() / A.rhs().norm();
     return;
   }
-  const Multigrid M(lv, A, samples, p, power);
+  const Multigrid M(lv, A, samples, p, power, reuse);
   const int it = preconditioned_cg(A, M, x, p.tolerance, p.max_iterations, res.residual);
   res.iterations += it;
   res.finest_iterations = it;
@@ -1829,10 +1888,12 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   std::optional<SignPoints> signs;
   std::vector<std::int64_t> sign_sample;  // per sign point: its penalty sample, -1 while inactive
   // One active-set re-solve on the base grid, conjugate gradients warm from
-  // the previous solution x, the multigrid's power iterations from the last solve's.
+  // the previous solution x, the multigrid's power iterations from the last
+  // solve's, its coarse operators updated for the penalty samples.
+  CoarseReuse reuse{sign_first, {}, {}};
   const auto sign_solve = [&](bool direct) {
     const int before = res.iterations;
-    solve_level(base, samples, params, direct, x, res, &power);
+    solve_level(base, samples, params, direct, x, res, &power, &reuse);
     res.sign_iterations += res.iterations - before;
     ++res.sign_passes;
   };
@@ -1858,6 +1919,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
     }
     res.sign_active = samples.size() - sign_first;
   }
+  if (refine) reuse = {};  // no more base-grid solves: the band's memory without the coarse blocks
   res.sign_seconds = seconds_since(signs_start);
   store_field();
 
@@ -1921,6 +1983,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   }
   res.sign_seconds += seconds_since(mesh_signs_start);
   if (signs) res.sign_active = samples.size() - sign_first;
+  reuse = {};
   if (!refine) {
     res.mesh = base_mesh();
   } else {
@@ -2144,5 +2207,25 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
   w.mesh_bytes = kEstimateSafety * w.triangles * kMeshBytesPerTriangle;
   return w;
 }
+
+namespace detail {
+double coarse_update_mismatch(int nx, int ny, int nz, const std::vector<Vec3d>& g, const std::vector<double>& before,
+                              const std::vector<double>& after, const Field3dParams& p) {
+  const Level lv{nx, ny, nz, Vec3d::Ones()};
+  const auto with = [&](const std::vector<double>& w) {
+    std::vector<Sample> s;
+    for (std::size_t k = 0; k < g.size(); ++k)
+      if (w[k] != 0) s.push_back({g[k], 0.0, w[k], false});
+    return s;
+  };
+  CellOperator updated(lv, with(before), p);
+  for (std::size_t k = 0; k < g.size(); ++k)
+    if (after[k] != before[k]) updated.add({g[k], 0.0, 1.0, false}, after[k] - before[k]);
+  const CellOperator rebuilt(lv, with(after), p);
+  const Eigen::SparseMatrix<double> R = rebuilt.assemble(), D = updated.assemble() - R;
+  const double scale = R.coeffs().cwiseAbs().maxCoeff();
+  return std::max(D.coeffs().cwiseAbs().maxCoeff(), (updated.diagonal() - rebuilt.diagonal()).cwiseAbs().maxCoeff()) / scale;
+}
+}  // namespace detail
 
 }  // namespace isoloft

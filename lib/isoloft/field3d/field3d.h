@@ -362,6 +362,14 @@ Field3dPlaneResidual plane_section_distance(const TriMesh& mesh, const PlanePose
 /// shells) that enclose none of `inside` (points drawn inside; ray parity);
 /// cavities' shells are kept. Returns how many were removed.
 std::size_t prune_unsupported(TriMesh& mesh, const std::vector<Vec3d>& inside);
+
+/// The multigrid's coarse operator (on an nx x ny x nz grid of unit cells)
+/// built from samples at `g` (cell units) with weights `before` (0: absent),
+/// then updated additively to weights `after`, against one built from
+/// `after`: the largest entry of their difference (matrix and diagonal) over
+/// the largest of the rebuilt matrix.
+double coarse_update_mismatch(int nx, int ny, int nz, const std::vector<Vec3d>& g, const std::vector<double>& before,
+                              const std::vector<double>& after, const Field3dParams& p = {});
 }  // namespace detail
 
 }  // namespace isoloft
