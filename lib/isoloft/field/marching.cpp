@@ -333,10 +333,7 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
   check_required(required, w, h);
   const std::vector<detail::SegmentGeom> geom = segment_geoms(band);
   const int pw = w + 2;
-  // One buffer per thread, reused: a fresh grid-sized one per slice costs its
-  // page faults and the kernel's zeroing again.
-  thread_local std::vector<MarchCell> cell;
-  cell.assign(std::size_t(pw) * std::size_t(h + 2), MarchCell{kInf, -1, kKnown, 0});
+  std::vector<MarchCell> cell(std::size_t(pw) * std::size_t(h + 2), MarchCell{kInf, -1, kKnown, 0});
   auto at = [pw](int x, int y) { return (y + 1) * pw + x + 1; };
   long left = 0;  // required pixels not known yet
   bool any = false;
