@@ -320,6 +320,10 @@ struct MarchCell {
   std::uint8_t required;
 };
 
+// Pixels ahead in the settle-and-offer pass whose 3x3 cells are prefetched:
+// enough to cover a miss (~100 ns) at ~20 ns a pixel.
+constexpr std::size_t kPrefetchAhead = 8;
+
 // extend_marching_cc with ClosestPoint: marching_cc_generic's march, the same
 // offers in the same order, over a grid padded by one known pixel on every
 // side (no bounds checks) with each pixel's state in one MarchCell.
@@ -388,11 +392,23 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
       }
     }
     trial.resize(keep);
-    for (int p : newly) {
+    // Settling p and offering from it in one pass is the two-pass order's
+    // result: offers write only pixels not known, settling reads only known
+    // ones. The prefetch hides the scattered pixels' cache misses.
+    for (std::size_t j = 0; j < newly.size(); ++j) {
+      if (j + kPrefetchAhead < newly.size()) {
+        const int q = newly[j + kPrefetchAhead];
+        for (int r : {q - pw, q, q + pw}) {
+          __builtin_prefetch(&cell[std::size_t(r - 1)], 1);
+          __builtin_prefetch(&cell[std::size_t(r + 1)], 1);
+        }
+      }
+      const int p = newly[j];
+      const int x = p % pw - 1, y = p / pw - 1;
       MarchCell& c = cell[std::size_t(p)];
-      c.seg = detail::descend_along_curve(geom, band.links, p % pw - 1, p / pw - 1, c.seg, c.value);
+      c.seg = detail::descend_along_curve(geom, band.links, x, y, c.seg, c.value);
+      offer_from(p, x, y);
     }
-    for (int p : newly) offer_from(p, p % pw - 1, p / pw - 1);
   }
   Grid2f out(w, h);
   for (int y = 0; y < h; ++y) {
