@@ -220,6 +220,34 @@ TEST(EmptySlices, CloseLikeAnEndCap) {
   EXPECT_NEAR(5.0 / drop, ip.cap_extent * 5.0 / (5.0 + ip.cap_depth), kFloatTol);
 }
 
+// An isolated empty slice (no non-empty neighbour) under a local rule reads
+// no field beyond kIsolatedNeighbourSlices: a z slab with that halo gives it
+// the whole stack's value. Under Lowest a far field moves it.
+TEST(EmptySlices, IsolatedValueIsLocalUnderTheLocalRules) {
+  const PixelBox box{0, 0, 3, 1};
+  const std::size_t n = 10, isolated = 2, far = isolated + kIsolatedNeighbourSlices + 1;
+  std::vector<double> z(n);
+  for (std::size_t k = 0; k < n; ++k) z[k] = double(k);
+  std::vector<Grid2f> fields(n);
+  fields[0] = Grid2f(3, 1, -2.0f);  // slice 1 closes it, slice 2 is isolated
+  fields[0](1, 0) = 3.0f;
+  for (std::size_t k = 4; k < n; ++k) fields[k] = Grid2f(3, 1, -3.0f);  // slice 3 closes them
+  const auto value = [&](IsolatedEmpty rule, float far_value) {
+    InterpParams ip;
+    ip.isolated_empty = rule;
+    std::vector<Grid2f> f = fields;
+    f[far](0, 0) = far_value;
+    detail::fill_empty_slices(f, z, box, ip);
+    return f[isolated].data;
+  };
+  for (const IsolatedEmpty rule : {IsolatedEmpty::Depth, IsolatedEmpty::Neighbours, IsolatedEmpty::Secant, IsolatedEmpty::Box})
+    EXPECT_EQ(value(rule, -3.0f), value(rule, -500.0f)) << to_string(rule);
+  EXPECT_NE(value(IsolatedEmpty::Lowest, -3.0f), value(IsolatedEmpty::Lowest, -500.0f));
+  // Every rule leaves it outside everywhere.
+  for (const auto& [rule, name] : kIsolatedEmptyNames)
+    for (const float v : value(rule, -3.0f)) EXPECT_LT(v, 0.0f) << name;
+}
+
 // A 3-pixel-thick sliver beside a disc: MPU's strip-shaped local conic used
 // to stay positive far beyond the sliver's tip (13 px of spurious surface
 // without the sign guard, which then overruled those pixels). The fit's ring

@@ -197,6 +197,7 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
     std::string name;
     SliceStack stack;
     SplineKind spline;
+    IsolatedEmpty isolated = IsolatedEmpty::Lowest;
   };
   const TiltedCase tube = tilted_kit_case("tube80_r3_s8");
   const std::vector<Case> cases{
@@ -209,6 +210,10 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
        SplineKind::ExtremumPreserving},
       {"sphere, drawn polygons, an empty slice and an empty pair",
        cut("sphere", 96, 3.0, InputKind::Polylines, {6, 12, 13}), SplineKind::ExtremumPreserving},
+      {"sphere, drawn polygons, isolated empty slices, box", cut("sphere", 96, 3.0, InputKind::Polylines, {6, 7, 8, 12, 13, 14, 15}),
+       SplineKind::ExtremumPreserving, IsolatedEmpty::Box},
+      {"sphere, drawn polygons, isolated empty slices, secant, monotone",
+       cut("sphere", 96, 3.0, InputKind::Polylines, {6, 7, 8, 12, 13, 14, 15}), SplineKind::Monotone, IsolatedEmpty::Secant},
       {"tilted torus, drawn polygons", cut("tilted-torus", 72, 8.0, InputKind::Polylines), SplineKind::ExtremumPreserving},
       {"square prism, drawn polygons, linear (the caps' trend)", prism(96, 30.5, 6, 5.0), SplineKind::Linear},
       {"tilted tube (80 deg), drawn polygons", synthesize(tube, InputKind::Polylines).stack, SplineKind::ExtremumPreserving},
@@ -216,6 +221,7 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
   for (const Case& c : cases) {
     ReconstructParams p;
     p.interp.spline = c.spline;
+    p.interp.isolated_empty = c.isolated;
     const double left_out = band_left_out(c.stack, p);
     ASSERT_GT(left_out, 0) << c.name << ": no band, or one that leaves no pixel out";
     ReconstructOptions whole;
@@ -256,7 +262,15 @@ TEST(FieldBand, NoBandWhereItCouldChangeTheMesh) {
   std::vector<detail::PackedMasks> isolated = masks;
   isolated[3].empty = isolated[4].empty = isolated[5].empty = true;
   isolated[3].inside.clear(), isolated[4].inside.clear(), isolated[5].inside.clear();
-  no_band(ReconstructParams{}, isolated, "an empty slice without a non-empty neighbour");
+  no_band(ReconstructParams{}, isolated, "an empty slice without a non-empty neighbour (isolated_empty lowest)");
+  ReconstructParams minima;
+  minima.interp.isolated_empty = IsolatedEmpty::Neighbours;
+  no_band(minima, isolated, "an empty slice without a non-empty neighbour (isolated_empty neighbours)");
+  for (const IsolatedEmpty rule : {IsolatedEmpty::Depth, IsolatedEmpty::Secant, IsolatedEmpty::Box}) {
+    ReconstructParams local;
+    local.interp.isolated_empty = rule;
+    EXPECT_TRUE(detail::field_band_setup(local, st.kind, isolated)) << "isolated_empty " << to_string(rule) << " reads no minimum";
+  }
   std::vector<detail::PackedMasks> one_gap = masks;
   one_gap[4].empty = true;
   one_gap[4].inside.clear();

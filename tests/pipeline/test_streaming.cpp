@@ -113,16 +113,23 @@ TEST(Streaming, EqualsHoldingEverySliceWithEmptySlicesAnywhere) {
     std::string name;
     Method method;
     SplineKind spline;
+    IsolatedEmpty isolated = IsolatedEmpty::Lowest;
   };
   for (const Variant& v : {Variant{"isoloft extremum-preserving", Method::Isoloft, SplineKind::ExtremumPreserving},
                            Variant{"marker2006 monotone", Method::Marker2006, SplineKind::Monotone},
                            Variant{"marker2006 catmull-rom", Method::Marker2006, SplineKind::CatmullRom},
                            Variant{"marker2006 natural", Method::Marker2006, SplineKind::Natural},
                            Variant{"marker2006 linear", Method::Marker2006, SplineKind::Linear},
-                           Variant{"levin monotone", Method::Levin, SplineKind::Monotone}}) {
+                           Variant{"levin monotone", Method::Levin, SplineKind::Monotone},
+                           Variant{"isoloft, isolated depth", Method::Isoloft, SplineKind::ExtremumPreserving, IsolatedEmpty::Depth},
+                           Variant{"isoloft, isolated neighbours", Method::Isoloft, SplineKind::ExtremumPreserving,
+                                   IsolatedEmpty::Neighbours},
+                           Variant{"isoloft, isolated secant", Method::Isoloft, SplineKind::ExtremumPreserving, IsolatedEmpty::Secant},
+                           Variant{"isoloft, isolated box", Method::Isoloft, SplineKind::ExtremumPreserving, IsolatedEmpty::Box}}) {
     ReconstructParams p = undecimated();
     p.method = v.method;
     p.interp.spline = v.spline;
+    p.interp.isolated_empty = v.isolated;
     const Resident want = resident_oracle(st, p, sample_z);
     ASSERT_FALSE(want.mesh.empty()) << v.name;
     ASSERT_EQ(want.samples.size(), 3u) << v.name << ": the sample below the caps is out of range";

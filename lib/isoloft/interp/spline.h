@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -45,6 +46,27 @@ inline constexpr std::array<EnumName<CapShape>, 4> kCapShapeNames{
     {{CapShape::Dome, "dome"}, {CapShape::Flat, "flat"}, {CapShape::Round, "round"}, {CapShape::Slab, "slab"}}};
 constexpr std::span<const EnumName<CapShape>> enum_names(CapShape) { return kCapShapeNames; }
 
+/// The field of an empty slice with no non-empty neighbour (an isolated empty
+/// slice); its neighbours are closing slices or isolated (docs/decisions.md:
+/// isolated empty slices).
+enum class IsolatedEmpty {
+  Lowest,      ///< the lowest value of all the object's fields, at most -1 (global: every field computed first)
+  Depth,       ///< -max(1, cap_depth), the mesher's pad outside the caps (local)
+  Neighbours,  ///< the lowest value of the fields within kIsolatedNeighbourSlices slices, at most -max(1, cap_depth) (local)
+  Secant,      ///< the line from a non-empty slice through its closing slice continued, at most -max(1, cap_depth) (local)
+  Box,         ///< minus the diagonal of the object's crop box: below any distance in it (local)
+};
+inline constexpr std::array<EnumName<IsolatedEmpty>, 5> kIsolatedEmptyNames{{{IsolatedEmpty::Lowest, "lowest"},
+                                                                             {IsolatedEmpty::Depth, "depth"},
+                                                                             {IsolatedEmpty::Neighbours, "neighbours"},
+                                                                             {IsolatedEmpty::Secant, "secant"},
+                                                                             {IsolatedEmpty::Box, "box"}}};
+constexpr std::span<const EnumName<IsolatedEmpty>> enum_names(IsolatedEmpty) { return kIsolatedEmptyNames; }
+
+/// IsolatedEmpty::Neighbours: slices on each side read, Monotone's tangent
+/// reach (2) + 1, the halo of a z slab.
+inline constexpr std::size_t kIsolatedNeighbourSlices = 3;
+
 /// Largest cap_extent accepted, slice spacings.
 inline constexpr double kMaxCapExtent = 100.0;
 
@@ -53,6 +75,7 @@ struct InterpParams {
   double cap_extent = 0.5;
   double cap_depth = 1.0;
   CapShape cap_shape = CapShape::Dome;
+  IsolatedEmpty isolated_empty = IsolatedEmpty::Lowest;
   double z_step = 1.0;
   bool planes_on_slices = false;
 };
@@ -74,6 +97,11 @@ inline const ParamTable<InterpParams>& params_table<InterpParams>() {
             "inradius)), slab (a sharp flat lid cap_extent beyond: the slab rule's volume), dome (shaped by the end "
             "contour's distance field, the paper reproduction's) or flat (a lid with a rounded rim)")
           .cli("--caps"),
+      field("isolated_empty", &InterpParams::isolated_empty, "",
+            "an empty slice with no non-empty neighbour (not in the paper): lowest (the lowest value of all the object's "
+            "fields), depth (-max(1, cap_depth)), neighbours (the lowest of the fields within 3 slices) or secant (the "
+            "line through the non-empty slice and its closing slice continued) or box (minus the crop box's diagonal); all but "
+            "lowest are local"),
       field("z_step", &InterpParams::z_step, "px", "spacing of the sampled z planes (the Marching Cubes grid, paper 2.5)",
             above(0)),
       field("planes_on_slices", &InterpParams::planes_on_slices, "",

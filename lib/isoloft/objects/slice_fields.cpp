@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
+#include <utility>
 
 #include "isoloft/contour/fill.h"
 #include "isoloft/contour/mask_curve.h"
@@ -229,47 +231,102 @@ float most_negative(float so_far, const Grid2f& f) {
   return f.empty() ? so_far : std::min(so_far, *std::min_element(f.data.begin(), f.data.end()));
 }
 
-Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
-                         const InterpParams& interp, double gap_below, double gap_above) {
+float isolated_ceiling(const InterpParams& interp) { return -float(std::max(1.0, interp.cap_depth)); }
+
+namespace {
+// f moved 1 / cap_extent of the way to its cap slice for a gap (px): the
+// field of an empty slice next to f.
+Grid2f closing(const Grid2f& f, const InterpParams& interp, double gap) {
+  Grid2f closed = cap_slice(f, interp, interp.cap_extent * gap);
+  if (interp.cap_shape == CapShape::Dome) {
+    // The dome's drop, as one float (its outputs unchanged).
+    const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
+    const float drop = float((top + interp.cap_depth) / interp.cap_extent);
+    for (std::size_t i = 0; i < closed.size(); ++i) closed.data[i] = f.data[i] - drop;
+  } else {
+    for (std::size_t i = 0; i < closed.size(); ++i)
+      closed.data[i] = float(f.data[i] + (double(closed.data[i]) - f.data[i]) / interp.cap_extent);
+  }
+  return closed;
+}
+
+bool has(const Grid2f* f) { return f && !f->empty(); }
+}  // namespace
+
+Grid2f empty_slice_field(const EmptyNeighbours& nb, float lowest, const PixelBox& box, const InterpParams& interp) {
   // Empty slices (no inside) are all outside. One next to a non-empty slice
   // gets that neighbour's field moved 1 / cap_extent of the way to its cap
   // slice (interp/spline.h, cap_slice, reaching cap_extent of the gap), so
   // the object closes between them like an end cap. With two non-empty
-  // neighbours it takes the lower of the two. Empty slices with no non-empty
-  // neighbour take the most negative value of the object's fields.
+  // neighbours it takes the lower of the two. An isolated one: isolated_empty.
   Grid2f g;
-  for (const auto& [nb, gap] : {std::pair{below, gap_below}, std::pair{above, gap_above}}) {
-    if (!nb || nb->empty()) continue;
-    const Grid2f& f = *nb;
-    Grid2f closed = cap_slice(f, interp, interp.cap_extent * gap);
-    if (interp.cap_shape == CapShape::Dome) {
-      // The dome's drop, as one float (its outputs unchanged).
-      const float top = std::max(0.0f, *std::max_element(f.data.begin(), f.data.end()));
-      const float drop = float((top + interp.cap_depth) / interp.cap_extent);
-      for (std::size_t i = 0; i < closed.size(); ++i) closed.data[i] = f.data[i] - drop;
-    } else {
-      for (std::size_t i = 0; i < closed.size(); ++i)
-        closed.data[i] = float(f.data[i] + (double(closed.data[i]) - f.data[i]) / interp.cap_extent);
-    }
+  const auto lower = [&g](Grid2f f) {
     if (g.empty()) {
-      g = std::move(closed);
+      g = std::move(f);
     } else {
-      for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], closed.data[i]);
+      for (std::size_t i = 0; i < g.size(); ++i) g.data[i] = std::min(g.data[i], f.data[i]);
     }
+  };
+  for (const auto& [f, gap] : {std::pair{nb.below, nb.gap_below}, std::pair{nb.above, nb.gap_above}})
+    if (has(f)) lower(closing(*f, interp, gap));
+  if (!g.empty()) return g;
+  const float ceiling = isolated_ceiling(interp);
+  switch (interp.isolated_empty) {
+    case IsolatedEmpty::Lowest:
+      return Grid2f(box.width(), box.height(), lowest);
+    case IsolatedEmpty::Neighbours:
+      return Grid2f(box.width(), box.height(), std::min(lowest, ceiling));
+    case IsolatedEmpty::Depth:
+      break;
+    case IsolatedEmpty::Box:
+      return Grid2f(box.width(), box.height(), std::min(ceiling, -float(std::hypot(box.width(), box.height()))));
+    case IsolatedEmpty::Secant:
+      // Next to a closing slice (the empty neighbour of a non-empty one): the
+      // line from the non-empty field through the closing one, continued, so
+      // the closing knot's tangent is that secant, as if nothing lay beyond.
+      for (const auto& [f, gap2, gap] : {std::tuple{nb.below2, nb.gap_below2, nb.gap_below},
+                                         std::tuple{nb.above2, nb.gap_above2, nb.gap_above}}) {
+        if (!has(f)) continue;
+        Grid2f line = closing(*f, interp, gap2);
+        const double ratio = gap / gap2;
+        for (std::size_t i = 0; i < line.size(); ++i)
+          line.data[i] = std::min(ceiling, float(line.data[i] + (double(line.data[i]) - f->data[i]) * ratio));
+        lower(std::move(line));
+      }
+      if (!g.empty()) return g;
+      break;
   }
-  return g.empty() ? Grid2f(box.width(), box.height(), most_negative) : g;
+  return Grid2f(box.width(), box.height(), ceiling);
 }
 
 void fill_empty_slices(std::vector<Grid2f>& fields, const std::vector<double>& z, const PixelBox& box,
                        const InterpParams& interp) {
+  const std::size_t n = fields.size();
   float lowest = -1.0f;
   for (const auto& f : fields) lowest = most_negative(lowest, f);
-  std::vector<Grid2f> out(fields.size());
-  for (std::size_t k = 0; k < fields.size(); ++k)
-    if (fields[k].empty())
-      out[k] = empty_slice_field(k > 0 ? &fields[k - 1] : nullptr, k + 1 < fields.size() ? &fields[k + 1] : nullptr, lowest,
-                                 box, interp, k > 0 ? z[k] - z[k - 1] : 0.0, k + 1 < fields.size() ? z[k + 1] - z[k] : 0.0);
-  for (std::size_t k = 0; k < fields.size(); ++k)
+  const auto at = [&](std::size_t k, std::ptrdiff_t d) -> const Grid2f* {
+    const std::ptrdiff_t j = std::ptrdiff_t(k) + d;
+    return j >= 0 && j < std::ptrdiff_t(n) ? &fields[std::size_t(j)] : nullptr;
+  };
+  const auto gap = [&](std::size_t k, std::ptrdiff_t d) {  // from slice k + d toward k, 0 past the ends
+    const std::ptrdiff_t j = std::ptrdiff_t(k) + d, i = d < 0 ? j + 1 : j - 1;
+    return j >= 0 && j < std::ptrdiff_t(n) ? std::abs(z[std::size_t(j)] - z[std::size_t(i)]) : 0.0;
+  };
+  std::vector<Grid2f> out(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!fields[k].empty()) continue;
+    float near = lowest;
+    if (interp.isolated_empty == IsolatedEmpty::Neighbours) {
+      near = -1.0f;
+      const std::size_t r = kIsolatedNeighbourSlices;
+      for (std::size_t j = k - std::min(k, r); j <= std::min(n - 1, k + r); ++j) near = most_negative(near, fields[j]);
+    }
+    const bool secant = interp.isolated_empty == IsolatedEmpty::Secant;
+    const EmptyNeighbours nb{at(k, -1), at(k, 1), secant ? at(k, -2) : nullptr, secant ? at(k, 2) : nullptr,
+                             gap(k, -1), gap(k, 1), gap(k, -2), gap(k, 2)};
+    out[k] = empty_slice_field(nb, near, box, interp);
+  }
+  for (std::size_t k = 0; k < n; ++k)
     if (fields[k].empty()) fields[k] = std::move(out[k]);
 }
 

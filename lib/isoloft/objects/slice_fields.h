@@ -147,7 +147,7 @@ namespace isoloft::detail {
 /// Gives every empty slice a field: a non-empty neighbour's field moved
 /// 1 / cap_extent of the way to its cap_slice() for the gap (z: the slices'
 /// heights, px; the lower of two), so the object closes in the gap like an
-/// end cap; without one the most negative value of all fields.
+/// end cap; without one, as interp.isolated_empty says.
 void fill_empty_slices(std::vector<Grid2f>& fields, const std::vector<double>& z, const PixelBox& box,
                        const InterpParams& interp);
 
@@ -155,10 +155,23 @@ void fill_empty_slices(std::vector<Grid2f>& fields, const std::vector<double>& z
 /// value of an empty slice without a non-empty neighbour.
 float most_negative(float so_far, const Grid2f& f);
 
-/// One empty slice's field as fill_empty_slices() gives it, from its
-/// neighbours' fields (null or empty: none), their distances (px) and
-/// most_negative() of all fields.
-Grid2f empty_slice_field(const Grid2f* below, const Grid2f* above, float most_negative, const PixelBox& box,
-                         const InterpParams& interp, double gap_below, double gap_above);
+/// -max(1, cap_depth): the highest value of an isolated empty slice (the
+/// mesher's pad outside the caps).
+float isolated_ceiling(const InterpParams& interp);
+
+/// The fields an empty slice's field reads (null or empty: none, or not
+/// read) and their distances from the next slice toward it (px).
+struct EmptyNeighbours {
+  const Grid2f* below = nullptr;   ///< slice k - 1
+  const Grid2f* above = nullptr;   ///< slice k + 1
+  const Grid2f* below2 = nullptr;  ///< slice k - 2 (IsolatedEmpty::Secant)
+  const Grid2f* above2 = nullptr;  ///< slice k + 2 (IsolatedEmpty::Secant)
+  double gap_below = 0, gap_above = 0, gap_below2 = 0, gap_above2 = 0;
+};
+
+/// One empty slice's field as fill_empty_slices() gives it. `lowest`: what
+/// IsolatedEmpty::Lowest or Neighbours reads (most_negative() of all fields,
+/// or of those within kIsolatedNeighbourSlices).
+Grid2f empty_slice_field(const EmptyNeighbours& nb, float lowest, const PixelBox& box, const InterpParams& interp);
 
 }  // namespace isoloft::detail

@@ -191,9 +191,11 @@ class SliceFields {
 // The knots of the z splines in z order (paper 2.4): the end cap below, every
 // slice's field (empty slices closed as fill_empty_slices does), the
 // end cap above. Holds a slice's field while a neighbour may still need it.
-// An empty slice with no non-empty neighbour takes the lowest value of all
-// the object's fields, so the feed computes them all before it: with a
-// scratch folder those not needed yet wait on disk (parked) until their knot.
+// An empty slice with no non-empty neighbour (InterpParams::isolated_empty):
+// Lowest takes the lowest value of all the object's fields, so the feed
+// computes them all before it: with a scratch folder those not needed yet
+// wait on disk (parked) until their knot; the local rules read fields within
+// kIsolatedNeighbourSlices.
 class KnotFeed {
  public:
   // z: the knot heights (knot_z: slice k at z[k + 1]). scratch_dir: "" holds
@@ -203,6 +205,7 @@ class KnotFeed {
       : slices_(slices), empty_(empty), z_(z), box_(box), interp_(interp), count_(count), scratch_dir_(std::move(scratch_dir)) {
     const auto last = std::find(empty.rbegin(), empty.rend(), char(0));
     last_nonempty_ = std::size_t(empty.rend() - last) - 1;
+    if (interp.isolated_empty == IsolatedEmpty::Neighbours) lows_.resize(empty.size(), -1.0f);
   }
   ~KnotFeed() { count_.remove(held_ + long(!pending_.empty()) + long(!before_.empty())); }
   KnotFeed(const KnotFeed&) = delete;
@@ -264,9 +267,11 @@ class KnotFeed {
   // slice's field holds nothing: not counted.
   void pull(std::size_t k, bool park) {
     while (raw_first_ + raw_.size() <= k) {
-      raw_.push_back(slices_.take(raw_first_ + raw_.size()));
+      const std::size_t j = raw_first_ + raw_.size();
+      raw_.push_back(slices_.take(j));
       Grid2f& f = raw_.back();
       lowest_ = most_negative(lowest_, f);
+      if (!lows_.empty()) lows_[j] = most_negative(-1.0f, f);
       where_.push_back(f.empty() ? kNothing : kHeld);
       if (f.empty()) {
         count_.remove(1);
@@ -293,17 +298,42 @@ class KnotFeed {
       const bool neighbour_needs = k + 1 < n && empty_[k + 1];
       out = neighbour_needs ? f : std::move(f);
     } else {
-      const Grid2f* above = k + 1 < n ? &raw(k + 1) : nullptr;  // deque references survive push_back
-      const Grid2f* below = k > 0 ? &raw(k - 1) : nullptr;
-      const bool isolated = (!above || above->empty()) && (!below || below->empty());
-      // The most negative value of all fields: pull the slices up to the
-      // last non-empty one first, parked until the feed reaches them.
-      if (isolated && last_nonempty_ > k) pull(last_nonempty_, true);
-      out = empty_slice_field(below, above, lowest_, box_, interp_, k > 0 ? z_[k + 1] - z_[k] : 0.0,
-                                      k + 1 < n ? z_[k + 2] - z_[k + 1] : 0.0);
+      EmptyNeighbours nb;  // deque references survive push_back
+      nb.above = k + 1 < n ? &raw(k + 1) : nullptr;
+      nb.below = k > 0 ? &raw(k - 1) : nullptr;
+      nb.gap_below = k > 0 ? z_[k + 1] - z_[k] : 0.0;
+      nb.gap_above = k + 1 < n ? z_[k + 2] - z_[k + 1] : 0.0;
+      const bool isolated = (!nb.above || nb.above->empty()) && (!nb.below || nb.below->empty());
+      float lowest = lowest_;
+      if (isolated) switch (interp_.isolated_empty) {
+          case IsolatedEmpty::Lowest:
+            // The most negative value of all fields: pull the slices up to the
+            // last non-empty one first, parked until the feed reaches them.
+            if (last_nonempty_ > k) pull(last_nonempty_, true);
+            lowest = lowest_;
+            break;
+          case IsolatedEmpty::Neighbours: {
+            const std::size_t r = kIsolatedNeighbourSlices, hi = std::min(n - 1, k + r);
+            pull(hi, false);
+            lowest = -1.0f;
+            for (std::size_t j = k - std::min(k, r); j <= hi; ++j) lowest = std::min(lowest, lows_[j]);
+            break;
+          }
+          case IsolatedEmpty::Secant:
+            nb.below2 = k > 1 ? &raw(k - 2) : nullptr;
+            nb.above2 = k + 2 < n ? &raw(k + 2) : nullptr;
+            nb.gap_below2 = k > 1 ? z_[k] - z_[k - 1] : 0.0;
+            nb.gap_above2 = k + 2 < n ? z_[k + 3] - z_[k + 2] : 0.0;
+            break;
+          case IsolatedEmpty::Depth:
+          case IsolatedEmpty::Box:
+            break;
+        }
+      out = empty_slice_field(nb, lowest, box_, interp_);
     }
-    // Slices below k are no longer anyone's neighbour.
-    for (; raw_first_ < k; ++raw_first_) {
+    // Slices below k (Secant: k - 2) are no longer anyone's neighbour.
+    const std::size_t keep = interp_.isolated_empty == IsolatedEmpty::Secant ? 2 : 0;
+    for (; raw_first_ + keep < k; ++raw_first_) {
       if (where_.front() == kHeld) {
         --held_;
         count_.remove(1);
@@ -330,6 +360,7 @@ class KnotFeed {
   std::optional<ScratchFile> park_;
   std::size_t raw_first_ = 0;
   float lowest_ = -1.0f;  // most_negative of the slices pulled
+  std::vector<float> lows_;  // Neighbours: per slice pulled, most_negative(-1, its field)
   std::size_t knot_ = 0;
   Grid2f pending_;
   Grid2f before_;  // slice n - 2's knot field, for the cap above

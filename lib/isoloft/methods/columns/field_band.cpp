@@ -92,11 +92,16 @@ std::optional<FieldBand::Setup> field_band_setup(const ReconstructParams& p, Inp
   if (!fits_curves(p.method) || !takes_given_boundary(kind, p) || p.z_scheme != "columns" || p.mc.iso != 0.0f ||
       !keeps_sides)
     return std::nullopt;
+  // An isolated empty slice's value reads whole fields under Lowest (every
+  // field) and Neighbours (their minima); Depth and Box are constants, Secant reads
+  // only fields next to an empty slice, which are whole (FieldBand).
+  const IsolatedEmpty rule = p.interp.isolated_empty;
+  const bool reads_minima = rule == IsolatedEmpty::Lowest || rule == IsolatedEmpty::Neighbours;
   const std::size_t n = masks.size();
   for (std::size_t k = 0; k < n; ++k) {
     if (!masks[k].empty) continue;
     const bool below = k > 0 && !masks[k - 1].empty, above = k + 1 < n && !masks[k + 1].empty;
-    if (!(below || above) || p.interp.cap_extent > 1.0) return std::nullopt;
+    if ((!(below || above) && reads_minima) || p.interp.cap_extent > 1.0) return std::nullopt;
   }
   FieldBand::Setup s;
   s.unknown_within = kGivenBoundaryUnknownWithin;

@@ -80,9 +80,9 @@ class FieldBand {
 /// mesh or is not derived: a method without curves, a slice path whose sign
 /// is not the masks' (the MPU fit), a z scheme other than columns, mc.iso not
 /// 0, a spline that can leave its knots' side (Catmull-Rom, natural), an
-/// empty slice with no non-empty neighbour (it takes the lowest value of
-/// every field) or empty slices with cap_extent > 1 (their side is then not
-/// known).
+/// empty slice with no non-empty neighbour under isolated_empty lowest or
+/// neighbours (it reads fields' lowest values) or empty slices with
+/// cap_extent > 1 (their side is then not known).
 std::optional<FieldBand::Setup> field_band_setup(const ReconstructParams& params, InputKind kind,
                                                  const std::vector<PackedMasks>& masks);
 
