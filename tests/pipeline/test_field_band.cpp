@@ -197,7 +197,7 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
     std::string name;
     SliceStack stack;
     SplineKind spline;
-    IsolatedEmpty isolated = IsolatedEmpty::Lowest;
+    IsolatedEmpty isolated = InterpParams{}.isolated_empty;
   };
   const TiltedCase tube = tilted_kit_case("tube80_r3_s8");
   const std::vector<Case> cases{
@@ -210,7 +210,7 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
        SplineKind::ExtremumPreserving},
       {"sphere, drawn polygons, an empty slice and an empty pair",
        cut("sphere", 96, 3.0, InputKind::Polylines, {6, 12, 13}), SplineKind::ExtremumPreserving},
-      {"sphere, drawn polygons, isolated empty slices, box", cut("sphere", 96, 3.0, InputKind::Polylines, {6, 7, 8, 12, 13, 14, 15}),
+      {"sphere, drawn polygons, isolated empty slices (box)", cut("sphere", 96, 3.0, InputKind::Polylines, {6, 7, 8, 12, 13, 14, 15}),
        SplineKind::ExtremumPreserving, IsolatedEmpty::Box},
       {"sphere, drawn polygons, isolated empty slices, secant, monotone",
        cut("sphere", 96, 3.0, InputKind::Polylines, {6, 7, 8, 12, 13, 14, 15}), SplineKind::Monotone, IsolatedEmpty::Secant},
@@ -262,10 +262,11 @@ TEST(FieldBand, NoBandWhereItCouldChangeTheMesh) {
   std::vector<detail::PackedMasks> isolated = masks;
   isolated[3].empty = isolated[4].empty = isolated[5].empty = true;
   isolated[3].inside.clear(), isolated[4].inside.clear(), isolated[5].inside.clear();
-  no_band(ReconstructParams{}, isolated, "an empty slice without a non-empty neighbour (isolated_empty lowest)");
-  ReconstructParams minima;
-  minima.interp.isolated_empty = IsolatedEmpty::Neighbours;
-  no_band(minima, isolated, "an empty slice without a non-empty neighbour (isolated_empty neighbours)");
+  for (const IsolatedEmpty rule : {IsolatedEmpty::Lowest, IsolatedEmpty::Neighbours}) {
+    ReconstructParams minima;
+    minima.interp.isolated_empty = rule;
+    no_band(minima, isolated, "an empty slice without a non-empty neighbour (isolated_empty " + to_string(rule) + ")");
+  }
   for (const IsolatedEmpty rule : {IsolatedEmpty::Depth, IsolatedEmpty::Secant, IsolatedEmpty::Box}) {
     ReconstructParams local;
     local.interp.isolated_empty = rule;

@@ -113,9 +113,10 @@ TEST(Streaming, EqualsHoldingEverySliceWithEmptySlicesAnywhere) {
     std::string name;
     Method method;
     SplineKind spline;
-    IsolatedEmpty isolated = IsolatedEmpty::Lowest;
+    IsolatedEmpty isolated = InterpParams{}.isolated_empty;
   };
   for (const Variant& v : {Variant{"isoloft extremum-preserving", Method::Isoloft, SplineKind::ExtremumPreserving},
+                           Variant{"isoloft, isolated lowest", Method::Isoloft, SplineKind::ExtremumPreserving, IsolatedEmpty::Lowest},
                            Variant{"marker2006 monotone", Method::Marker2006, SplineKind::Monotone},
                            Variant{"marker2006 catmull-rom", Method::Marker2006, SplineKind::CatmullRom},
                            Variant{"marker2006 natural", Method::Marker2006, SplineKind::Natural},
@@ -125,7 +126,8 @@ TEST(Streaming, EqualsHoldingEverySliceWithEmptySlicesAnywhere) {
                            Variant{"isoloft, isolated neighbours", Method::Isoloft, SplineKind::ExtremumPreserving,
                                    IsolatedEmpty::Neighbours},
                            Variant{"isoloft, isolated secant", Method::Isoloft, SplineKind::ExtremumPreserving, IsolatedEmpty::Secant},
-                           Variant{"isoloft, isolated box", Method::Isoloft, SplineKind::ExtremumPreserving, IsolatedEmpty::Box}}) {
+                           Variant{"marker2006 monotone, isolated secant", Method::Marker2006, SplineKind::Monotone,
+                                   IsolatedEmpty::Secant}}) {
     ReconstructParams p = undecimated();
     p.method = v.method;
     p.interp.spline = v.spline;
@@ -174,17 +176,23 @@ TEST(Streaming, SliceFieldsHeldAtOnceDoNotGrowWithTheSlices) {
   }
 }
 
-// An empty slice with no non-empty neighbour takes the lowest value of all
-// the object's fields, so the feed computes them before it. With a scratch
-// folder those fields wait on disk (no name) until their knot: the same mesh
-// bit for bit, and the fields held at once keep the window's bound.
+// Under isolated_empty lowest an empty slice with no non-empty neighbour takes
+// the lowest value of all the object's fields, so the feed computes them
+// before it. With a scratch folder those fields wait on disk (no name) until
+// their knot: the same mesh bit for bit, and the fields held at once keep the
+// window's bound. The default (box) reads no field ahead: within the bound
+// without a folder.
 TEST(Streaming, FieldsComputedEarlyWaitOnDiskWithAScratchFolder) {
   SliceStack st = sphere_stack(32, 0.1);
   const std::size_t n = st.slices.size();
   const long bound = long(detail::slices_in_flight()) + kFeedFields + kStreamFields;
   for (std::size_t k = 0; k < n / 2; ++k) std::fill(st.slices[k].image.data.begin(), st.slices[k].image.data.end(), 0u);
   ASSERT_GT(long(n - n / 2), 2 * bound) << "too few non-empty slices to tell a bound from holding them all";
-  const ReconstructParams p = undecimated();
+  ReconstructParams p = undecimated();
+  const ReconstructResult local = reconstruct(st, p);
+  ASSERT_EQ(local.objects.size(), 1u);
+  EXPECT_LE(local.objects.front().peak_resident_fields, bound) << "the default rule pulls no field ahead";
+  p.interp.isolated_empty = IsolatedEmpty::Lowest;
   const ReconstructResult held = reconstruct(st, p);
   ASSERT_EQ(held.objects.size(), 1u);
   EXPECT_GT(held.objects.front().peak_resident_fields, 2 * bound) << "in memory, the fields computed early are all held";

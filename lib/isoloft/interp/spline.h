@@ -48,7 +48,9 @@ constexpr std::span<const EnumName<CapShape>> enum_names(CapShape) { return kCap
 
 /// The field of an empty slice with no non-empty neighbour (an isolated empty
 /// slice); its neighbours are closing slices or isolated (docs/decisions.md:
-/// isolated empty slices).
+/// "Isolated empty slices take a local value": Box, the default, meshes as
+/// Lowest did; Depth, Neighbours and Secant let a label win the partition's
+/// competition far from its slices).
 enum class IsolatedEmpty {
   Lowest,      ///< the lowest value of all the object's fields, at most -1 (global: every field computed first)
   Depth,       ///< -max(1, cap_depth), the mesher's pad outside the caps (local)
@@ -75,7 +77,7 @@ struct InterpParams {
   double cap_extent = 0.5;
   double cap_depth = 1.0;
   CapShape cap_shape = CapShape::Dome;
-  IsolatedEmpty isolated_empty = IsolatedEmpty::Lowest;
+  IsolatedEmpty isolated_empty = IsolatedEmpty::Box;
   double z_step = 1.0;
   bool planes_on_slices = false;
 };
