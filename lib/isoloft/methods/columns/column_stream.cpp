@@ -304,7 +304,7 @@ class KnotFeed {
       nb.gap_below = k > 0 ? z_[k + 1] - z_[k] : 0.0;
       nb.gap_above = k + 1 < n ? z_[k + 2] - z_[k + 1] : 0.0;
       const bool isolated = (!nb.above || nb.above->empty()) && (!nb.below || nb.below->empty());
-      float lowest = lowest_;
+      float lowest = -1.0f;  // what Lowest and Neighbours read
       if (isolated) switch (interp_.isolated_empty) {
           case IsolatedEmpty::Lowest:
             // The most negative value of all fields: pull the slices up to the
