@@ -81,6 +81,10 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
               "Volumes: read a data file that a NRRD or MetaImage header names outside the header's folder (refused "
               "by default: a header must not reach files you did not name)");
   R->add_flag("--allow-empty", r_.allow_empty, "Write a surface with no triangles instead of failing on it");
+  R->add_option("--z-slab", r_.z_slab,
+                "I/S: only z slab I of S (1-based, bottom up): the Marching Cubes planes between two cuts, open there "
+                "and computed with a halo, so `isoloft join-slabs` welds the S parts into the one-piece surface "
+                "(column methods; the mesh output only, no decimation)");
   R->add_flag("-q,--quiet", r_.quiet, "No progress display and no warnings on stderr");
   param_flags_.add_to(*R);
 
@@ -107,6 +111,13 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   batch_->prefix_command();  // every argument goes to the Python runner, --help too
   batch_->allow_extras();
   batch_->set_help_flag();
+
+  join_ = app.add_subcommand("join-slabs", "Join one object's z slab meshes (reconstruct --z-slab I/S, I = 1..S) into "
+                                          "its surface: the cut vertices welded, the result checked closed");
+  join_->add_option("parts", j_.parts, "The slab meshes, bottom up (slab 1 first)")->required();
+  join_->add_option("-o,--output", j_.output, "The joined mesh (.ply, .stl, .obj, .off, .vtk, .vtp)")->required();
+  join_->add_option("--report", j_.report, "Write the join's counts and checks as JSON");
+  join_->add_flag("--allow-empty", j_.allow_empty, "Write a joined surface with no triangles instead of failing on it");
 
   eval_ = app.add_subcommand("eval", "Compare a mesh with an analytic truth (from isoloft synth)");
   eval_->add_option("--mesh", e_.mesh, "Mesh to evaluate")->required();
@@ -183,6 +194,7 @@ int Commands::run() {
   if (synth_->parsed()) return synth();
   if (eval_->parsed()) return eval();
   if (batch_->parsed()) return batch();
+  if (join_->parsed()) return join_slabs();
   return 2;
 }
 

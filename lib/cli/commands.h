@@ -37,6 +37,7 @@ struct ReconstructArgs {
   std::string max_memory = "4G", max_output = "4G";  ///< budget (--max-memory, --max-output)
   long max_files = kDefaultMaxFiles;                  ///< --max-files (0 = no limit)
   bool print_params = false, quiet = false, ascii = false, list_rois = false, allow_empty = false;
+  std::string z_slab;  ///< "I/S": z slab I of S (1-based)
   bool allow_external_data = false;                  ///< --allow-external-data
   std::string label_names;                           ///< --label-names
   std::string annotated, annotated_mask;             ///< --annotated, --annotated-mask
@@ -79,6 +80,12 @@ struct EvalOptions {
   double pixel_size = 1.0, error_bound = 0.05, threshold = 0;
 };
 
+struct JoinOptions {
+  std::vector<std::string> parts;  ///< one object's z slab meshes, bottom up
+  std::string output, report;
+  bool allow_empty = false;
+};
+
 class Commands {
  public:
   Commands(CLI::App& app, int argc, char** argv);
@@ -94,11 +101,13 @@ class Commands {
   int synth();
   int eval();
   int batch();
-  CLI::App *reconstruct_ = nullptr, *synth_ = nullptr, *eval_ = nullptr, *batch_ = nullptr;
+  int join_slabs();
+  CLI::App *reconstruct_ = nullptr, *synth_ = nullptr, *eval_ = nullptr, *batch_ = nullptr, *join_ = nullptr;
   ReconstructArgs r_;
   ParamFlags param_flags_;
   SynthOptions s_;
   EvalOptions e_;
+  JoinOptions j_;
   std::string command_line_;
   std::string activity_;
   std::string heap_;

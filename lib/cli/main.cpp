@@ -3,6 +3,7 @@
 //   synth        analytic shape -> contour/mask PNG stack + truth JSON
 //   eval         mesh vs analytic truth -> distances and normal angles
 //   batch        a cohort from a manifest on Dask (runs python3 -m isoloft.cohort)
+//   join-slabs   one object's z slab meshes (reconstruct --z-slab) welded into its surface
 // Exit codes: 0 success, 1 bad input or parameters (one line naming the file
 // and the problem), 2 command-line usage errors (from CLI11); a run ended by
 // SIGINT, SIGTERM or SIGHUP dies by that signal with its temp files removed.

@@ -58,6 +58,25 @@ std::vector<std::uint32_t> parse_labels(const std::string& text) {
   return out;
 }
 
+// "I/S", 1 <= I <= S: slab I - 1 of S.
+ZSlab parse_z_slab(const std::string& text) {
+  const std::size_t slash = text.find('/');
+  unsigned long i = 0, s = 0;
+  std::size_t used_i = 0, used_s = 0;
+  try {
+    if (slash == std::string::npos) throw std::invalid_argument(text);
+    i = std::stoul(text.substr(0, slash), &used_i);
+    s = std::stoul(text.substr(slash + 1), &used_s);
+  } catch (const std::exception&) {
+    used_i = 0;
+  }
+  if (used_i != slash || used_s != text.size() - slash - 1 || text[0] == '-' || text[slash + 1] == '-' || i < 1 ||
+      i > s || s > kMaxZSlabs)
+    throw ParamError(option_name("--z-slab") + ": '" + text + "' is not I/S with 1 <= I <= S <= " +
+                     std::to_string(kMaxZSlabs));
+  return ZSlab{i - 1, s};
+}
+
 // Terminal progress on stderr, redrawn at most ~10 times a second.
 class Progress {
  public:
@@ -168,6 +187,7 @@ int Commands::reconstruct() {
   run.report_path = o.report;
   run.read_files = {{"--params", o.params_file}, {"--reference", o.reference}};
   run.allow_empty = o.allow_empty;
+  if (!o.z_slab.empty()) run.z_slab = parse_z_slab(o.z_slab);
   run.free_meshes = true;  // nothing below reads a mesh, only its counts
 
   std::unique_ptr<tbb::global_control> threads;

@@ -17,6 +17,8 @@
 #include <optional>
 #include <utility>
 
+#include "isoloft/core/error.h"
+#include "isoloft/core/option_names.h"
 #include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/partition/partition.h"
 #include "isoloft/methods/columns/column_stream.h"
@@ -44,6 +46,7 @@ void decimate_stage(const Run& run, ObjectResult& obj) {
 
 void check_stage(const Run& run, ObjectResult& obj) {
   obj.check = check_mesh(obj.mesh);
+  if (run.options.z_slab.count > 1) return;  // open at the cuts: weld_slabs() checks the whole
   if (!obj.check.closed || !obj.check.manifold || !obj.check.oriented)
     run.warn(detail::object_name(obj.label) + ": mesh is not a closed oriented manifold (boundary edges " +
              std::to_string(obj.check.boundary_edges) + ", non-manifold edges " +
@@ -161,6 +164,11 @@ ReconstructResult reconstruct_columns(const SliceStack& stack, const Reconstruct
                                       const ReconstructOptions& options) {
   detail::check_stack(stack);
   params_table<ReconstructParams>().validate(params);
+  if (options.z_slab.count > 1 &&
+      (options.on_slice_fields || options.on_plane || options.on_sample || params.decimate.max_error > 0))
+    throw ParamError(option_name("--z-slab") +
+                     ": a slab is part of a surface: no decimation (decimate the joined mesh), stage fields, planes or "
+                     "samples (--volume, --labelmap, RT Structure Set out)");
   ReconstructResult result;
   const Run run{stack, params, options, result, 0};
   Plan plan = plan_objects(run);
@@ -203,6 +211,8 @@ ReconstructResult reconstruct_columns(const SliceStack& stack, const Reconstruct
 ReconstructResult reconstruct(const MethodInput& in, const ReconstructParams& params, const ReconstructOptions& options) {
   const MethodSpec* m = find_method(params.method.name());
   if (m && m->reconstruct) {
+    if (options.z_slab.count > 1)
+      throw ParamError(option_name("--z-slab") + ": method " + std::string(params.method.name()) + " has no z slabs (column methods only)");
     MethodInput with_labels = in;
     with_labels.labels = options.labels;
     with_labels.on_estimate = options.on_estimate;

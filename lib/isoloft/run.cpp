@@ -125,6 +125,10 @@ void check_method_reads_input(const Inputs& in, const ReconstructParams& params,
 // Before any work: the outputs' own checks, the files they will write, the
 // labels, and the input's footprint through the contour stage.
 void check_run(const Inputs& in, const ReconstructParams& params, const RunOptions& o) {
+  for (const auto& out : o.outputs)
+    if (o.z_slab.count > 1 && out->option() != "-o")
+      throw ParamError(option_name("--z-slab") + ": a slab is part of a surface; " + option_name(out->option()) +
+                       " needs the whole (write it from the joined mesh)");
   for (const auto& out : o.outputs) {
     out->check_format(in.format);
     out->check(in, params);
@@ -431,6 +435,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     r = run_jobs(in, params, o.labels, [&](std::size_t j, ReconstructOptions& ropt) {
       for (const auto& out : o.outputs) out->start_job(ctx, j, hooks[j]);
       hooks[j].apply(ropt);
+      ropt.z_slab = o.z_slab;
       if (streamer) {
         ropt.on_object = [&, j](ObjectResult& ob) { as_output(files, streamer->option(), [&] { streamer->object_done(ctx, j, ob); }); };
         ropt.scratch_dir = spill_dir;
@@ -454,7 +459,7 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
                        int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
   if (o.warn)
     for (const auto& w : r.warnings) o.warn(w);
-  check_surfaces(in, r, o.allow_empty);
+  check_surfaces(in, r, o.allow_empty || o.z_slab.count > 1);
 
   auto t0 = Clock::now();
   const std::size_t warned = r.warnings.size();

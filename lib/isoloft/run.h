@@ -75,6 +75,9 @@ struct RunOptions {
   /// Files read besides the input (the --params file, a --reference): no output may replace them.
   std::vector<ReadFile> read_files;
   bool allow_empty = false;  ///< an object with no triangles is kept instead of an error
+  /// Only this z slab (ReconstructOptions::z_slab): the mesh output alone,
+  /// each object's part of the surface (open at the cuts; empty allowed).
+  ZSlab z_slab;
   /// The mesh output may write each object once final and free its mesh
   /// (RunOutput::streams_objects(); the result keeps its counts:
   /// ObjectResult::vertex_count()), unless another output reads the meshes.

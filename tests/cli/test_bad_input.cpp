@@ -729,3 +729,32 @@ TEST_F(BadInput, HugeGridSizesAreNeverPrintedNegative) {
   expect_error("reconstruct " + kRtss + " --roi Heart --method levin -o " + p("m.ply") + " --voxel-size 1e-300", 1,
                "--voxel-size 1e-300 mm: ROI 'Heart' would need a 1.039e+302 x 8.582e+301 pixel grid");
 }
+
+// z slabs: the flag's form, the outputs a part cannot give, parts that do
+// not join; slabs that do give the one-piece mesh, welded and closed.
+TEST_F(BadInput, ZSlabsAndTheirJoinRefuseWhatCannotBeJoined) {
+  const std::string s = sphere();
+  for (const std::string bad : {"0/3", "4/3", "1", "a/2", "1/-2", "1/2x"})
+    expect_error("reconstruct " + s + " -o " + p("m.ply") + " --z-slab " + bad, 1,
+                 "--z-slab: '" + bad + "' is not I/S with 1 <= I <= S");
+  expect_error("reconstruct " + s + " -o " + p("m.ply") + " --z-slab 1/2 --volume " + p("v.nrrd"), 1,
+               "--z-slab: a slab is part of a surface; --volume needs the whole");
+  expect_error("reconstruct " + s + " -o " + p("m.ply") + " --z-slab 1/2 --decimate-error 0.1", 1, "--z-slab: a slab is part");
+  expect_error("reconstruct " + s + " -o " + p("m.ply") + " --z-slab 1/2 --method field3d", 1, "column methods only");
+
+  ASSERT_EQ(run("reconstruct " + s + " -o " + p("whole.ply") + " -q").code, 0);
+  for (const char* i : {"1", "2", "3"}) {
+    const CliRun r = run("reconstruct " + s + " -o " + p(std::string("s") + i + ".ply") + " -q --z-slab " + i + "/3");
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  expect_error("join-slabs " + p("s2.ply") + " " + p("s1.ply") + " " + p("s3.ply") + " -o " + p("j.ply"), 1,
+               "do not join into a closed oriented manifold");
+  expect_error("join-slabs " + p("s1.ply") + " " + p("nothing.ply") + " -o " + p("j.ply"), 1, "nothing.ply");
+  const CliRun r = run("join-slabs " + p("s1.ply") + " " + p("s2.ply") + " " + p("s3.ply") + " -o " + p("j.ply") +
+                       " --report " + p("j.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const TriMesh joined = read_mesh(p("j.ply")), whole = read_mesh(p("whole.ply"));
+  EXPECT_EQ(joined.triangles.size(), whole.triangles.size());
+  EXPECT_EQ(joined.vertices.size(), whole.vertices.size());
+  EXPECT_NE(test::read_text(p("j.json")).find("\"closed\": true"), std::string::npos) << test::read_text(p("j.json"));
+}

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "isoloft/pipeline.h"
+#include "pipeline/split_disc.h"
 
 namespace isoloft {
 namespace {
@@ -16,27 +17,7 @@ constexpr int kSize = 64;
 constexpr double kCentre = 31.5, kRadius = 22.0, kSpacing = 6.0;
 constexpr int kSlices = 5;
 
-// Label 1 on one side of a line through the centre, 2 on the other; the line
-// turns 30 degrees per slice, so the halves move sideways between slices.
-SliceStack split_disc() {
-  SliceStack st;
-  st.width = st.height = kSize;
-  st.kind = InputKind::Labels;
-  for (int k = 0; k < kSlices; ++k) {
-    Slice s;
-    s.z = kSpacing * k;
-    s.source = "slice" + std::to_string(k);
-    s.image = Grid2u32(kSize, kSize, 0);
-    const double a = k * M_PI / 6;
-    for (int y = 0; y < kSize; ++y)
-      for (int x = 0; x < kSize; ++x) {
-        const double dx = x - kCentre, dy = y - kCentre;
-        if (dx * dx + dy * dy < kRadius * kRadius) s.image(x, y) = dx * std::cos(a) + dy * std::sin(a) > 0 ? 1 : 2;
-      }
-    st.slices.push_back(std::move(s));
-  }
-  return st;
-}
+SliceStack split_disc() { return test::split_disc({kSize, kRadius, kSlices, kSpacing, M_PI / 6}); }
 
 // Per sampled height, how many labels claim each pixel (field > 0).
 struct Claims {

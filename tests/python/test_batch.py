@@ -217,3 +217,30 @@ def test_the_library_reads_the_manifest_for_files_and_rows(tmp_path):
                                "(a relative path without '..')"
     with pytest.raises(isoloft.InputError, match=r"m2.csv: row 3: the name 'x' is used twice"):
         read_manifest(_write(tmp_path / "m2.csv", "input,name\na,x\nb,x\n"))
+
+
+def _triangles(path):
+    """A mesh's triangles by their corners' positions (each from its smallest corner), sorted."""
+    import meshio
+    import numpy as np
+    m = meshio.read(path)
+    t = m.points[m.cells_dict["triangle"]].astype(np.float32)  # (n, 3, 3)
+    t = np.stack([np.roll(tri, -min(range(3), key=lambda k: tuple(tri[k])), axis=0) for tri in t])
+    flat = t.reshape(len(t), 9)
+    return flat[np.lexsort(flat.T[::-1])]
+
+
+def test_z_slabs_join_to_the_one_piece_surface_and_refuse_other_outputs(sphere_dir, tmp_path):
+    manifest = _write(tmp_path / "m.csv", "input,name,options\n"
+                      f"{sphere_dir / 'sphere'},sphere,--z-spacing 8\n"
+                      f"{sphere_dir / 'sphere'},volume,--z-spacing 8 --volume v.nrrd\n")
+    whole = {r["name"]: r for r in isoloft.batch(manifest, tmp_path / "whole", workers=1)}
+    assert whole["sphere"]["status"] == "ok", whole
+    rows = {r["name"]: r for r in isoloft.batch(manifest, tmp_path / "slabs", workers=2, z_slabs=3)}
+    assert rows["sphere"]["status"] == "ok", rows
+    assert rows["volume"]["status"] == "failed" and "--z-slab" in rows["volume"]["error"], rows
+    got, want = _triangles(tmp_path / "slabs" / "sphere" / "sphere.ply"), _triangles(tmp_path / "whole" / "sphere" / "sphere.ply")
+    assert got.shape == want.shape and (got == want).all()
+    assert [r["status"] for r in isoloft.batch(manifest, tmp_path / "slabs", workers=1, z_slabs=3)] == ["skipped", "failed"]
+    with pytest.raises(ValueError, match="z_slabs"):
+        isoloft.batch(manifest, tmp_path / "x", z_slabs=0)

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -112,6 +113,19 @@ struct WorkEstimate {
   double samples = 0;
 };
 
+/// One z slab of a run cut into `count` (docs/decisions.md, "Z slabs"): the
+/// Marching Cubes planes from cut `index` to cut `index + 1` (cut c: the last
+/// plane at or below slice c * slices / count), meshed open at the cuts, from
+/// knots computed with a halo; joined by weld_slabs() the slabs' meshes are
+/// the one-piece mesh.
+/// Most z slabs a run is cut into (a slab needs a plane of its own anyway).
+inline constexpr std::size_t kMaxZSlabs = 1 << 16;
+
+struct ZSlab {
+  std::size_t index = 0;  ///< 0 .. count - 1, bottom up
+  std::size_t count = 1;  ///< 1: the whole run
+};
+
 struct ReconstructOptions {
   /// Per object after its contour stage, before the fit; may throw to stop
   /// the run (e.g. over a memory budget).
@@ -143,6 +157,9 @@ struct ReconstructOptions {
   /// wait there while its labels stream, each read back for its decimation,
   /// check and on_object, one object per thread.
   std::string scratch_dir;
+  /// Only this z slab (column methods with the columns z scheme; no
+  /// decimation, stage fields, planes or samples).
+  ZSlab z_slab;
 };
 
 struct ReconstructResult {

@@ -144,8 +144,10 @@ struct Competition {
 // same knots, in lockstep).
 class UnionStream {
  public:
-  UnionStream(const Run& run, ObjectResult& obj, std::size_t labels)
-      : run_(run), obj_(obj), labels_(labels), z_(knot_z(run)) {
+  // first_knot: the labels' streams' (a z slab's).
+  UnionStream(const Run& run, ObjectResult& obj, std::size_t labels, std::size_t first_knot)
+      : run_(run), obj_(obj), labels_(labels), z_(knot_z(run)), next_(first_knot) {
+    z_.erase(z_.begin(), z_.begin() + std::ptrdiff_t(first_knot));
     stream_ = z_scheme_spec(run.params.z_scheme)
                   .make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_,
                                      kPartitionZBlock},
@@ -223,7 +225,10 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
   std::vector<PixelBox> boxes(labels + 1);
   for (std::size_t i = 0; i <= labels; ++i) boxes[i] = objects[i].obj.box;
   const PixelBox& ubox = boxes[labels];
-  UnionStream uni(objects[labels].run, objects[labels].obj, labels);
+  const std::vector<double> all_knots = knot_z(run);
+  const SlabRange range =
+      slab_range(run, all_knots, mesh_planes(all_knots, run.params.interp), std::vector<char>(run.slices(), 0));
+  UnionStream uni(objects[labels].run, objects[labels].obj, labels, range.first_knot);
   std::vector<std::unique_ptr<ObjectStream>> streams(labels);
   for (std::size_t l = 0; l < labels; ++l)
     streams[l] = std::make_unique<ObjectStream>(

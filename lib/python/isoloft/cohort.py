@@ -26,6 +26,13 @@ when its report exists and was written by the same command (so a rerun with
 another --format runs it again). A SIGTERM, SIGINT or SIGHUP stops the
 running CLI processes (they remove their temp files) before the batch ends.
 Dask's local work space is DIR/.dask.
+
+With --z-slabs S each case is cut into S z slabs (`isoloft reconstruct
+--z-slab I/S`, one task each, in DIR/NAME/slabs/), and each object's parts
+are then joined (`isoloft join-slabs`, welded at the cuts and checked closed)
+into NAME.FORMAT (one object) or NAME_<object>.FORMAT, the same surfaces as
+the one-piece run's. The case's report NAME.json then lists the slabs' and
+joins' reports. Column methods only; no other outputs.
 """
 
 import argparse
@@ -81,19 +88,14 @@ _children_lock = threading.Lock()
 _stopping = threading.Event()  # set by a stop signal: no case starts after it
 
 
-def run_case(case, out, cli, threads=1, fmt="ply"):
-    """Runs one case (a Dask task): its summary row."""
-    folder = pathlib.Path(out) / case["name"]
-    folder.mkdir(parents=True, exist_ok=True)
-    t0 = time.monotonic()
+def _run_cli(case, command, folder):
+    """Runs one CLI process in `folder`, stopped with the batch: (exit code, its error line)."""
     # Started and registered under one lock: a stop signal between the two once missed the child
     # (it ran on after the batch died).
     with _children_lock:
         if _stopping.is_set():
-            return {"name": case["name"], "input": case["input"], "status": "failed", "exit_code": "",
-                    "seconds": 0.0, "error": "the batch was stopped"}
-        p = subprocess.Popen(case_command(case, cli, threads, fmt), cwd=folder, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+            return None, "the batch was stopped"
+        p = subprocess.Popen(command, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         _children.add(p)
     with p:
         try:
@@ -103,21 +105,92 @@ def run_case(case, out, cli, threads=1, fmt="ply"):
                 _children.discard(p)
     errors = [line for line in stderr.splitlines() if line.startswith("isoloft: error:")]
     error = errors[-1][len("isoloft: error: "):] if errors else (stderr.strip().splitlines() or [""])[-1]
-    return {"name": case["name"], "input": case["input"], "status": "ok" if p.returncode == 0 else "failed",
-            "exit_code": p.returncode, "seconds": round(time.monotonic() - t0, 3),
-            "error": "" if p.returncode == 0 else error}
+    return p.returncode, "" if p.returncode == 0 else error
 
 
-def _is_done(case, out, cli, threads, fmt):
+def _row(case, t0, code, error):
+    return {"name": case["name"], "input": case["input"], "status": "ok" if code == 0 else "failed",
+            "exit_code": "" if code is None else code, "seconds": round(time.monotonic() - t0, 3), "error": error}
+
+
+def run_case(case, out, cli, threads=1, fmt="ply"):
+    """Runs one case (a Dask task): its summary row."""
+    folder = pathlib.Path(out) / case["name"]
+    folder.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    code, error = _run_cli(case, case_command(case, cli, threads, fmt), folder)
+    return _row(case, t0, code, error)
+
+
+def slab_command(case, cli, slab, slabs, threads=1):
+    """Slab `slab` (1-based) of `slabs` of a case (run in its slabs folder)."""
+    name = f"{case['name']}.s{slab}"
+    return [cli, "reconstruct", case["input"], *case["options"], "--z-slab", f"{slab}/{slabs}", "-o", f"{name}.ply",
+            "--report", f"{name}.json", "--threads", str(threads), "-q"]
+
+
+def run_slab(case, out, cli, slab, slabs, threads=1):
+    """One z slab of a case (a Dask task): (exit code, error, its report path, seconds)."""
+    folder = pathlib.Path(out) / case["name"] / "slabs"
+    folder.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    code, error = _run_cli(case, slab_command(case, cli, slab, slabs, threads), folder)
+    return (code, f"slab {slab}/{slabs}: {error}" if code else "", str(folder / f"{case['name']}.s{slab}.json"),
+            time.monotonic() - t0)
+
+
+def _slabs_command(case, cli, slabs, fmt):
+    """What a slab case's report records as its command."""
+    return [*slab_command(case, cli, "I", slabs), "--join-format", fmt]
+
+
+def join_case(case, slabs, out, cli, fmt="ply"):
+    """Joins a case's slab meshes object by object (a Dask task after its
+    slabs): its summary row (seconds: the slabs' and the joins'); NAME.json
+    lists the slab and join reports."""
+    t0 = time.monotonic() - sum(s[3] for s in slabs)
+    for code, error, _, _ in slabs:
+        if code != 0:
+            return _row(case, t0, code, error)
+    folder = pathlib.Path(out) / case["name"]
+    reports = []
+    for _, _, path, _ in slabs:
+        with open(path) as f:
+            reports.append(json.load(f))
+    objects = [[o["file"] for o in r.get("objects", [])] for r in reports]
+    if len({len(o) for o in objects}) != 1:
+        return _row(case, t0, 1, "the slabs list different objects")
+    joins = []
+    one = len(objects[0]) == 1
+    for k, first in enumerate(objects[0]):
+        stem = pathlib.Path(first).stem  # NAME.s1 or NAME.s1_label5
+        suffix = stem[len(f"{case['name']}.s1"):]
+        target = f"{case['name']}{'' if one else suffix}.{fmt}"
+        parts = [str(folder / "slabs" / pathlib.Path(o[k]).name) for o in objects]
+        report = str(folder / "slabs" / f"{case['name']}{suffix}.join.json")
+        code, error = _run_cli(case, [cli, "join-slabs", *parts, "-o", target, "--report", report], folder)
+        if code != 0:
+            return _row(case, t0, code, f"join {target}: {error}")
+        joins.append(report)
+    summary = {"command": " ".join(_slabs_command(case, cli, len(slabs), fmt)), "slabs": [s[2] for s in slabs],
+               "joins": joins}
+    tmp = folder / f".{case['name']}.json.tmp{os.getpid()}"
+    tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    os.replace(tmp, folder / f"{case['name']}.json")
+    return _row(case, t0, 0, "")
+
+
+def _is_done(case, out, cli, threads, fmt, z_slabs=1):
     """The case's report exists and was written by this case's command
-    (same options and format; --threads aside)."""
+    (same options, format and slabs; --threads aside)."""
     report = out / case["name"] / f"{case['name']}.json"
     try:
         with open(report) as f:
             done = json.load(f).get("command", "")
     except (OSError, ValueError, AttributeError):
         return False
-    return _comparable(done.split(" ")) == _comparable(case_command(case, cli, threads, fmt))
+    want = _slabs_command(case, cli, z_slabs, fmt) if z_slabs > 1 else case_command(case, cli, threads, fmt)
+    return _comparable(done.split(" ")) == _comparable(want)
 
 
 def _comparable(argv):
@@ -186,12 +259,13 @@ class _StopChildren:
 
 
 def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply", force=False, cli=None,
-          on_case=None):
+          on_case=None, z_slabs=1):
     """Runs every case of `manifest` as a task on Dask distributed: a local
     cluster of `workers` processes (default: the cores / threads), or the
     scheduler at `scheduler` (its workers must see the same paths and have
-    isoloft installed). threads: --threads of each case. force: rerun cases
-    already done. on_case(row) is called as each case ends. Returns the
+    isoloft installed). threads: --threads of each case (or slab). force: rerun
+    cases already done. z_slabs: cut each case into that many z slabs, one
+    task each, joined per object by a task after them. on_case(row) is called as each case ends. Returns the
     summary rows (also written to OUT/summary.csv), in manifest order."""
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -199,6 +273,8 @@ def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply
     if workers is not None and scheduler is not None:
         raise ValueError("give either workers or scheduler, not both")
     cli = cli or default_cli()
+    if not isinstance(z_slabs, int) or z_slabs < 1:
+        raise ValueError(f"z_slabs: {z_slabs!r} is not a count of slabs (>= 1)")
     if format not in MESH_FORMATS:
         raise ValueError(f"format: unknown mesh format {format!r} (expected {', '.join(MESH_FORMATS)})")
     cases = read_manifest(manifest)  # before anything is written
@@ -212,7 +288,7 @@ def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply
                                   "exit_code": "", "seconds": 0.0, "error": case["error"]}
             if on_case:
                 on_case(rows[case["name"]])
-        elif not force and _is_done(case, out, cli, threads, format):
+        elif not force and _is_done(case, out, cli, threads, format, z_slabs):
             rows[case["name"]] = {"name": case["name"], "input": case["input"], "status": "skipped",
                                   "exit_code": 0, "seconds": 0.0, "error": ""}
         else:
@@ -233,8 +309,16 @@ def batch(manifest, out, *, workers=None, scheduler=None, threads=1, format="ply
             cluster = None
         try:
             with _StopChildren(), Client(cluster if cluster is not None else scheduler) as client:
-                futures = client.map(run_case, todo, out=str(out), cli=cli, threads=threads, fmt=format,
-                                     pure=False, key=[f"isoloft-{c['name']}" for c in todo])
+                if z_slabs > 1:  # each case's slabs, then its join (Dask passes it the slabs' results)
+                    futures = []
+                    for c in todo:
+                        parts = [client.submit(run_slab, c, str(out), cli, i, z_slabs, threads, pure=False,
+                                               key=f"isoloft-{c['name']}-slab{i}") for i in range(1, z_slabs + 1)]
+                        futures.append(client.submit(join_case, c, parts, str(out), cli, format, pure=False,
+                                                     key=f"isoloft-{c['name']}-join"))
+                else:
+                    futures = client.map(run_case, todo, out=str(out), cli=cli, threads=threads, fmt=format,
+                                         pure=False, key=[f"isoloft-{c['name']}" for c in todo])
                 for future in as_completed(futures):
                     row = future.result()
                     rows[row["name"]] = row
@@ -260,11 +344,15 @@ def main(argv=None):
     parser.add_argument("--format", default="ply", choices=MESH_FORMATS,
                         help="mesh format of each case (default ply)")
     parser.add_argument("--force", action="store_true", help="rerun cases already done")
+    parser.add_argument("--z-slabs", type=int, default=1,
+                        help="cut each case into S z slabs (one task each), joined per object (default 1: whole)")
     parser.add_argument("--cli", help="the isoloft CLI to run (default: this package's)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no line per case")
     a = parser.parse_args(argv)
     if a.workers is not None and a.workers < 1:
         parser.error("--workers must be >= 1")
+    if a.z_slabs < 1:
+        parser.error("--z-slabs must be >= 1")
 
     from ._isoloft import _terminal_text as shown  # names reach the terminal escaped, as the CLI prints them
 
@@ -275,7 +363,7 @@ def main(argv=None):
 
     try:
         rows = batch(a.manifest, a.out, workers=a.workers, scheduler=a.scheduler, threads=a.threads,
-                     format=a.format, force=a.force, cli=a.cli, on_case=report)
+                     format=a.format, force=a.force, cli=a.cli, on_case=report, z_slabs=a.z_slabs)
     except (OSError, ValueError) as e:
         print(shown(f"isoloft batch: error: {e}"), file=sys.stderr)
         return 1
@@ -288,4 +376,8 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # Run as the imported module, not __main__: Dask pickles the tasks by reference then
+    # (functions of __main__ go by value, with the module's locks), and the stop signal reaches
+    # the children the tasks started.
+    from isoloft.cohort import main as module_main
+    sys.exit(module_main())

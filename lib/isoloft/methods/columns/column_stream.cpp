@@ -27,6 +27,22 @@ namespace isoloft::detail {
 
 namespace {
 
+// Slices below its own an isolated empty slice reads under a local rule:
+// `fields` whole (kept by the feed), `values` at least (their lowest values).
+struct ReadsBelow {
+  std::size_t fields, values;
+};
+ReadsBelow isolated_reads_below(IsolatedEmpty rule) {
+  switch (rule) {
+    case IsolatedEmpty::Secant:
+      return {2, 2};
+    case IsolatedEmpty::Neighbours:
+      return {1, kIsolatedNeighbourSlices};
+    default:
+      return {1, 1};
+  }
+}
+
 void add_fit_stats(FitStats& s, const SliceField& m) {
   s.points += long(m.points.size());
   s.fallback_slices += m.fallback;
@@ -58,8 +74,9 @@ class SliceFields {
  public:
   // band: the fields are exact only where they reach the mesh (methods/columns/field_band.h).
   // window: slices computed at once (0: slice_window()).
+  // first: the first slice handed out (a z slab's).
   SliceFields(const Run& run, ObjectResult& obj, std::vector<PackedMasks>& masks, ResidentCount& count,
-              const std::optional<FieldBand::Setup>& band, std::size_t window)
+              const std::optional<FieldBand::Setup>& band, std::size_t window, std::size_t first = 0)
       : run_(run),
         obj_(obj),
         masks_(masks),
@@ -67,6 +84,7 @@ class SliceFields {
         window_(window > 0 ? window : slice_window()),
         method_(method_spec(run.params.method.name())) {
     if (band) band_.emplace(masks, obj.box, *band);
+    next_ = first;
   }
   ~SliceFields() {  // a batch still computing (the caller stopped early, or threw) is cancelled and waited for
     if (!ahead_) return;
@@ -79,7 +97,7 @@ class SliceFields {
   SliceFields(const SliceFields&) = delete;
   SliceFields& operator=(const SliceFields&) = delete;
 
-  // Slice k's field (empty for an empty slice), k = 0, 1, ... in order; its
+  // Slice k's field (empty for an empty slice), k = first, first + 1, ... in order; its
   // fit statistics and stage fields are recorded as it is handed out.
   Grid2f take(std::size_t k) {
     if (k != next_) throw Error("SliceFields::take: slices out of order");
@@ -199,10 +217,13 @@ class SliceFields {
 class KnotFeed {
  public:
   // z: the knot heights (knot_z: slice k at z[k + 1]). scratch_dir: "" holds
-  // the fields computed early in memory.
+  // the fields computed early in memory. range: the first knot (0 or >= 2)
+  // and the first slice SliceFields hands out (at most the knot's slice - 1).
   KnotFeed(SliceFields& slices, const std::vector<char>& empty, const std::vector<double>& z, const PixelBox& box,
-           const InterpParams& interp, ResidentCount& count, std::string scratch_dir)
-      : slices_(slices), empty_(empty), z_(z), box_(box), interp_(interp), count_(count), scratch_dir_(std::move(scratch_dir)) {
+           const InterpParams& interp, ResidentCount& count, std::string scratch_dir, const SlabRange& range = {})
+      : slices_(slices), empty_(empty), z_(z), box_(box), interp_(interp), count_(count), scratch_dir_(std::move(scratch_dir)),
+        raw_first_(range.first_slice), knot_(range.first_knot) {
+    if (knot_ == 1 || (knot_ > 1 && raw_first_ + 2 > knot_)) throw Error("KnotFeed: a slab's first knot or slice is out of place");
     const auto last = std::find(empty.rbegin(), empty.rend(), char(0));
     last_nonempty_ = std::size_t(empty.rend() - last) - 1;
     if (interp.isolated_empty == IsolatedEmpty::Neighbours) lows_.resize(empty.size(), -1.0f);
@@ -212,6 +233,14 @@ class KnotFeed {
   KnotFeed& operator=(const KnotFeed&) = delete;
 
   Grid2f next() {
+    // A slab's slices below those its first knot reads (slab_range): only
+    // their lowest values.
+    for (; raw_.empty() && raw_first_ + 1 + raw_below() < knot_; ++raw_first_) {
+      const Grid2f f = slices_.take(raw_first_);
+      lowest_ = most_negative(lowest_, f);
+      if (!lows_.empty()) lows_[raw_first_] = most_negative(-1.0f, f);
+      count_.remove(1);
+    }
     const std::size_t n = empty_.size(), i = knot_++;
     Grid2f out;
     if (i == 1 || i == n + 1) {  // slice 0's field after its cap below; the cap above after slice n - 1
@@ -243,6 +272,10 @@ class KnotFeed {
   }
 
  private:
+  // Slices below its own whose fields a slice's knot reads: its neighbour;
+  // Secant, the one beyond.
+  [[nodiscard]] std::size_t raw_below() const { return isolated_reads_below(interp_.isolated_empty).fields; }
+
   [[nodiscard]] bool follows_trend() const {
     return interp_.cap_shape == CapShape::Slab || interp_.cap_shape == CapShape::Round;
   }
@@ -331,9 +364,8 @@ class KnotFeed {
         }
       out = empty_slice_field(nb, lowest, box_, interp_);
     }
-    // Slices below k (Secant: k - 2) are no longer anyone's neighbour.
-    const std::size_t keep = interp_.isolated_empty == IsolatedEmpty::Secant ? 2 : 0;
-    for (; raw_first_ + keep < k; ++raw_first_) {
+    // Slices below k - raw_below() + 1 are no longer read.
+    for (; raw_first_ + raw_below() < k + 1; ++raw_first_) {
       if (where_.front() == kHeld) {
         --held_;
         count_.remove(1);
@@ -361,7 +393,7 @@ class KnotFeed {
   std::size_t raw_first_ = 0;
   float lowest_ = -1.0f;  // most_negative of the slices pulled
   std::vector<float> lows_;  // Neighbours: per slice pulled, most_negative(-1, its field)
-  std::size_t knot_ = 0;
+  std::size_t knot_ = 0;  // the next knot given
   Grid2f pending_;
   Grid2f before_;  // slice n - 2's knot field, for the cap above
 };
@@ -434,6 +466,48 @@ std::vector<double> knot_z(const Run& run) {
   return z;
 }
 
+SlabRange slab_range(const Run& run, const std::vector<double>& knots, const std::vector<double>& planes,
+                     const std::vector<char>& empty) {
+  const ZSlab& slab = run.options.z_slab;
+  SlabRange r;
+  r.plane_end = planes.size();
+  if (slab.count == 1 && slab.index == 0) return r;
+  const std::string which = "z slab " + std::to_string(slab.index + 1) + " of " + std::to_string(slab.count);
+  if (slab.index >= slab.count) throw ParamError(which + ": no such slab");
+  const std::optional<std::size_t> reach = tangent_reach(run.params.interp.spline);
+  if (run.params.z_scheme != "columns" || !reach)
+    throw ParamError(which + ": z slabs need the columns z scheme and a spline of finite tangent reach (not natural)");
+  // Cut c: the last plane at or below slice c * n / count.
+  const std::size_t n = empty.size();
+  const auto cut = [&](std::size_t c) -> std::size_t {
+    if (c == 0) return 0;
+    if (c == slab.count) return planes.size() - 1;
+    const double z = knots[c * n / slab.count + 1];
+    return std::size_t(std::upper_bound(planes.begin(), planes.end(), z) - planes.begin()) - 1;
+  };
+  for (std::size_t c = 0; c < slab.count; ++c)
+    if (!(cut(c) < cut(c + 1)))
+      throw ParamError(which + ": two cuts fall on one plane (" + std::to_string(n) + " slices, " +
+                       std::to_string(planes.size()) + " planes): use fewer slabs");
+  r.plane_begin = cut(slab.index);
+  r.plane_end = cut(slab.index + 1) + 1;
+  if (slab.index == 0) return r;
+  // Tangents within reach of the slab's first interval are the whole
+  // column's; one knot more for the interval a plane on a knot falls in.
+  const std::size_t j = knot_interval(knots, planes[r.plane_begin]), halo = *reach + 2;
+  r.first_knot = j >= halo + 2 ? j - halo : 0;
+  // The knot of slice k - 1 reads slices k - 2 and k, an isolated empty
+  // slice's as interp.isolated_empty says: Lowest reads the lowest value of
+  // every field.
+  const IsolatedEmpty rule = run.params.interp.isolated_empty;
+  bool isolated = false;
+  for (std::size_t k = 0; k < n && !isolated && rule == IsolatedEmpty::Lowest; ++k)
+    isolated = empty[k] && (k == 0 || empty[k - 1]) && (k + 1 == n || empty[k + 1]);
+  const std::size_t below = 1 + isolated_reads_below(rule).values;  // the first knot's slice is first_knot - 1
+  r.first_slice = isolated || r.first_knot < below ? 0 : r.first_knot - below;
+  return r;
+}
+
 namespace {
 // Whether the knots span less than one plane step: nothing to mesh.
 bool thinner_than_a_step(const std::vector<double>& z, double step) { return (z.back() - z.front()) / step < 1 - 1e-9; }
@@ -446,18 +520,23 @@ class ObjectStream::Impl {
  public:
   Impl(const Run& run, ObjectResult& obj, std::vector<PackedMasks> masks, KnotTap tap = {},
                const std::optional<FieldBand::Setup>& band = std::nullopt, std::size_t window = 0, std::size_t z_block = 0)
-      : run_(run), obj_(obj), masks_(std::move(masks)), empty_(masks_.size()), z_(knot_z(run)), tap_(std::move(tap)) {
+      : run_(run), obj_(obj), masks_(std::move(masks)), empty_(masks_.size()), knots_(knot_z(run)), tap_(std::move(tap)) {
     const ReconstructParams& p = run.params;
     for (std::size_t k = 0; k < masks_.size(); ++k) empty_[k] = masks_[k].empty;
-    if (thinner_than_a_step(z_, p.interp.z_step)) {
+    if (thinner_than_a_step(knots_, p.interp.z_step)) {
       std::ostringstream o;
-      o << "the slices span " << z_.back() - z_.front() << " px in z (end caps included), less than one plane step "
+      o << "the slices span " << knots_.back() - knots_.front() << " px in z (end caps included), less than one plane step "
         << "interp.z_step = " << p.interp.z_step << " px: nothing to mesh (check " << option_name("--z-spacing")
         << " / the slice z)";
       throw InputError(run.stack.slices.front().source, o.str());
     }
-    slices_.emplace(run, obj, masks_, count_, band, window);
-    feed_.emplace(*slices_, empty_, z_, obj.box, p.interp, count_, run.options.scratch_dir);
+    const std::vector<double> all = mesh_planes(knots_, p.interp);
+    range_ = slab_range(run, knots_, all, empty_);
+    planes_.assign(all.begin() + std::ptrdiff_t(range_.plane_begin), all.begin() + std::ptrdiff_t(range_.plane_end));
+    knots_pulled_ = range_.first_knot;
+    slices_.emplace(run, obj, masks_, count_, band, window, range_.first_slice);
+    feed_.emplace(*slices_, empty_, knots_, obj.box, p.interp, count_, run.options.scratch_dir, range_);
+    z_.assign(knots_.begin() + std::ptrdiff_t(range_.first_knot), knots_.end());
     stream_ = z_scheme_spec(p.z_scheme).make(
         ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_, z_block}, p);
   }
@@ -466,9 +545,7 @@ class ObjectStream::Impl {
 
   [[nodiscard]] PlaneSource& field() { return *stream_; }
   [[nodiscard]] const std::vector<double>& knots() const { return z_; }
-  [[nodiscard]] std::vector<double> planes() const {
-    return mesh_planes(z_, run_.params.interp);
-  }
+  [[nodiscard]] std::vector<double> planes() const { return planes_; }
 
   /// The object's mesh and the stream's statistics and times; `interp_seconds`
   /// evaluating planes and samples.
@@ -495,9 +572,12 @@ class ObjectStream::Impl {
   ObjectResult& obj_;
   std::vector<PackedMasks> masks_;
   std::vector<char> empty_;
-  std::vector<double> z_;
+  std::vector<double> knots_;  // all (the feed's)
+  std::vector<double> z_;      // the stream's: from range_.first_knot
+  SlabRange range_;
+  std::vector<double> planes_;  // the slab's
   KnotTap tap_;
-  std::size_t knots_pulled_ = 0;
+  std::size_t knots_pulled_ = 0;  // the next knot's index among all
   ResidentCount count_;
   std::optional<SliceFields> slices_;
   std::optional<KnotFeed> feed_;
@@ -558,7 +638,7 @@ void stream_stages(const Run& run, std::vector<PackedMasks> masks, ObjectResult&
   const Run banded{run.stack, run.params, run.options, part, run.label};
   const ObjectResult before = obj;
   stream_stages_once(banded, masks, obj, band);
-  if (obj.mesh.triangles.empty()) {
+  if (obj.mesh.triangles.empty() && o.z_slab.count == 1) {
     obj = before;
     return stream_stages_once(run, std::move(masks), obj, std::nullopt);
   }

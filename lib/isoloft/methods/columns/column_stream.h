@@ -25,6 +25,21 @@ namespace isoloft::detail {
 /// an empty field is empty).
 std::vector<double> knot_z(const Run& run);
 
+/// A z slab's share of an object's stream (ReconstructOptions::z_slab).
+struct SlabRange {
+  std::size_t first_knot = 0;   ///< the stream's first knot: a halo of tangent_reach + 2 below the slab's first plane
+  std::size_t first_slice = 0;  ///< the first slice whose field is computed (knots read their neighbours)
+  std::size_t plane_begin = 0, plane_end = 0;  ///< the slab's planes of mesh_planes(knots), [begin, end)
+};
+
+/// The slab of `run` over the object's knots (knot_z) and planes; `empty`:
+/// its empty slices (an isolated one takes the lowest value of every field,
+/// so the fields are computed from the first slice). Without a slab: all.
+/// \throw ParamError if the slab is not one of its count, two cuts fall on
+///        one plane, or the z scheme is not the columns with a finite reach.
+SlabRange slab_range(const Run& run, const std::vector<double>& knots, const std::vector<double>& planes,
+                     const std::vector<char>& empty);
+
 /// One object's cost from its packed masks, before any fit (the budget
 /// check; docs/decisions.md, work budget); `window`: its slices computed at
 /// once (0: slice_window()).
