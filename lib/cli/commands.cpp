@@ -117,6 +117,10 @@ Commands::Commands(CLI::App& app, int argc, char** argv) {
   join_->add_option("parts", j_.parts, "The slab meshes, bottom up (slab 1 first)")->required();
   join_->add_option("-o,--output", j_.output, "The joined mesh (.ply, .stl, .obj, .off, .vtk, .vtp)")->required();
   join_->add_option("--report", j_.report, "Write the join's counts and checks as JSON");
+  join_->add_option("--decimate-error", j_.decimate_error,
+                    "Decimate the joined mesh keeping every point of it within this of the result, in the parts' "
+                    "units (mm for patient-space meshes, px x --pixel-size for stacks; default 0: not decimated)")
+      ->check(CLI::NonNegativeNumber);
   join_->add_flag("--allow-empty", j_.allow_empty, "Write a joined surface with no triangles instead of failing on it");
 
   eval_ = app.add_subcommand("eval", "Compare a mesh with an analytic truth (from isoloft synth)");

@@ -83,6 +83,7 @@ struct EvalOptions {
 struct JoinOptions {
   std::vector<std::string> parts;  ///< one object's z slab meshes, bottom up
   std::string output, report;
+  double decimate_error = 0;  ///< the joined mesh decimated within this, in the parts' units (0: not)
   bool allow_empty = false;
 };
 

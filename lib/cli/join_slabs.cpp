@@ -10,6 +10,7 @@
 #include "isoloft/core/error.h"
 #include "isoloft/io/atomic_file.h"
 #include "isoloft/io/mesh_io.h"
+#include "isoloft/mesh/decimate.h"
 #include "isoloft/mesh/slab_join.h"
 
 namespace isoloft::cli {
@@ -21,7 +22,16 @@ int Commands::join_slabs() {
     parts.push_back(read_mesh(p));
   }
   activity_ = "joining " + std::to_string(parts.size()) + " slabs";
-  const SlabJoinResult r = isoloft::join_slabs(parts);
+  SlabJoinResult r = isoloft::join_slabs(parts);
+  const long joined_triangles = long(r.mesh.triangles.size());
+  // Not local, so not in the slabs: the joined (checked) mesh, checked again.
+  if (j_.decimate_error > 0 && r.check.closed && r.check.manifold && r.check.oriented) {
+    activity_ = "decimating the joined mesh";
+    DecimateParams d;
+    d.max_error = j_.decimate_error;
+    decimate(r.mesh, d);
+    r.check = check_mesh(r.mesh);
+  }
   const MeshCheck& c = r.check;
   const std::string what = "join-slabs: the " + std::to_string(parts.size()) + " parts " + j_.parts.front() + " .. " +
                            j_.parts.back();
@@ -37,7 +47,7 @@ int Commands::join_slabs() {
       {"vertices", r.mesh.vertices.size()}, {"welded", r.welded}, {"unmatched", r.unmatched},
       {"closed", c.closed},       {"manifold", c.manifold},      {"oriented", c.oriented},
       {"components", c.components}, {"euler", c.euler},          {"volume", c.volume},
-      {"area", c.area}};
+      {"area", c.area},           {"triangles_joined", joined_triangles}, {"decimate_error", j_.decimate_error}};
   activity_ = "writing " + j_.output;
   AtomicFile mesh(j_.output);
   write_mesh(mesh.temp_path(), r.mesh);

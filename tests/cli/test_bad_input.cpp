@@ -757,4 +757,13 @@ TEST_F(BadInput, ZSlabsAndTheirJoinRefuseWhatCannotBeJoined) {
   EXPECT_EQ(joined.triangles.size(), whole.triangles.size());
   EXPECT_EQ(joined.vertices.size(), whole.vertices.size());
   EXPECT_NE(test::read_text(p("j.json")).find("\"closed\": true"), std::string::npos) << test::read_text(p("j.json"));
+  // Decimated after the join (the parts cannot be: not local), still closed.
+  ASSERT_EQ(run("join-slabs " + p("s1.ply") + " " + p("s2.ply") + " " + p("s3.ply") + " -o " + p("d.ply") +
+                " --decimate-error 0.5 --report " + p("d.json"))
+                .code,
+            0);
+  const TriMesh decimated = read_mesh(p("d.ply"));
+  EXPECT_LT(decimated.triangles.size(), whole.triangles.size() / 2);
+  EXPECT_NE(test::read_text(p("d.json")).find("\"closed\": true"), std::string::npos) << test::read_text(p("d.json"));
+  expect_error("join-slabs " + p("s1.ply") + " -o " + p("x.ply") + " --decimate-error -1", 2, "--decimate-error");
 }
