@@ -16,6 +16,14 @@
 namespace isoloft::cli {
 
 int Commands::join_slabs() {
+  // Outputs replace no part and not each other (checked before any reading).
+  for (const std::string* out : {&j_.output, &j_.report}) {
+    if (out->empty()) continue;
+    for (const std::string& p : j_.parts)
+      if (output_key(*out) == output_key(p)) throw ParamError("join-slabs: " + *out + " would replace the part " + p);
+  }
+  if (!j_.report.empty() && output_key(j_.report) == output_key(j_.output))
+    throw ParamError("join-slabs: --report " + j_.report + " is the joined mesh's path");
   std::vector<TriMesh> parts;
   for (const std::string& p : j_.parts) {
     activity_ = "reading " + p;

@@ -766,4 +766,7 @@ TEST_F(BadInput, ZSlabsAndTheirJoinRefuseWhatCannotBeJoined) {
   EXPECT_LT(decimated.triangles.size(), whole.triangles.size() / 2);
   EXPECT_NE(test::read_text(p("d.json")).find("\"closed\": true"), std::string::npos) << test::read_text(p("d.json"));
   expect_error("join-slabs " + p("s1.ply") + " -o " + p("x.ply") + " --decimate-error -1", 2, "--decimate-error");
+  expect_error("join-slabs " + p("s1.ply") + " " + p("s2.ply") + " -o " + p("s2.ply"), 1, "would replace the part");
+  expect_error("join-slabs " + p("s1.ply") + " -o " + p("x.ply") + " --report " + p("x.ply"), 1,
+               "is the joined mesh's path");
 }

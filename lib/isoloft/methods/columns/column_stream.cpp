@@ -348,7 +348,6 @@ class KnotFeed {
           case IsolatedEmpty::Neighbours: {
             const std::size_t r = kIsolatedNeighbourSlices, hi = std::min(n - 1, k + r);
             pull(hi, false);
-            lowest = -1.0f;
             for (std::size_t j = k - std::min(k, r); j <= hi; ++j) lowest = std::min(lowest, lows_[j]);
             break;
           }
