@@ -215,7 +215,10 @@ int Commands::batch() {
   const char* env = std::getenv("ISOLOFT_PYTHON");
   const std::string python = env && *env ? env : built;
   std::error_code ec;
-  const std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  std::string self = fs::read_symlink("/proc/self/exe", ec).string();
+  // The cohort's runs start through the launcher beside this binary (one start each, its heap set).
+  if (!ec && fs::path(self).filename() == "isoloft-cli" && fs::exists(fs::path(self).parent_path() / "isoloft"))
+    self = (fs::path(self).parent_path() / "isoloft").string();
   // The build tree's package goes first only for the binary beside it (build/isoloft,
   // build/python/isoloft): an installed copy uses the user's path as it is.
   if (!ec && !package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py") &&

@@ -26,49 +26,29 @@
 #include <sstream>
 
 #include "cli/commands.h"
+#include "cli/heap_tunables.h"
 #include "isoloft/core/error.h"
 #include "isoloft/core/sanitize.h"
 #include "isoloft/io/atomic_file.h"
 
 namespace {
 
-// The heap on transparent huge pages, one arena (docs/decisions.md: the
-// CLI's heap). The pipeline touches fresh memory all along (slice images,
-// fields, meshes); on 4 KB pages a fault per page was a fifth of a run on one
-// VM (x1.10 slower with the tunables on another, where faults are cheap), and
-// glibc's per-thread arenas still grow 4 KB at a time. glibc reads its
-// tunables at start-up only, so the process runs itself once more with them
-// added, unless the caller's GLIBC_TUNABLES names either or
-// ISOLOFT_HUGE_PAGES is set (0: run as called). The re-run puts the caller's
-// environment back, so what it starts (the cohort runner) gets that.
-constexpr const char* kRerun = "ISOLOFT_HUGE_PAGES", *kCallersTunables = "ISOLOFT_CALLERS_GLIBC_TUNABLES";
-constexpr const char* kTunables = "glibc.malloc.hugetlb=1:glibc.malloc.arena_max=1";
-
-// Returns how the heap is set up (the report's "heap"); runs again instead
-// when it can.
+// Returns how the heap is set up (the report's "heap"); started without the
+// tunables (cli/heap_tunables.h), runs itself again with them when it can.
 std::string rerun_on_huge_pages(char** argv) {
-  if (const char* mark = std::getenv(kRerun)) {
-    if (std::string(mark) != "rerun") return std::string("as called (") + kRerun + "=" + mark + ")";
-    const char* callers = std::getenv(kCallersTunables);
-    if (callers && *callers) ::setenv("GLIBC_TUNABLES", callers, 1);
-    else ::unsetenv("GLIBC_TUNABLES");
-    ::unsetenv(kCallersTunables);
-    ::unsetenv(kRerun);
-    return std::string("huge pages, one arena (GLIBC_TUNABLES ") + kTunables + ")";
+  using namespace isoloft::cli;
+  if (const char* mark = std::getenv(kHeapRerun)) {
+    if (std::string(mark) != "rerun") return std::string("as called (") + kHeapRerun + "=" + mark + ")";
+    unset_heap_tunables();  // the caller's environment, for what this run starts
+    return std::string("huge pages, one arena (GLIBC_TUNABLES ") + kHeapTunables + ")";
   }
-  const char* given = std::getenv("GLIBC_TUNABLES");
-  const std::string before = given ? given : "";
-  if (before.find("glibc.malloc.hugetlb") != std::string::npos || before.find("glibc.malloc.arena_max") != std::string::npos)
-    return "as called (GLIBC_TUNABLES " + before + ")";
-  const std::string tunables = before + (before.empty() ? "" : ":") + kTunables;
-  if (::setenv(kCallersTunables, before.c_str(), 1) == 0 && ::setenv(kRerun, "rerun", 1) == 0 &&
-      ::setenv("GLIBC_TUNABLES", tunables.c_str(), 1) == 0)
-    ::execv("/proc/self/exe", argv);
+  if (!set_heap_tunables()) {
+    const char* given = std::getenv("GLIBC_TUNABLES");
+    return std::string("as called (GLIBC_TUNABLES ") + (given ? given : "") + ")";
+  }
+  ::execv("/proc/self/exe", argv);
   // No /proc, or the exec failed: on as we are, with the caller's environment.
-  ::unsetenv(kRerun);
-  ::unsetenv(kCallersTunables);
-  if (given) ::setenv("GLIBC_TUNABLES", before.c_str(), 1);
-  else ::unsetenv("GLIBC_TUNABLES");
+  unset_heap_tunables();
   return "as called (running again on huge pages failed)";
 }
 

@@ -496,15 +496,40 @@ TEST(Volume, LabelmapOfASparseAalMatchesTheLeftOutSlices) {
     for (int i = 0; i < dense.nx; ++i) ASSERT_EQ(filled.at(i, 108, k), sparse.at(i, 108, k)) << "voxel " << i << ", 108, " << k;
 }
 
-// A NIfTI file offered to a taker plane by plane along k (8-bit labels): the
-// taker gets the planes all 0 as empty ones and the others' bytes; declined,
-// the reader decodes the same voxels as without a taker.
-TEST(Volume, NiftiReadPlaneByPlaneForATaker) {
+// NIfTI and raw MetaImage files offered to a taker plane by plane along k
+// (8- and 16-bit labels; MetaImage LOCAL, and a big-endian data file after a
+// HeaderSize preamble): the taker gets the planes all 0 as empty ones and the
+// others' bytes; declined, the reader decodes the same voxels as without a taker.
+TEST(Volume, NiftiAndMetaImageReadPlaneByPlaneForATaker) {
   TempDir dir;
-  const Volume v = labels_volume(40, 30, 9, 2);
-  for (const char* name : {"v.nii", "v.nii.gz"}) {
-    write_volume(dir.file(name), v);
+  const Volume v8 = labels_volume(40, 30, 9, 2);
+  Volume v16 = v8;
+  for (float& x : v16.data) x = x == 7 ? 300 : x;  // beyond 8 bits
+  const std::string dims = "NDims = 3\nDimSize = 40 30 9\n";
+  {  // v.mha: v8 raw after its header (write_volume compresses)
+    std::string mha = dims + "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n";
+    for (const float x : v8.data) mha.push_back(char(std::uint8_t(x)));
+    isoloft::test::write_text(dir.file("v.mha"), mha);
+  }
+  {  // w.mha: v16 little-endian; be.mhd: big-endian in be.raw, after 5 bytes HeaderSize skips
+    std::string mha = dims + "ElementType = MET_USHORT\nElementDataFile = LOCAL\n";
+    std::vector<unsigned char> raw(5, 0xEE);
+    for (const float x : v16.data) {
+      const auto u = std::uint16_t(x);
+      mha.push_back(char(u & 0xFF)), mha.push_back(char(u >> 8));
+      raw.push_back(std::uint8_t(u >> 8)), raw.push_back(std::uint8_t(u & 0xFF));
+    }
+    isoloft::test::write_text(dir.file("w.mha"), mha);
+    isoloft::test::write_bytes(dir.file("be.raw"), raw);
+    isoloft::test::write_text(dir.file("be.mhd"), dims + "ElementType = MET_USHORT\nBinaryDataByteOrderMSB = True\n"
+                                                         "HeaderSize = 5\nElementDataFile = be.raw\n");
+  }
+  for (const char* name : {"v.nii", "v.nii.gz", "v.mha", "w.mha", "be.mhd"}) {
+    const std::string n = name;
+    const Volume& v = n[0] == 'v' ? v8 : v16;
+    if (n.ends_with(".nii") || n.ends_with(".gz")) write_volume(dir.file(name), v);
     const Volume plain = read_volume(dir.file(name));
+    ASSERT_EQ(plain.data, v.data) << name;
     VolumeReadOptions ro;
     std::size_t kept = 0;
     ro.take_samples = [&](const Volume& geometry, const VolumeSamples& samples) {

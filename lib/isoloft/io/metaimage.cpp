@@ -281,7 +281,9 @@ Volume read_metaimage(const std::string& mhd, const VolumeReadOptions& options) 
       throw InputError(data_name, std::to_string(size) + " bytes of voxel data, but DimSize " + *get("DimSize") + " of " +
                                       type_name + " declares " + std::to_string(nbytes) +
                                       " (a wrong DimSize or ElementType? HeaderSize skips a leading header)");
-    data = bytes + skip;
+    const unsigned char* start = local ? header.data() : file->data();
+    detail::take_or_decode_file(data_name, start, std::uint64_t(bytes + skip - start), type, big, v, options);
+    return v;
   }
   detail::take_or_decode(data, type, big, v, mhd, options);
   return v;

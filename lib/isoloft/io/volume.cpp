@@ -1,6 +1,11 @@
 #include "isoloft/io/volume.h"
 
+#include <fcntl.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
+
+#include <cerrno>
 
 #include <algorithm>
 #include <bit>
@@ -271,6 +276,43 @@ void take_or_decode(const unsigned char* src, ScalarType t, bool big_endian, Vol
   if (options.take_samples && options.take_samples(v, VolumeSamples{src, t, big_endian})) return;
   resize_large(v.data, std::size_t(v.nx) * std::size_t(v.ny) * std::size_t(v.nz));
   decode_volume(src, t, big_endian, v, file);
+}
+
+void take_or_decode_file(const std::string& path, const unsigned char* mapped, std::uint64_t offset, ScalarType t,
+                         bool big_endian, Volume& v, const VolumeReadOptions& options) {
+  const std::size_t sample = scalar_size(t);
+  if (options.take_samples && sample <= 2) {
+    const std::size_t plane_bytes = std::size_t(v.nx) * std::size_t(v.ny) * sample;
+    const int fd = open_regular_file(path);
+    struct Closer {
+      int fd;
+      ~Closer() { ::close(fd); }
+    } closer{fd};
+    auto planes = std::make_shared<std::vector<SamplePlane>>(std::size_t(v.nz));
+    tbb::parallel_for(tbb::blocked_range<int>(0, v.nz), [&](const tbb::blocked_range<int>& r) {
+      std::vector<unsigned char> plane(plane_bytes);
+      for (int k = r.begin(); k != r.end(); ++k) {
+        const std::uint64_t at = offset + std::uint64_t(k) * plane_bytes;
+        for (std::size_t done = 0; done < plane_bytes;) {
+          const ssize_t got = ::pread(fd, plane.data() + done, plane_bytes - done, off_t(at + done));
+          if (got < 0 && errno == EINTR) continue;
+          if (got <= 0)
+            throw InputError(path, "cannot read plane " + std::to_string(k) + " of the samples" +
+                                       (got < 0 ? std::string(" (") + std::strerror(errno) + ")" : " (file shortened)"));
+          done += std::size_t(got);
+        }
+        unsigned char any = 0;
+        for (const unsigned char b : plane) any |= b;  // branch-free: vectorises
+        if (any) (*planes)[std::size_t(k)] = SamplePlane(plane.data(), v.nx, v.ny, sample);
+      }
+    });
+    v.data.clear();
+    if (options.take_samples(v, VolumeSamples{nullptr, t, big_endian, std::move(planes)})) return;
+    resize_large(v.data, std::size_t(v.nx) * std::size_t(v.ny) * std::size_t(v.nz));  // declined: offered once
+    decode_volume(mapped + offset, t, big_endian, v, path);
+    return;
+  }
+  take_or_decode(mapped + offset, t, big_endian, v, path, options);
 }
 
 }  // namespace detail

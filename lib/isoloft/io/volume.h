@@ -185,5 +185,17 @@ void decode_volume(const unsigned char* src, ScalarType t, bool big_endian, Volu
 void take_or_decode(const unsigned char* src, ScalarType t, bool big_endian, Volume& v, const std::string& file,
                     const VolumeReadOptions& options);
 
+/// The readers' last step for raw samples at byte `offset` of regular file
+/// `path`: with options.take_samples and 1- or 2-byte samples, the planes
+/// along k are read (pread, in parallel, one plane buffer per task) and
+/// offered as SamplePlanes (all-0 planes held as nothing; declined, decoded
+/// from `mapped` without another offer); else take_or_decode(mapped + offset). `mapped` is the file mapped whole
+/// (FileBytes), its size already checked to hold the samples.
+/// Reading copies the page cache into a reused buffer; mapping it costs a
+/// fault per page range (docs/decisions.md: raw volume planes read, not mapped).
+/// 	hrow InputError naming `path` if a read fails or comes short.
+void take_or_decode_file(const std::string& path, const unsigned char* mapped, std::uint64_t offset, ScalarType t,
+                         bool big_endian, Volume& v, const VolumeReadOptions& options);
+
 }  // namespace detail
 }  // namespace isoloft
