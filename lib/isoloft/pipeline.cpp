@@ -8,6 +8,7 @@
 #include "isoloft/pipeline.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -147,9 +148,15 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
         obj.spilled.reset();
       }
       decimate_stage(plan.part(run, group[m]), obj);
-      check_stage(plan.part(run, group[m]), obj);
       const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
-      if (run.options.on_object && listed && obj.slices_with_contours > 0) run.options.on_object(obj);
+      if (!run.options.on_object || !listed || obj.slices_with_contours == 0) {
+        check_stage(plan.part(run, group[m]), obj);
+        return;
+      }
+      // Both only read the mesh: the write beside the check (the run's serial
+      // tail on one object), the mesh freed once both are done.
+      tbb::parallel_invoke([&] { check_stage(plan.part(run, group[m]), obj); }, [&] { run.options.on_object(obj); });
+      obj.free_mesh();
     } catch (...) {
       errors[m] = std::current_exception();
     } });

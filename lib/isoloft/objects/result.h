@@ -68,8 +68,8 @@ struct ObjectResult {
   /// A label partition's mesh while it waits in a scratch file
   /// (ReconstructOptions::scratch_dir); `mesh` is empty until it is loaded.
   std::shared_ptr<MeshSpill> spilled;
-  /// ReconstructOptions::on_object wrote the mesh and freed it: its counts
-  /// stay here (vertex_count(), triangle_count()).
+  /// ReconstructOptions::on_object wrote the mesh and it was freed: its
+  /// counts stay here (vertex_count(), triangle_count()).
   bool mesh_freed = false;
   std::size_t freed_vertices = 0, freed_triangles = 0;
 
@@ -147,8 +147,9 @@ struct ReconstructOptions {
   /// Every slice field computed over the whole crop box, not only where it
   /// can reach the mesh (the same mesh bit for bit; methods/columns/field_band.h).
   bool whole_fields = false;
-  /// Each object asked for, once final (decimated and checked), from worker
-  /// threads; it may write the mesh and free it (ObjectResult::free_mesh()).
+  /// Each object asked for, once final (decimated), from worker threads,
+  /// beside its mesh check (so `check` is not set yet): it writes the mesh and
+  /// must not change it; the mesh is freed after (ObjectResult::free_mesh()).
   /// Called by the columns family (methods with a family of their own do not).
   std::function<void(ObjectResult&)> on_object;
   /// Scratch files go in this folder ("": all held in memory): the slice

@@ -382,8 +382,7 @@ void MeshOutput::stream_object(const RunContext& ctx, std::size_t job, const Obj
 void MeshOutput::object_done(const RunContext& ctx, std::size_t job, ObjectResult& ob) {
   const std::lock_guard lock(mutex_);
   if (spilled_.count({job, ob.label})) return;  // a label asked twice: written once
-  stream_object(ctx, job, ob);
-  ob.free_mesh();
+  stream_object(ctx, job, ob);  // the run frees the mesh after
 }
 
 void MeshOutput::finish(const RunContext& ctx, RunResult& r) {

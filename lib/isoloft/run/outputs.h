@@ -210,8 +210,8 @@ class RunOutput {
   /// Whether it writes each object once final (object_done()) and frees its
   /// mesh, when the run allows (RunOptions::free_meshes). At most one output does.
   [[nodiscard]] virtual bool streams_objects(const Inputs&) const { return false; }
-  /// An object final (decimated, checked), from worker threads: written now
-  /// (staged), its mesh freed.
+  /// An object final (decimated), from worker threads beside its mesh check:
+  /// written now (staged); the run frees its mesh after.
   virtual void object_done(const RunContext&, std::size_t /*job*/, ObjectResult&) {}
   /// After every job, the surfaces checked: writes what it holds (staged).
   virtual void finish(const RunContext&, RunResult&) {}
