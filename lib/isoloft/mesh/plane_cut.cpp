@@ -127,31 +127,37 @@ ResampledLoop resample_loop(const std::vector<Vec2d>& loop, double spacing) {
   return out;
 }
 
-double volume_above(const TriMesh& mesh, double z) {
+double volume_above(const TriMesh& mesh, double z) { return volumes_above(mesh, {z})[0]; }
+
+std::vector<double> volumes_above(const TriMesh& mesh, const std::vector<double>& zs) {
+  std::vector<double> six(zs.size(), 0.0);  // six times each volume
+  if (mesh.vertices.empty()) return six;
   // A plane below the whole mesh (or at -infinity) is moved up to its lowest
   // vertex: same volume, a finite origin.
   double lowest = std::numeric_limits<double>::infinity();
   for (const Vec3f& v : mesh.vertices) lowest = std::min(lowest, double(v.z()));
-  if (mesh.vertices.empty()) return 0.0;
-  z = std::max(z, lowest);
-  const Vec3d origin(0, 0, z);
-  double six = 0;  // six times the volume
-  auto tet = [&](const Vec3d& a, const Vec3d& b, const Vec3d& c) { six += (a - origin).dot((b - origin).cross(c - origin)); };
+  std::vector<double> at(zs.size());
+  for (std::size_t k = 0; k < zs.size(); ++k) at[k] = std::max(zs[k], lowest);
   for (const auto& t : mesh.triangles) {
     const Vec3d v[3] = {mesh.vertices[std::size_t(t[0])].cast<double>(), mesh.vertices[std::size_t(t[1])].cast<double>(),
                         mesh.vertices[std::size_t(t[2])].cast<double>()};
-    // The triangle clipped to z >= `z` (a polygon of up to 4 corners, in order), fanned.
-    Vec3d poly[4];
-    int n = 0;
-    for (int i = 0; i < 3; ++i) {
-      const Vec3d& a = v[i];
-      const Vec3d& b = v[(i + 1) % 3];
-      if (a.z() >= z) poly[n++] = a;
-      if ((a.z() >= z) != (b.z() >= z)) poly[n++] = a + (z - a.z()) / (b.z() - a.z()) * (b - a);
+    for (std::size_t k = 0; k < zs.size(); ++k) {
+      const double z = at[k];
+      const Vec3d origin(0, 0, z);
+      // The triangle clipped to z >= `z` (a polygon of up to 4 corners, in order), fanned.
+      Vec3d poly[4];
+      int n = 0;
+      for (int i = 0; i < 3; ++i) {
+        const Vec3d& a = v[i];
+        const Vec3d& b = v[(i + 1) % 3];
+        if (a.z() >= z) poly[n++] = a;
+        if ((a.z() >= z) != (b.z() >= z)) poly[n++] = a + (z - a.z()) / (b.z() - a.z()) * (b - a);
+      }
+      for (int i = 1; i + 1 < n; ++i) six[k] += (poly[0] - origin).dot((poly[i] - origin).cross(poly[i + 1] - origin));
     }
-    for (int i = 1; i + 1 < n; ++i) tet(poly[0], poly[i], poly[i + 1]);
   }
-  return six / 6.0;
+  for (double& x : six) x /= 6.0;
+  return six;
 }
 
 double mean_point_spacing(const std::vector<std::vector<Vec2d>>& loops) {

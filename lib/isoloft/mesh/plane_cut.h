@@ -64,6 +64,10 @@ ResampledLoop resample_loop(const std::vector<Vec2d>& loop, double spacing);
 /// @warning A mesh with boundary edges gives a volume that depends on where
 /// the origin is (no closed volume exists).
 double volume_above(const TriMesh& mesh, double z);
+/// volume_above() at each of `zs` in one pass over the triangles: each the
+/// value volume_above(mesh, zs[i]) gives, bit for bit (the same sums in the
+/// same order).
+std::vector<double> volumes_above(const TriMesh& mesh, const std::vector<double>& zs);
 
 /// Mean distance between consecutive points of closed loops, over all of
 /// them (total length / total points); 0 if they have no points.

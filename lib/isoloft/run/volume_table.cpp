@@ -1,5 +1,7 @@
 #include "isoloft/run/volume_table.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -59,12 +61,14 @@ double typical_step(const SliceStack& st) {
 }  // namespace
 
 std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
-  std::vector<VolumeRow> rows;
-  for (const RunObject& o : r.objects) {
+  std::vector<VolumeRow> rows(r.objects.size());
+  // Objects side by side (each row on its own: the serial rows).
+  tbb::parallel_for(std::size_t(0), r.objects.size(), [&](std::size_t index) {
+    const RunObject& o = r.objects[index];
+    VolumeRow& row = rows[index];
     const Job& job = in.jobs[o.job];
     const SliceStack& st = job.stack;
     const double s = st.pixel_size;
-    VolumeRow row;
     row.name = object_display_name(in, o);
     row.number = job.roi ? job.roi->number : int(o.object.label);
     row.volume = o.object.check.volume * s * s * s;
@@ -83,12 +87,15 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const Slice& sl : st.slices)
       if (!sl.polygons.empty()) lo = std::min(lo, sl.z), hi = std::max(hi, sl.z);
-    const TriMesh& mesh = o.object.mesh;
-    const double whole = st.has_polygons() ? volume_above(mesh, -std::numeric_limits<double>::infinity()) : 0.0;
     row.cap_share = std::numeric_limits<double>::quiet_NaN();
-    if (hi >= lo && whole > 0) {
-      if (in.format == InputFormat::RtStruct && row.planes == 1) lo = hi = 0.5 * (lo + hi);  // one plane: two slices round it
-      row.cap_share = std::clamp((volume_above(mesh, hi) + whole - volume_above(mesh, lo)) / whole, 0.0, 1.0);
+    if (st.has_polygons()) {
+      const bool capped = hi >= lo;
+      if (capped && in.format == InputFormat::RtStruct && row.planes == 1) lo = hi = 0.5 * (lo + hi);  // one plane: two slices round it
+      // The whole volume, above the last slice, above the first: one pass.
+      const std::vector<double> above =
+          volumes_above(o.object.mesh, {-std::numeric_limits<double>::infinity(), capped ? hi : 0.0, capped ? lo : 0.0});
+      const double whole = above[0];
+      if (capped && whole > 0) row.cap_share = std::clamp((above[1] + whole - above[2]) / whole, 0.0, 1.0);
     }
     row.spacing = row.planes > 1 ? typical_step(st) * s : 0.0;
     if (row.planes < kTrustedPlanes && job.sections.empty())  // crossing sections have no end caps
@@ -97,8 +104,7 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
                     (std::isnan(row.cap_share) ? std::string()
                                                : " (" + std::to_string(int(std::lround(100 * row.cap_share))) + " %)") +
                     ", where no contour bounds it";
-    rows.push_back(std::move(row));
-  }
+  });
   return rows;
 }
 
