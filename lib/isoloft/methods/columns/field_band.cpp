@@ -2,10 +2,14 @@
 #include "isoloft/methods/columns/slice_methods.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <utility>
 
+#include "isoloft/core/error.h"
 #include "isoloft/field/filter.h"
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/methods/params.h"
@@ -121,20 +125,33 @@ FieldBand::FieldBand(const std::vector<PackedMasks>& masks, const PixelBox& box,
   }
 }
 
-void FieldBand::prepare(std::size_t k0, std::size_t k1) {
-  // Slice k is knot k + 1; intervals j (knots j, j + 1) whose splines read
-  // knot i: j - reach <= i <= j + 1 + reach.
-  const std::size_t n = masks_.size(), r = setup_.reach;
-  const std::size_t j_lo = k0 - std::min(k0, r), j_hi = std::min(n, k1 + r);  // intervals [j_lo, j_hi]
-  for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
-  if (crossing_.empty()) first_ = j_lo;
-  const std::size_t from = first_ + crossing_.size();
-  if (from > j_hi) return;
-  // The sides of the slices these intervals join (knots from - 1 .. j_hi + 1).
-  const std::size_t s_lo = from > 0 ? from - 1 : 0, s_hi = std::min(n, j_hi + 1);  // slices [s_lo, s_hi)
+namespace {
+
+// out[i] |= in[i] for i < n, eight bytes at a time (the crossings of every
+// interval a knot's splines read are joined per slice and label).
+void or_into(std::uint8_t* out, const std::uint8_t* in, std::size_t n) {
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t a, b;
+    std::memcpy(&a, out + i, 8);
+    std::memcpy(&b, in + i, 8);
+    a |= b;
+    std::memcpy(out + i, &a, 8);
+  }
+  for (; i < n; ++i) out[i] |= in[i];
+}
+
+// Per knot interval j in [from, to] (knots j, j + 1; slice k is knot k + 1,
+// knots 0 and n + 1 the caps): 1 where the sides over `box` are unknown or
+// differ. Empty slices and the caps are outside everywhere.
+std::vector<Grid2u8> interval_crossings(const std::vector<PackedMasks>& masks, const PixelBox& box, int unknown_within,
+                                        std::size_t from, std::size_t to) {
+  const std::size_t n = masks.size();
+  // The sides of the slices these intervals join (knots from - 1 .. to + 1).
+  const std::size_t s_lo = from > 0 ? from - 1 : 0, s_hi = std::min(n, to + 1);  // slices [s_lo, s_hi)
   std::vector<Grid2<std::int8_t>> sides(s_hi - s_lo);
   tbb::parallel_for(s_lo, s_hi, [&](std::size_t k) {
-    if (!masks_[k].empty) sides[k - s_lo] = known_sides(masks_[k], box_, setup_.unknown_within);
+    if (!masks[k].empty) sides[k - s_lo] = known_sides(masks[k], box, unknown_within);
   });
   // Null: outside everywhere (a cap, or an empty slice).
   const auto knot = [&](std::size_t i) -> const Grid2<std::int8_t>* {
@@ -142,28 +159,120 @@ void FieldBand::prepare(std::size_t k0, std::size_t k1) {
     const Grid2<std::int8_t>& g = sides[i - 1 - s_lo];
     return g.empty() ? nullptr : &g;
   };
-  std::vector<Grid2u8> made(j_hi + 1 - from);
-  tbb::parallel_for(from, j_hi + 1, [&](std::size_t j) {
+  std::vector<Grid2u8> made(to + 1 - from);
+  tbb::parallel_for(from, to + 1, [&](std::size_t j) {
     const Grid2<std::int8_t>* a = knot(j);
     const Grid2<std::int8_t>* b = knot(j + 1);
     Grid2u8& c = made[j - from];
-    c = Grid2u8(box_.width(), box_.height(), 0);
+    c = Grid2u8(box.width(), box.height(), 0);
     if (!a && !b) return;
     for (std::size_t q = 0; q < c.size(); ++q) {
       const std::int8_t sa = a ? a->data[q] : std::int8_t(-1), sb = b ? b->data[q] : std::int8_t(-1);
       c.data[q] = sa == 0 || sa != sb;
     }
   });
-  for (auto& g : made) crossing_.push_back(std::move(g));
+  return made;
+}
+
+// The intervals [j_lo, j_hi] whose splines read the knots of slices [k0, k1)
+// (intervals j, knots j and j + 1, read knot i if j - reach <= i <= j + 1 + reach).
+std::pair<std::size_t, std::size_t> intervals_read(std::size_t k0, std::size_t k1, std::size_t reach, std::size_t n) {
+  return {k0 - std::min(k0, reach), std::min(n, k1 + reach)};
+}
+
+}  // namespace
+
+void FieldBand::prepare(std::size_t k0, std::size_t k1) {
+  if (setup_.partition) return setup_.partition->prepare(setup_.label, k0, k1);
+  const auto [j_lo, j_hi] = intervals_read(k0, k1, setup_.reach, masks_.size());
+  for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
+  if (crossing_.empty()) first_ = j_lo;
+  const std::size_t from = first_ + crossing_.size();
+  if (from > j_hi) return;
+  for (auto& g : interval_crossings(masks_, box_, setup_.unknown_within, from, j_hi)) crossing_.push_back(std::move(g));
+}
+
+PartitionCrossings::PartitionCrossings(std::vector<std::vector<PackedMasks>> masks, std::vector<PixelBox> boxes,
+                                       const PixelBox& ubox, const FieldBand::Setup& setup)
+    : masks_(std::move(masks)), boxes_(std::move(boxes)), ubox_(ubox), setup_(setup), asked_(masks_.size(), 0) {
+  setup_.partition.reset();
+  for (const PixelBox& b : boxes_)
+    if (b.x0 < ubox.x0 || b.y0 < ubox.y0 || b.x1 > ubox.x1 || b.y1 > ubox.y1)
+      throw Error("PartitionCrossings: a label's box is not within the union's");
+}
+
+void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t k1) {
+  std::lock_guard lock(m_);
+  asked_.at(label) = k0;
+  const std::size_t n = masks_.empty() ? 0 : masks_[0].size(), r = setup_.reach;
+  const std::size_t lagging = *std::min_element(asked_.begin(), asked_.end());
+  for (; first_band_ < lagging && !bands_.empty(); ++first_band_) bands_.pop_front();
+  if (bands_.empty()) first_band_ = std::min(k0, lagging);
+  const std::size_t s_from = first_band_ + bands_.size();
+  if (s_from >= k1) return;
+  // The intervals slices [s_from, k1) read.
+  const auto [j_lo, j_hi] = intervals_read(s_from, k1, r, n);
+  for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
+  if (crossing_.empty()) first_ = j_lo;
+  // Under the lock: isolated, so this thread runs no other label's band
+  // work (which would wait for the lock) meanwhile.
+  tbb::this_task_arena::isolate([&] {
+    if (const std::size_t from = first_ + crossing_.size(); from <= j_hi) {
+      std::vector<std::vector<Grid2u8>> per(masks_.size());
+      tbb::parallel_for(std::size_t(0), masks_.size(), [&](std::size_t l) {
+        per[l] = interval_crossings(masks_[l], boxes_[l], setup_.unknown_within, from, j_hi);
+      });
+      for (std::size_t j = from; j <= j_hi; ++j) {
+        Grid2u8 c(ubox_.width(), ubox_.height(), 0);
+        for (std::size_t l = 0; l < masks_.size(); ++l) {
+          const Grid2u8& g = per[l][j - from];
+          const PixelBox& b = boxes_[l];
+          for (int y = 0; y < b.height(); ++y) {
+            const std::uint8_t* in = &g.data[g.index(0, y)];
+            std::uint8_t* out = &c.data[c.index(b.x0 - ubox_.x0, y + b.y0 - ubox_.y0)];
+            or_into(out, in, std::size_t(b.width()));
+          }
+        }
+        crossing_.push_back(std::move(c));
+      }
+    }
+    // Each slice's band once for every label: the crossings of the intervals
+    // its knot's splines read, dilated as FieldBand::band dilates.
+    std::vector<SliceBand> made(k1 - s_from);
+    tbb::parallel_for(s_from, k1, [&](std::size_t k) {
+      const std::size_t i = k + 1;
+      Grid2u8 crossing(ubox_.width(), ubox_.height(), 0);
+      for (std::size_t j = i - std::min(i, r + 1); j <= std::min(n, i + r); ++j) {
+        const Grid2u8& c = crossing_.at(j - first_);
+        or_into(crossing.data.data(), c.data.data(), crossing.size());
+      }
+      made[k - s_from] = {dilate_square(crossing, 1), dilate_square(crossing, 1 + setup_.filter_reach)};
+    });
+    for (auto& b : made) bands_.push_back(std::move(b));
+  });
+}
+
+SliceBand PartitionCrossings::band(std::size_t k, const PixelBox& box) const {
+  const auto crop = [&](const Grid2u8& g) {
+    Grid2u8 c(box.width(), box.height());
+    for (int y = 0; y < c.height; ++y)
+      std::copy_n(&g.data[g.index(box.x0 - ubox_.x0, y + box.y0 - ubox_.y0)], c.width, &c.data[c.index(0, y)]);
+    return c;
+  };
+  std::lock_guard lock(m_);
+  const SliceBand& b = bands_.at(k - first_band_);
+  return {crop(b.needed), crop(b.required)};
 }
 
 std::optional<SliceBand> FieldBand::band(std::size_t k) const {
   if (full_.at(k)) return std::nullopt;
+  if (setup_.partition) return setup_.partition->band(k, box_);
   const std::size_t i = k + 1, r = setup_.reach, n = masks_.size();
+  const std::size_t j0 = i - std::min(i, r + 1), j1 = std::min(n, i + r);
   Grid2u8 crossing(box_.width(), box_.height(), 0);
-  for (std::size_t j = i - std::min(i, r + 1); j <= std::min(n, i + r); ++j) {
+  for (std::size_t j = j0; j <= j1; ++j) {
     const Grid2u8& c = crossing_.at(j - first_);
-    for (std::size_t q = 0; q < crossing.size(); ++q) crossing.data[q] |= c.data[q];
+    or_into(crossing.data.data(), c.data.data(), crossing.size());
   }
   SliceBand out;
   out.needed = dilate_square(crossing, 1);
