@@ -142,32 +142,32 @@ void or_into(std::uint8_t* out, const std::uint8_t* in, std::size_t n) {
 }
 
 // Per knot interval j in [from, to] (knots j, j + 1; slice k is knot k + 1,
-// knots 0 and n + 1 the caps): 1 where the sides over `box` are unknown or
-// differ. Empty slices and the caps are outside everywhere.
-std::vector<Grid2u8> interval_crossings(const std::vector<PackedMasks>& masks, const PixelBox& box, int unknown_within,
-                                        std::size_t from, std::size_t to) {
-  const std::size_t n = masks.size();
+// knots 0 and n + 1 the caps) over a w x h box: 1 where the sides (0
+// unknown, -1 outside, else a side) are unknown or differ. sides_of(k):
+// slice k's, empty for an empty slice; the caps and empty slices are
+// outside everywhere.
+template <class T, class SidesOf>
+std::vector<Grid2u8> interval_crossings(std::size_t n, int w, int h, std::size_t from, std::size_t to,
+                                        SidesOf&& sides_of) {
   // The sides of the slices these intervals join (knots from - 1 .. to + 1).
   const std::size_t s_lo = from > 0 ? from - 1 : 0, s_hi = std::min(n, to + 1);  // slices [s_lo, s_hi)
-  std::vector<Grid2<std::int8_t>> sides(s_hi - s_lo);
-  tbb::parallel_for(s_lo, s_hi, [&](std::size_t k) {
-    if (!masks[k].empty) sides[k - s_lo] = known_sides(masks[k], box, unknown_within);
-  });
+  std::vector<Grid2<T>> sides(s_hi - s_lo);
+  tbb::parallel_for(s_lo, s_hi, [&](std::size_t k) { sides[k - s_lo] = sides_of(k); });
   // Null: outside everywhere (a cap, or an empty slice).
-  const auto knot = [&](std::size_t i) -> const Grid2<std::int8_t>* {
+  const auto knot = [&](std::size_t i) -> const Grid2<T>* {
     if (i == 0 || i > n) return nullptr;
-    const Grid2<std::int8_t>& g = sides[i - 1 - s_lo];
+    const Grid2<T>& g = sides[i - 1 - s_lo];
     return g.empty() ? nullptr : &g;
   };
   std::vector<Grid2u8> made(to + 1 - from);
   tbb::parallel_for(from, to + 1, [&](std::size_t j) {
-    const Grid2<std::int8_t>* a = knot(j);
-    const Grid2<std::int8_t>* b = knot(j + 1);
+    const Grid2<T>* a = knot(j);
+    const Grid2<T>* b = knot(j + 1);
     Grid2u8& c = made[j - from];
-    c = Grid2u8(box.width(), box.height(), 0);
+    c = Grid2u8(w, h, 0);
     if (!a && !b) return;
     for (std::size_t q = 0; q < c.size(); ++q) {
-      const std::int8_t sa = a ? a->data[q] : std::int8_t(-1), sb = b ? b->data[q] : std::int8_t(-1);
+      const T sa = a ? a->data[q] : T(-1), sb = b ? b->data[q] : T(-1);
       c.data[q] = sa == 0 || sa != sb;
     }
   });
@@ -189,7 +189,11 @@ void FieldBand::prepare(std::size_t k0, std::size_t k1) {
   if (crossing_.empty()) first_ = j_lo;
   const std::size_t from = first_ + crossing_.size();
   if (from > j_hi) return;
-  for (auto& g : interval_crossings(masks_, box_, setup_.unknown_within, from, j_hi)) crossing_.push_back(std::move(g));
+  const auto sides_of = [&](std::size_t k) {
+    return masks_[k].empty ? Grid2<std::int8_t>() : known_sides(masks_[k], box_, setup_.unknown_within);
+  };
+  for (auto& g : interval_crossings<std::int8_t>(masks_.size(), box_.width(), box_.height(), from, j_hi, sides_of))
+    crossing_.push_back(std::move(g));
 }
 
 PartitionCrossings::PartitionCrossings(std::vector<std::vector<PackedMasks>> masks, std::vector<PixelBox> boxes,
@@ -199,6 +203,40 @@ PartitionCrossings::PartitionCrossings(std::vector<std::vector<PackedMasks>> mas
   for (const PixelBox& b : boxes_)
     if (b.x0 < ubox.x0 || b.y0 < ubox.y0 || b.x1 > ubox.x1 || b.y1 > ubox.y1)
       throw Error("PartitionCrossings: a label's box is not within the union's");
+}
+
+Grid2<std::int32_t> PartitionCrossings::slice_sides(std::size_t k) const {
+  Grid2<std::int32_t> out(ubox_.width(), ubox_.height(), -1);
+  const int u = setup_.unknown_within;
+  const auto at = [&](int x, int y) -> std::int32_t& { return out(x - ubox_.x0, y - ubox_.y0); };
+  for (std::size_t l = 0; l < masks_.size(); ++l) {
+    const PackedMasks& m = masks_[l][k];
+    if (m.empty) continue;
+    const PixelBox& b = boxes_[l];
+    const std::int32_t id = std::int32_t(l) + 1;
+    for_run_rows(m.inside, m.width, [&](int y, int x0, int x1) {
+      if (y < b.y0 || y >= b.y1) return;
+      for (int x = std::max(x0, b.x0); x < std::min(x1, b.x1); ++x) at(x, y) = id;
+    });
+    // The mesher's outside pad meets the label's box ring (known_sides).
+    const auto ring = [&](int x, int y) {
+      if (at(x, y) == id) at(x, y) = 0;
+    };
+    for (int x = b.x0; x < b.x1; ++x) ring(x, b.y0), ring(x, b.y1 - 1);
+    for (int y = b.y0; y < b.y1; ++y) ring(b.x0, y), ring(b.x1 - 1, y);
+  }
+  for (std::size_t l = 0; l < masks_.size(); ++l) {
+    const PackedMasks& m = masks_[l][k];
+    if (m.empty) continue;
+    const PixelBox& b = boxes_[l];
+    for_run_rows(m.contour, m.width, [&](int y, int x0, int x1) {
+      const int xa = std::max(x0 - u, b.x0), xb = std::min(x1 + u, b.x1);
+      if (xa >= xb) return;
+      for (int yy = std::max(y - u, b.y0); yy <= std::min(y + u, b.y1 - 1); ++yy)
+        std::fill_n(&at(xa, yy), xb - xa, std::int32_t(0));
+    });
+  }
+  return out;
 }
 
 void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t k1) {
@@ -217,25 +255,10 @@ void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t 
   // Under the lock: isolated, so this thread runs no other label's band
   // work (which would wait for the lock) meanwhile.
   tbb::this_task_arena::isolate([&] {
-    if (const std::size_t from = first_ + crossing_.size(); from <= j_hi) {
-      std::vector<std::vector<Grid2u8>> per(masks_.size());
-      tbb::parallel_for(std::size_t(0), masks_.size(), [&](std::size_t l) {
-        per[l] = interval_crossings(masks_[l], boxes_[l], setup_.unknown_within, from, j_hi);
-      });
-      for (std::size_t j = from; j <= j_hi; ++j) {
-        Grid2u8 c(ubox_.width(), ubox_.height(), 0);
-        for (std::size_t l = 0; l < masks_.size(); ++l) {
-          const Grid2u8& g = per[l][j - from];
-          const PixelBox& b = boxes_[l];
-          for (int y = 0; y < b.height(); ++y) {
-            const std::uint8_t* in = &g.data[g.index(0, y)];
-            std::uint8_t* out = &c.data[c.index(b.x0 - ubox_.x0, y + b.y0 - ubox_.y0)];
-            or_into(out, in, std::size_t(b.width()));
-          }
-        }
-        crossing_.push_back(std::move(c));
-      }
-    }
+    if (const std::size_t from = first_ + crossing_.size(); from <= j_hi)
+      for (auto& g : interval_crossings<std::int32_t>(n, ubox_.width(), ubox_.height(), from, j_hi,
+                                                      [&](std::size_t k) { return slice_sides(k); }))
+        crossing_.push_back(std::move(g));
     // Each slice's band once for every label: the crossings of the intervals
     // its knot's splines read, dilated as FieldBand::band dilates.
     std::vector<SliceBand> made(k1 - s_from);

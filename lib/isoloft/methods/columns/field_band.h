@@ -113,6 +113,12 @@ class PartitionCrossings {
   [[nodiscard]] SliceBand band(std::size_t k, const PixelBox& box) const;
 
  private:
+  // Slice k over the union's box: l + 1 inside label l, -1 in none, 0 where
+  // some label's side is unknown (known_sides over its box). An interval
+  // crosses where either knot is 0 or the two differ: where some label's
+  // crosses.
+  [[nodiscard]] Grid2<std::int32_t> slice_sides(std::size_t k) const;
+
   std::vector<std::vector<PackedMasks>> masks_;
   std::vector<PixelBox> boxes_;
   PixelBox ubox_;
