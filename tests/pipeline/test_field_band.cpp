@@ -5,11 +5,14 @@
 // whole fields bit for bit on traced masks and drawn polygons whose contours
 // move far between slices, with empty slices, polygons cut by the image edge,
 // for each spline that keeps its knots' side; no band where it could change
-// the mesh.
+// the mesh. A label partition with the band gives every label the mesh of
+// whole fields bit for bit.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -233,6 +236,95 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
     ASSERT_FALSE(want.objects[0].mesh.triangles.empty()) << c.name;
     EXPECT_EQ(got.objects[0].mesh.vertices, want.objects[0].mesh.vertices) << c.name;
     EXPECT_EQ(got.objects[0].mesh.triangles, want.objects[0].mesh.triangles) << c.name;
+  }
+}
+
+// A label partition whose competition reads labels far from their own
+// contours, size 96, 9 slices 5 px apart: a disc whose right half is label 3
+// on every slice but the first, whose left half is label 1 on even slices and
+// label 2 on odd ones (so between slices, deep in the left half, label 3's
+// value competes with the background's 8+ px from label 3's contour); a ring
+// (label 4) with a disc (label 5) in its hole, touching it on some slices,
+// label 5 absent from slice 3 (one empty slice) and 5-7 (slice 6 isolated).
+SliceStack competing_labels() {
+  constexpr int n = 96, slices = 9;
+  SliceStack st;
+  st.width = st.height = n;
+  st.kind = InputKind::Labels;
+  for (int k = 0; k < slices; ++k) {
+    Slice s;
+    s.z = 5.0 * k;
+    s.source = "competing slice " + std::to_string(k);
+    s.image = Grid2u32(n, n, 0);
+    const bool inner = k != 3 && (k < 5 || k > 7);
+    const double inner_r = 5.0 + k % 5;  // 9: touches the ring
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const double d = std::hypot(x - 32.0, y - 40.0), r = std::hypot(x - 70.5, y - 72.5);
+        std::uint32_t& v = s.image(x, y);
+        if (d < 24.0) v = x >= 33 ? (k > 0 ? 3u : 0u) : (k % 2 == 0 ? 1u : 2u);
+        if (r >= 9.0 && r < 17.0) v = 4;
+        if (inner && r < inner_r) v = 5;
+      }
+    st.slices.push_back(std::move(s));
+  }
+  return st;
+}
+
+TEST(FieldBand, LabelPartitionGivesTheMeshesOfWholeFields) {
+  const SliceStack st = competing_labels();
+  ReconstructParams p;
+  ASSERT_TRUE(p.label_partition);
+  // The band leaves pixels out of some label's non-full slices (else the
+  // comparison tells nothing), and its rule reads every label's crossings.
+  std::vector<std::vector<detail::PackedMasks>> masks(5, std::vector<detail::PackedMasks>(st.slices.size()));
+  std::vector<std::vector<PixelBox>> bounds(5, std::vector<PixelBox>(st.slices.size()));
+  std::vector<PixelBox> all;
+  for (std::size_t k = 0; k < st.slices.size(); ++k)
+    for (detail::LabelMasks& m : detail::label_masks(st.slices[k].image)) {
+      masks[m.label - 1][k] = std::move(m.masks);
+      bounds[m.label - 1][k] = m.bounds;
+      all.push_back(m.bounds);
+    }
+  for (auto& ms : masks)
+    for (auto& m : ms)
+      if (m.width == 0) m = detail::PackedMasks{st.width, st.height, true, {}, {}};
+  std::vector<PixelBox> boxes;
+  for (const auto& b : bounds) boxes.push_back(detail::object_box(b, st.width, st.height, p.crop_margin));
+  const PixelBox ubox = detail::object_box(all, st.width, st.height, p.crop_margin);
+  std::optional<detail::FieldBand::Setup> setup = detail::field_band_setup(p, st.kind, masks[2]);
+  ASSERT_TRUE(setup);
+  setup->partition = std::make_shared<detail::PartitionCrossings>(masks, boxes, ubox, *setup);
+  long left_out = 0, widened = 0;
+  for (std::size_t l = 0; l < masks.size(); ++l) {
+    detail::FieldBand::Setup own = *setup;
+    own.label = l;
+    detail::FieldBand shared(masks[l], boxes[l], own), alone(masks[l], boxes[l], *detail::field_band_setup(p, st.kind, masks[l]));
+    shared.prepare(0, st.slices.size());
+    alone.prepare(0, st.slices.size());
+    for (std::size_t k = 0; k < st.slices.size(); ++k)
+      if (const auto b = shared.band(k)) {
+        const Grid2u8 a = alone.band(k)->needed;
+        left_out += std::count(b->required.data.begin(), b->required.data.end(), 0);
+        for (std::size_t q = 0; q < a.size(); ++q) {
+          ASSERT_LE(a.data[q], b->needed.data[q]) << "label " << l + 1 << " slice " << k << ": its own band is in the shared one";
+          widened += b->needed.data[q] > a.data[q];
+        }
+      }
+  }
+  EXPECT_GT(left_out, 0) << "no pixel left out";
+  EXPECT_GT(widened, 0) << "no label needed where another crosses";
+
+  ReconstructOptions whole;
+  whole.whole_fields = true;
+  const ReconstructResult want = reconstruct(st, p, whole);
+  const ReconstructResult got = reconstruct(st, p);
+  ASSERT_EQ(want.objects.size(), 5u);
+  ASSERT_EQ(got.objects.size(), 5u);
+  for (std::size_t l = 0; l < 5; ++l) {
+    ASSERT_FALSE(want.objects[l].mesh.triangles.empty()) << "label " << l + 1;
+    EXPECT_EQ(got.objects[l].mesh.vertices, want.objects[l].mesh.vertices) << "label " << l + 1;
+    EXPECT_EQ(got.objects[l].mesh.triangles, want.objects[l].mesh.triangles) << "label " << l + 1;
   }
 }
 

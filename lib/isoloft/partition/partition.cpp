@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include "isoloft/core/error.h"
 #include "isoloft/methods/method.h"
@@ -122,8 +123,9 @@ struct Competition {
   // Label l's partition field over its box: its field minus the best other.
   // A tie goes to the first label in order: the highest's value is at least
   // the least positive float, so exactly one label claims every point.
+  // Every value of `out` is written: its storage kept from plane to plane.
   void psi(std::size_t l, const Grid2f& phi, const PixelBox& b, const PixelBox& ubox, Grid2f& out) const {
-    out = Grid2f(b.width(), b.height());
+    if (out.width != b.width() || out.height != b.height()) out = Grid2f(b.width(), b.height());
     for (int y = 0; y < b.height(); ++y)
       for (int x = 0; x < b.width(); ++x) {
         const int ux = x + b.x0 - ubox.x0, uy = y + b.y0 - ubox.y0;
@@ -211,16 +213,11 @@ class UnionStream {
 
 }  // namespace
 
-// Stages (paper 2.1-2.5 but decimation) of a label partition
-// (ReconstructParams::label_partition): every label's field and the union's
-// streamed in lockstep; at every plane and sample height label l's field
-// becomes psi_l = phi_l - max(phi_m (m != l), -phi_union), positive where l's
-// field is the highest of the labels' and the background's. So neighbours l
-// and m share the zero set of psi_l = -psi_m = phi_l - phi_m, a point inside
-// the union goes to its nearest label, and a label that meets only the
-// background keeps its own surface (there phi_union = phi_l). The union (the
-// last object) is not meshed.
-void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
+namespace {
+
+// partition_stages, the labels' fields banded by `band` (its partition set) if given.
+void partition_stages_once(const Run& run, std::vector<PartitionObject>& objects,
+                           const std::optional<FieldBand::Setup>& band) {
   const std::size_t labels = objects.size() - 1;
   std::vector<PixelBox> boxes(labels + 1);
   for (std::size_t i = 0; i <= labels; ++i) boxes[i] = objects[i].obj.box;
@@ -230,11 +227,14 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
       slab_range(run, all_knots, mesh_planes(all_knots, run.params.interp), std::vector<char>(run.slices(), 0));
   UnionStream uni(objects[labels].run, objects[labels].obj, labels, range.first_knot);
   std::vector<std::unique_ptr<ObjectStream>> streams(labels);
-  for (std::size_t l = 0; l < labels; ++l)
+  for (std::size_t l = 0; l < labels; ++l) {
+    std::optional<FieldBand::Setup> own = band;
+    if (own) own->label = l;
     streams[l] = std::make_unique<ObjectStream>(
         objects[l].run, objects[l].obj, std::move(objects[l].masks),
-        [&uni, box = boxes[l]](std::size_t i, const Grid2f& f) { uni.deposit(i, f, box); }, std::nullopt,
+        [&uni, box = boxes[l]](std::size_t i, const Grid2f& f) { uni.deposit(i, f, box); }, own,
         partition_slice_window(labels), kPartitionZBlock);
+  }
   const std::vector<double>& knots = streams[0]->knots();
   // Heights in order: every plane, and every sample height within the knots.
   struct Height {
@@ -307,6 +307,55 @@ void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
     streams[l]->finish(meshers[l]->finish(), seconds[l]);
   }
   uni.finish(seconds[labels]);
+}
+
+}  // namespace
+
+// Stages (paper 2.1-2.5 but decimation) of a label partition
+// (ReconstructParams::label_partition): every label's field and the union's
+// streamed in lockstep; at every plane and sample height label l's field
+// becomes psi_l = phi_l - max(phi_m (m != l), -phi_union), positive where l's
+// field is the highest of the labels' and the background's. So neighbours l
+// and m share the zero set of psi_l = -psi_m = phi_l - phi_m, a point inside
+// the union goes to its nearest label, and a label that meets only the
+// background keeps its own surface (there phi_union = phi_l). The union (the
+// last object) is not meshed. The labels' fields are exact only where some
+// label's side is unknown or changes (PartitionCrossings) unless a hook sees
+// them or the options ask for whole fields; a label's empty mesh makes them
+// all again with whole fields (its reason quotes its fields' maximum).
+void partition_stages(const Run& run, std::vector<PartitionObject>& objects) {
+  const std::size_t labels = objects.size() - 1;
+  const ReconstructOptions& o = run.options;
+  std::optional<FieldBand::Setup> band;
+  if (!(o.on_slice_fields || o.on_plane || o.on_sample || o.whole_fields))
+    for (std::size_t l = 0; l < labels; ++l)
+      if (!(band = field_band_setup(run.params, run.stack.kind, objects[l].masks))) break;
+  if (!band) return partition_stages_once(run, objects, std::nullopt);
+  std::vector<std::vector<PackedMasks>> masks(labels);
+  std::vector<PixelBox> boxes(labels);
+  for (std::size_t l = 0; l < labels; ++l) masks[l] = objects[l].masks, boxes[l] = objects[l].obj.box;
+  band->partition = std::make_shared<PartitionCrossings>(std::move(masks), std::move(boxes), objects[labels].obj.box, *band);
+  // Each object's warnings and times kept apart until the banded run stands.
+  std::vector<ReconstructResult> parts(objects.size());
+  std::vector<ObjectResult> before;
+  std::vector<PartitionObject> banded;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const Run& r = objects[i].run;
+    before.push_back(objects[i].obj);
+    banded.push_back({Run{r.stack, r.params, r.options, parts[i], r.label}, objects[i].obj, objects[i].masks});
+  }
+  partition_stages_once(run, banded, band);
+  const auto empty = [](const PartitionObject& p) {
+    return p.obj.mesh.triangles.empty() && !(p.obj.spilled && p.obj.spilled->triangles() > 0);
+  };
+  if (o.z_slab.count == 1 && std::any_of(banded.begin(), banded.end() - 1, empty)) {
+    for (std::size_t i = 0; i < objects.size(); ++i) objects[i].obj = before[i];
+    return partition_stages_once(run, objects, std::nullopt);
+  }
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    for (auto& w : parts[i].warnings) objects[i].run.warn(std::move(w));
+    objects[i].run.result.times += parts[i].times;
+  }
 }
 
 }  // namespace isoloft::detail

@@ -2,10 +2,14 @@
 #include "isoloft/methods/columns/slice_methods.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <utility>
 
+#include "isoloft/core/error.h"
 #include "isoloft/field/filter.h"
 #include "isoloft/interp/z_stream.h"
 #include "isoloft/methods/params.h"
@@ -121,49 +125,177 @@ FieldBand::FieldBand(const std::vector<PackedMasks>& masks, const PixelBox& box,
   }
 }
 
+namespace {
+
+// out[i] |= in[i] for i < n, eight bytes at a time (the crossings of every
+// interval a knot's splines read are joined per slice and label).
+void or_into(std::uint8_t* out, const std::uint8_t* in, std::size_t n) {
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t a, b;
+    std::memcpy(&a, out + i, 8);
+    std::memcpy(&b, in + i, 8);
+    a |= b;
+    std::memcpy(out + i, &a, 8);
+  }
+  for (; i < n; ++i) out[i] |= in[i];
+}
+
+// Per knot interval j in [from, to] (knots j, j + 1; slice k is knot k + 1,
+// knots 0 and n + 1 the caps) over a w x h box: 1 where the sides (0
+// unknown, -1 outside, else a side) are unknown or differ. sides_of(k):
+// slice k's, empty for an empty slice; the caps and empty slices are
+// outside everywhere.
+template <class T, class SidesOf>
+std::vector<Grid2u8> interval_crossings(std::size_t n, int w, int h, std::size_t from, std::size_t to,
+                                        SidesOf&& sides_of) {
+  // The sides of the slices these intervals join (knots from - 1 .. to + 1).
+  const std::size_t s_lo = from > 0 ? from - 1 : 0, s_hi = std::min(n, to + 1);  // slices [s_lo, s_hi)
+  std::vector<Grid2<T>> sides(s_hi - s_lo);
+  tbb::parallel_for(s_lo, s_hi, [&](std::size_t k) { sides[k - s_lo] = sides_of(k); });
+  // Null: outside everywhere (a cap, or an empty slice).
+  const auto knot = [&](std::size_t i) -> const Grid2<T>* {
+    if (i == 0 || i > n) return nullptr;
+    const Grid2<T>& g = sides[i - 1 - s_lo];
+    return g.empty() ? nullptr : &g;
+  };
+  std::vector<Grid2u8> made(to + 1 - from);
+  tbb::parallel_for(from, to + 1, [&](std::size_t j) {
+    const Grid2<T>* a = knot(j);
+    const Grid2<T>* b = knot(j + 1);
+    Grid2u8& c = made[j - from];
+    c = Grid2u8(w, h, 0);
+    if (!a && !b) return;
+    for (std::size_t q = 0; q < c.size(); ++q) {
+      const T sa = a ? a->data[q] : T(-1), sb = b ? b->data[q] : T(-1);
+      c.data[q] = sa == 0 || sa != sb;
+    }
+  });
+  return made;
+}
+
+// The intervals [j_lo, j_hi] whose splines read the knots of slices [k0, k1)
+// (intervals j, knots j and j + 1, read knot i if j - reach <= i <= j + 1 + reach).
+std::pair<std::size_t, std::size_t> intervals_read(std::size_t k0, std::size_t k1, std::size_t reach, std::size_t n) {
+  return {k0 - std::min(k0, reach), std::min(n, k1 + reach)};
+}
+
+}  // namespace
+
 void FieldBand::prepare(std::size_t k0, std::size_t k1) {
-  // Slice k is knot k + 1; intervals j (knots j, j + 1) whose splines read
-  // knot i: j - reach <= i <= j + 1 + reach.
-  const std::size_t n = masks_.size(), r = setup_.reach;
-  const std::size_t j_lo = k0 - std::min(k0, r), j_hi = std::min(n, k1 + r);  // intervals [j_lo, j_hi]
+  if (setup_.partition) return setup_.partition->prepare(setup_.label, k0, k1);
+  const auto [j_lo, j_hi] = intervals_read(k0, k1, setup_.reach, masks_.size());
   for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
   if (crossing_.empty()) first_ = j_lo;
   const std::size_t from = first_ + crossing_.size();
   if (from > j_hi) return;
-  // The sides of the slices these intervals join (knots from - 1 .. j_hi + 1).
-  const std::size_t s_lo = from > 0 ? from - 1 : 0, s_hi = std::min(n, j_hi + 1);  // slices [s_lo, s_hi)
-  std::vector<Grid2<std::int8_t>> sides(s_hi - s_lo);
-  tbb::parallel_for(s_lo, s_hi, [&](std::size_t k) {
-    if (!masks_[k].empty) sides[k - s_lo] = known_sides(masks_[k], box_, setup_.unknown_within);
-  });
-  // Null: outside everywhere (a cap, or an empty slice).
-  const auto knot = [&](std::size_t i) -> const Grid2<std::int8_t>* {
-    if (i == 0 || i > n) return nullptr;
-    const Grid2<std::int8_t>& g = sides[i - 1 - s_lo];
-    return g.empty() ? nullptr : &g;
+  const auto sides_of = [&](std::size_t k) {
+    return masks_[k].empty ? Grid2<std::int8_t>() : known_sides(masks_[k], box_, setup_.unknown_within);
   };
-  std::vector<Grid2u8> made(j_hi + 1 - from);
-  tbb::parallel_for(from, j_hi + 1, [&](std::size_t j) {
-    const Grid2<std::int8_t>* a = knot(j);
-    const Grid2<std::int8_t>* b = knot(j + 1);
-    Grid2u8& c = made[j - from];
-    c = Grid2u8(box_.width(), box_.height(), 0);
-    if (!a && !b) return;
-    for (std::size_t q = 0; q < c.size(); ++q) {
-      const std::int8_t sa = a ? a->data[q] : std::int8_t(-1), sb = b ? b->data[q] : std::int8_t(-1);
-      c.data[q] = sa == 0 || sa != sb;
-    }
+  for (auto& g : interval_crossings<std::int8_t>(masks_.size(), box_.width(), box_.height(), from, j_hi, sides_of))
+    crossing_.push_back(std::move(g));
+}
+
+PartitionCrossings::PartitionCrossings(std::vector<std::vector<PackedMasks>> masks, std::vector<PixelBox> boxes,
+                                       const PixelBox& ubox, const FieldBand::Setup& setup)
+    : masks_(std::move(masks)), boxes_(std::move(boxes)), ubox_(ubox), setup_(setup), asked_(masks_.size(), 0) {
+  setup_.partition.reset();
+  for (const PixelBox& b : boxes_)
+    if (b.x0 < ubox.x0 || b.y0 < ubox.y0 || b.x1 > ubox.x1 || b.y1 > ubox.y1)
+      throw Error("PartitionCrossings: a label's box is not within the union's");
+}
+
+Grid2<std::int32_t> PartitionCrossings::slice_sides(std::size_t k) const {
+  Grid2<std::int32_t> out(ubox_.width(), ubox_.height(), -1);
+  const int u = setup_.unknown_within;
+  const auto at = [&](int x, int y) -> std::int32_t& { return out(x - ubox_.x0, y - ubox_.y0); };
+  for (std::size_t l = 0; l < masks_.size(); ++l) {
+    const PackedMasks& m = masks_[l][k];
+    if (m.empty) continue;
+    const PixelBox& b = boxes_[l];
+    const std::int32_t id = std::int32_t(l) + 1;
+    for_run_rows(m.inside, m.width, [&](int y, int x0, int x1) {
+      if (y < b.y0 || y >= b.y1) return;
+      for (int x = std::max(x0, b.x0); x < std::min(x1, b.x1); ++x) at(x, y) = id;
+    });
+    // The mesher's outside pad meets the label's box ring (known_sides).
+    const auto ring = [&](int x, int y) {
+      if (at(x, y) == id) at(x, y) = 0;
+    };
+    for (int x = b.x0; x < b.x1; ++x) ring(x, b.y0), ring(x, b.y1 - 1);
+    for (int y = b.y0; y < b.y1; ++y) ring(b.x0, y), ring(b.x1 - 1, y);
+  }
+  for (std::size_t l = 0; l < masks_.size(); ++l) {
+    const PackedMasks& m = masks_[l][k];
+    if (m.empty) continue;
+    const PixelBox& b = boxes_[l];
+    for_run_rows(m.contour, m.width, [&](int y, int x0, int x1) {
+      const int xa = std::max(x0 - u, b.x0), xb = std::min(x1 + u, b.x1);
+      if (xa >= xb) return;
+      for (int yy = std::max(y - u, b.y0); yy <= std::min(y + u, b.y1 - 1); ++yy)
+        std::fill_n(&at(xa, yy), xb - xa, std::int32_t(0));
+    });
+  }
+  return out;
+}
+
+void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t k1) {
+  std::lock_guard lock(m_);
+  asked_.at(label) = k0;
+  const std::size_t n = masks_.empty() ? 0 : masks_[0].size(), r = setup_.reach;
+  const std::size_t lagging = *std::min_element(asked_.begin(), asked_.end());
+  for (; first_band_ < lagging && !bands_.empty(); ++first_band_) bands_.pop_front();
+  if (bands_.empty()) first_band_ = std::min(k0, lagging);
+  const std::size_t s_from = first_band_ + bands_.size();
+  if (s_from >= k1) return;
+  // The intervals slices [s_from, k1) read.
+  const auto [j_lo, j_hi] = intervals_read(s_from, k1, r, n);
+  for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
+  if (crossing_.empty()) first_ = j_lo;
+  // Under the lock: isolated, so this thread runs no other label's band
+  // work (which would wait for the lock) meanwhile.
+  tbb::this_task_arena::isolate([&] {
+    if (const std::size_t from = first_ + crossing_.size(); from <= j_hi)
+      for (auto& g : interval_crossings<std::int32_t>(n, ubox_.width(), ubox_.height(), from, j_hi,
+                                                      [&](std::size_t k) { return slice_sides(k); }))
+        crossing_.push_back(std::move(g));
+    // Each slice's band once for every label: the crossings of the intervals
+    // its knot's splines read, dilated as FieldBand::band dilates.
+    std::vector<SliceBand> made(k1 - s_from);
+    tbb::parallel_for(s_from, k1, [&](std::size_t k) {
+      const std::size_t i = k + 1;
+      Grid2u8 crossing(ubox_.width(), ubox_.height(), 0);
+      for (std::size_t j = i - std::min(i, r + 1); j <= std::min(n, i + r); ++j) {
+        const Grid2u8& c = crossing_.at(j - first_);
+        or_into(crossing.data.data(), c.data.data(), crossing.size());
+      }
+      made[k - s_from] = {dilate_square(crossing, 1), dilate_square(crossing, 1 + setup_.filter_reach)};
+    });
+    for (auto& b : made) bands_.push_back(std::move(b));
   });
-  for (auto& g : made) crossing_.push_back(std::move(g));
+}
+
+SliceBand PartitionCrossings::band(std::size_t k, const PixelBox& box) const {
+  const auto crop = [&](const Grid2u8& g) {
+    Grid2u8 c(box.width(), box.height());
+    for (int y = 0; y < c.height; ++y)
+      std::copy_n(&g.data[g.index(box.x0 - ubox_.x0, y + box.y0 - ubox_.y0)], c.width, &c.data[c.index(0, y)]);
+    return c;
+  };
+  std::lock_guard lock(m_);
+  const SliceBand& b = bands_.at(k - first_band_);
+  return {crop(b.needed), crop(b.required)};
 }
 
 std::optional<SliceBand> FieldBand::band(std::size_t k) const {
   if (full_.at(k)) return std::nullopt;
+  if (setup_.partition) return setup_.partition->band(k, box_);
   const std::size_t i = k + 1, r = setup_.reach, n = masks_.size();
+  const std::size_t j0 = i - std::min(i, r + 1), j1 = std::min(n, i + r);
   Grid2u8 crossing(box_.width(), box_.height(), 0);
-  for (std::size_t j = i - std::min(i, r + 1); j <= std::min(n, i + r); ++j) {
+  for (std::size_t j = j0; j <= j1; ++j) {
     const Grid2u8& c = crossing_.at(j - first_);
-    for (std::size_t q = 0; q < crossing.size(); ++q) crossing.data[q] |= c.data[q];
+    or_into(crossing.data.data(), c.data.data(), crossing.size());
   }
   SliceBand out;
   out.needed = dilate_square(crossing, 1);

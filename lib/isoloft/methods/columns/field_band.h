@@ -29,6 +29,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <vector>
 
@@ -45,6 +47,8 @@ Grid2<std::int8_t> known_sides(const PackedMasks& m, const PixelBox& box, int un
 /// 1 where a pixel within r (Chebyshev) of the pixel is 1.
 Grid2u8 dilate_square(const Grid2u8& g, int r);
 
+class PartitionCrossings;
+
 /// The bands of an object's slices, computed a window at a time from the
 /// packed masks (which must still be there when prepare() covers them).
 class FieldBand {
@@ -54,6 +58,9 @@ class FieldBand {
     std::size_t reach = 0;   ///< the spline's tangent reach (interp/z_stream.h)
     int filter_reach = 0;    ///< px: the filter's stencil radius (0 = no filter)
     bool trend_caps = false;  ///< the caps read the second (and second to last) slice too
+    /// A label partition's: its labels' bands (PartitionCrossings), this label's index there.
+    std::shared_ptr<PartitionCrossings> partition;
+    std::size_t label = 0;
   };
   FieldBand(const std::vector<PackedMasks>& masks, const PixelBox& box, const Setup& setup);
 
@@ -74,6 +81,54 @@ class FieldBand {
   // sides are unknown or differ. Intervals [first_, first_ + size).
   std::deque<Grid2u8> crossing_;
   std::size_t first_ = 0;
+};
+
+/// The bands of a label partition's labels (docs/decisions.md, "The field
+/// band in a label partition"). Where at a pixel every label's side
+/// (known_sides over its box; outside beyond it) is known and the same at both
+/// knots of an interval, each label's spline keeps that side; the labels'
+/// masks are disjoint, so at most one is inside, and the union's knot (the
+/// highest label knot plus a healing >= 0 that is 0 off the labels' pixels)
+/// has its side: the competition's winner (partition/partition.h) is that
+/// label, or the background, whatever the values. Two 8-adjacent pixels of
+/// known sides have one winner (else a contour pixel lies within 1 px of
+/// them), and a pixel's winner is the same on both sides of a knot. So every
+/// Marching Cubes edge whose partition field changes sign has an end within
+/// 1 px of an interval where some label's side is unknown or changes, and
+/// there any label whose box holds the pixel may be the winner or the
+/// runner-up the fields are compared against: every label's field is exact
+/// there, not only the label whose contour it is. Each slice's band is made
+/// once for all labels (thread-safe) and cropped to each label's box.
+class PartitionCrossings {
+ public:
+  /// masks[l], boxes[l]: label l's (copies: the streams drop theirs); ubox
+  /// the union's box, which holds every label's.
+  PartitionCrossings(std::vector<std::vector<PackedMasks>> masks, std::vector<PixelBox> boxes, const PixelBox& ubox,
+                     const FieldBand::Setup& setup);
+  /// Label `label` will ask for slices [k0, k1): their bands computed (the
+  /// intervals their splines read: FieldBand::prepare), those no label reads
+  /// any more dropped.
+  void prepare(std::size_t label, std::size_t k0, std::size_t k1);
+  /// Slice k's band over `box` (within the union's), after prepare() for k.
+  [[nodiscard]] SliceBand band(std::size_t k, const PixelBox& box) const;
+
+ private:
+  // Slice k over the union's box: l + 1 inside label l, -1 in none, 0 where
+  // some label's side is unknown (known_sides over its box). An interval
+  // crosses where either knot is 0 or the two differ: where some label's
+  // crosses.
+  [[nodiscard]] Grid2<std::int32_t> slice_sides(std::size_t k) const;
+
+  std::vector<std::vector<PackedMasks>> masks_;
+  std::vector<PixelBox> boxes_;
+  PixelBox ubox_;
+  FieldBand::Setup setup_;
+  std::vector<std::size_t> asked_;  // per label: the k0 of its last prepare()
+  mutable std::mutex m_;
+  std::deque<Grid2u8> crossing_;  // over the union's box, intervals [first_, first_ + size)
+  std::size_t first_ = 0;
+  std::deque<SliceBand> bands_;  // over the union's box, slices [first_band_, first_band_ + size)
+  std::size_t first_band_ = 0;
 };
 
 /// The band's setup for an object, or nullopt where a band could change the
