@@ -249,7 +249,8 @@ void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t 
   const std::size_t s_from = first_band_ + bands_.size();
   if (s_from >= k1) return;
   // The intervals slices [s_from, k1) read.
-  const auto [j_lo, j_hi] = intervals_read(s_from, k1, r, n);
+  const auto read = intervals_read(s_from, k1, r, n);
+  const std::size_t j_lo = read.first, j_hi = read.second;  // not a structured binding: clang 14 cannot capture one
   for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
   if (crossing_.empty()) first_ = j_lo;
   // Under the lock: isolated, so this thread runs no other label's band
