@@ -185,6 +185,15 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
 
 ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo,
                              std::size_t hi)
+    : ZInterpolator(std::move(slices), std::move(z), kind, lo, hi, {}) {}
+
+std::vector<Grid2f> ZInterpolator::take_tangents(std::size_t lo, std::size_t hi) {
+  if (lo > hi || hi >= tangents_.size()) throw ParamError("interpolator: tangent knots out of range");
+  return {std::make_move_iterator(tangents_.begin() + long(lo)), std::make_move_iterator(tangents_.begin() + long(hi) + 1)};
+}
+
+ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo,
+                             std::size_t hi, std::vector<Grid2f> given)
     : slices_(std::move(slices)), z_(std::move(z)), kind_(kind) {
   check_knots(z_);
   if (slices_.size() != z_.size()) throw ParamError("interpolator: slice count differs from z count");
@@ -192,9 +201,14 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   for (const auto& s : slices_)
     if (s.width != w || s.height != h) throw ParamError("interpolator: slices differ in size");
   const std::size_t n = z_.size();
-  if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
-  tangents_.assign(n, Grid2f(w, h, 0.0f));
-  if (kind_ == SplineKind::Linear) return;
+  if (lo > hi || hi >= n || given.size() > hi - lo + 1) throw ParamError("interpolator: tangent knots out of range");
+  for (const Grid2f& g : given)
+    if (g.width != w || g.height != h) throw ParamError("interpolator: given tangents differ in size");
+  tangents_.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    tangents_[i] = i >= lo && i - lo < given.size() ? std::move(given[i - lo]) : Grid2f(w, h, 0.0f);
+  lo += given.size();  // the knots left to compute: lo..hi
+  if (kind_ == SplineKind::Linear || lo > hi) return;
   // Monotone and extremum-preserving (the default) tangents read knots
   // i-2..i+2 only: knot by knot over contiguous pixels, not column by
   // column, each secant of the intervals they read divided once per pixel.
