@@ -175,3 +175,21 @@ RC_GTEST_PROP(ZStreamProperty, CarriedTangentsAreTheWholeColumns, ()) {
     }
   }
 }
+
+// A window's interpolator holds the tangents of knots lo..hi only: reading an
+// interval beside them throws instead of using tangents never computed.
+TEST(ZStream, WindowsReadOnlyTheIntervalsOfTheirTangents) {
+  const std::vector<Grid2f> fields = knot_fields(8);
+  const ZInterpolator part(fields, knot_z(8), SplineKind::ExtremumPreserving, 2, 4);
+  const ZInterpolator whole(fields, knot_z(8), SplineKind::ExtremumPreserving);
+  Grid2f a, b;
+  Grid2<std::int8_t> s;
+  EXPECT_THROW(part.evaluate(knot_z(8)[1], a), ParamError);
+  EXPECT_THROW(part.sides(4, 0.0f, kSideMargin, s), ParamError);
+  const double q = 0.5 * (knot_z(8)[2] + knot_z(8)[3]);
+  part.evaluate(q, a);
+  whole.evaluate(q, b);
+  EXPECT_EQ(a.data, b.data);
+  const ZInterpolator linear(fields, knot_z(8), SplineKind::Linear, 2, 4);
+  EXPECT_NO_THROW(linear.evaluate(knot_z(8)[1], a)) << "linear splines read no tangents";
+}

@@ -170,8 +170,9 @@ class ZInterpolator {
  public:
   /// \throw ParamError unless slices.size() == z.size() >= 2, z increasing, one size.
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind);
-  /// Only the tangents of knots lo..hi (the others 0): evaluate() and sides()
-  /// on the intervals between them only. \pre lo <= hi < z.size().
+  /// Only the tangents of knots lo..hi (the others not held): evaluate() and
+  /// sides() on the intervals between them only (others throw ParamError
+  /// unless linear). \pre lo <= hi < z.size().
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo, std::size_t hi);
   /// As above, the tangents of knots lo..lo + given.size() - 1 given, not
   /// computed: each must be the whole column's (e.g. from take_tangents() of

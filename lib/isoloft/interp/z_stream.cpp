@@ -37,7 +37,7 @@ ZStream::ZStream(std::vector<double> z, SplineKind kind, int width, int height, 
 
 ZStream::~ZStream() {
   count(-long(pulled_.size()));
-  if (window_) count(-2 * long(w1_ - w0_ + 1));
+  count(-held_);
 }
 
 void ZStream::count(long delta) const {
@@ -56,9 +56,11 @@ void ZStream::next_block() {
   // tangents there were the whole column's too.
   const std::size_t t0_knot = e0_ - std::min<std::size_t>(e0_, 1);
   std::vector<Grid2f> carried;
+  // Fields held: the window's knots, and its tangents unless linear.
+  auto tangent_fields = [&](std::size_t count) { return kind_ == SplineKind::Linear ? 0L : long(count); };
   if (window_) {
     carried = window_->take_tangents(t0_knot - w0_, e0_ - w0_);
-    count(-2 * long(w1_ - w0_ + 1) + long(carried.size()));
+    count(-held_ + tangent_fields(carried.size()));
   }
   window_.reset();
   w0_ = e0_ - std::min(e0_, below_);
@@ -85,10 +87,11 @@ void ZStream::next_block() {
   }
   for (; pulled_first_ < keep_from && !pulled_.empty(); ++pulled_first_, count(-1)) pulled_.pop_front();
   const auto t0 = std::chrono::steady_clock::now();
-  const long held = long(carried.size());
+  const long kept = tangent_fields(carried.size());  // counted already
   window_.emplace(std::move(knots), std::vector<double>(z_.begin() + long(w0_), z_.begin() + long(w1_) + 1), kind_,
                   t0_knot - w0_, e1_ - w0_, std::move(carried));
-  count(2 * long(w1_ - w0_ + 1) - held);  // knots and tangents (the carried ones counted already)
+  held_ = long(w1_ - w0_ + 1) + tangent_fields(e1_ - t0_knot + 1);
+  count(held_ - kept);
   tangent_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
