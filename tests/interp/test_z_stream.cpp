@@ -3,6 +3,7 @@
 // not grow with the knot count (the natural spline, which couples all knots,
 // shows that the count would catch a stream holding everything).
 #include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
 
 #include <algorithm>
 #include <cmath>
@@ -135,4 +136,60 @@ TEST(ZStream, HoldsAWindowOfKnotsThatDoesNotGrowWithTheKnotsUnlessNatural) {
     }
     EXPECT_GT(natural.peak, kMonotoneBound);
   }
+}
+
+// Random columns (values in 0.1 px steps around iso, random spacing), every
+// kind and block length: the stream, whose windows take over the tangents of
+// the knots they share with the window before, gives the whole
+// interpolator's values and sides bit for bit.
+RC_GTEST_PROP(ZStreamProperty, CarriedTangentsAreTheWholeColumns, ()) {
+  const auto kind = *rc::gen::elementOf(std::vector<SplineKind>{SplineKind::Monotone, SplineKind::ExtremumPreserving,
+                                                                SplineKind::CatmullRom, SplineKind::Natural,
+                                                                SplineKind::Linear});
+  const int n = *rc::gen::inRange(2, 16), w = *rc::gen::inRange(1, 6), h = *rc::gen::inRange(1, 4);
+  const std::size_t block = *rc::gen::element<std::size_t>(1, 2, 3, 8);
+  std::vector<double> z{0.0};
+  for (int k = 1; k < n; ++k) z.push_back(z.back() + *rc::gen::inRange(1, 100) / 10.0);
+  std::vector<Grid2f> fields;
+  for (int k = 0; k < n; ++k) {
+    Grid2f g(w, h);
+    for (float& v : g.data) v = float(*rc::gen::inRange(-30, 30)) / 10.0f;
+    fields.push_back(std::move(g));
+  }
+  const ZInterpolator whole(fields, z, kind);
+  auto next = [&fields, i = std::size_t(0)]() mutable { return fields.at(i++); };
+  ZStream stream(z, kind, w, h, next, nullptr, block);
+  Grid2f a, b;
+  Grid2<std::int8_t> sa, sb;
+  for (const double q : sample_planes(z.front(), z.back(), 0.37)) {
+    const std::size_t k = whole.interval(q);
+    stream.reach(k);
+    stream.evaluate(q, a);
+    whole.evaluate(q, b);
+    RC_ASSERT(a.data == b.data);
+    for (const std::size_t i : {k, k - 1}) {
+      if (i > k) continue;  // k - 1 wrapped
+      stream.sides(i, 0.0f, kSideMargin, sa);
+      whole.sides(i, 0.0f, kSideMargin, sb);
+      RC_ASSERT(sa.data == sb.data);
+    }
+  }
+}
+
+// A window's interpolator holds the tangents of knots lo..hi only: reading an
+// interval beside them throws instead of using tangents never computed.
+TEST(ZStream, WindowsReadOnlyTheIntervalsOfTheirTangents) {
+  const std::vector<Grid2f> fields = knot_fields(8);
+  const ZInterpolator part(fields, knot_z(8), SplineKind::ExtremumPreserving, 2, 4);
+  const ZInterpolator whole(fields, knot_z(8), SplineKind::ExtremumPreserving);
+  Grid2f a, b;
+  Grid2<std::int8_t> s;
+  EXPECT_THROW(part.evaluate(knot_z(8)[1], a), ParamError);
+  EXPECT_THROW(part.sides(4, 0.0f, kSideMargin, s), ParamError);
+  const double q = 0.5 * (knot_z(8)[2] + knot_z(8)[3]);
+  part.evaluate(q, a);
+  whole.evaluate(q, b);
+  EXPECT_EQ(a.data, b.data);
+  const ZInterpolator linear(fields, knot_z(8), SplineKind::Linear, 2, 4);
+  EXPECT_NO_THROW(linear.evaluate(knot_z(8)[1], a)) << "linear splines read no tangents";
 }

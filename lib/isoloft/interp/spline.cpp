@@ -185,6 +185,15 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
 
 ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo,
                              std::size_t hi)
+    : ZInterpolator(std::move(slices), std::move(z), kind, lo, hi, {}) {}
+
+std::vector<Grid2f> ZInterpolator::take_tangents(std::size_t lo, std::size_t hi) {
+  if (lo > hi || hi >= tangents_.size()) throw ParamError("interpolator: tangent knots out of range");
+  return {std::make_move_iterator(tangents_.begin() + long(lo)), std::make_move_iterator(tangents_.begin() + long(hi) + 1)};
+}
+
+ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo,
+                             std::size_t hi, std::vector<Grid2f> given)
     : slices_(std::move(slices)), z_(std::move(z)), kind_(kind) {
   check_knots(z_);
   if (slices_.size() != z_.size()) throw ParamError("interpolator: slice count differs from z count");
@@ -192,9 +201,18 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
   for (const auto& s : slices_)
     if (s.width != w || s.height != h) throw ParamError("interpolator: slices differ in size");
   const std::size_t n = z_.size();
-  if (lo > hi || hi >= n) throw ParamError("interpolator: tangent knots out of range");
-  tangents_.assign(n, Grid2f(w, h, 0.0f));
-  if (kind_ == SplineKind::Linear) return;
+  if (lo > hi || hi >= n || given.size() > hi - lo + 1) throw ParamError("interpolator: tangent knots out of range");
+  for (const Grid2f& g : given)
+    if (!g.empty() && (g.width != w || g.height != h)) throw ParamError("interpolator: given tangents differ in size");
+  // Planes only for the tangents asked for (a window's others are never
+  // read); linear splines read none.
+  tangents_.resize(n);
+  for (std::size_t i = lo; i <= hi; ++i)
+    tangents_[i] = i - lo < given.size() ? std::move(given[i - lo])
+                   : kind_ == SplineKind::Linear ? Grid2f()
+                                                 : Grid2f(w, h, 0.0f);
+  lo += given.size();  // the knots left to compute: lo..hi
+  if (kind_ == SplineKind::Linear || lo > hi) return;
   // Monotone and extremum-preserving (the default) tangents read knots
   // i-2..i+2 only: knot by knot over contiguous pixels, not column by
   // column, each secant of the intervals they read divided once per pixel.
@@ -248,6 +266,7 @@ void ZInterpolator::sides(std::size_t k, float iso, float margin, Grid2<std::int
   // Hermite piece within h (|m0| + |m1|) 4/27 of them (the largest |h10|, |h11|).
   const bool between = kind_ == SplineKind::Monotone || kind_ == SplineKind::Linear;
   const Grid2f &m0 = tangents_.at(k), &m1 = tangents_.at(k + 1);
+  if (!between && (m0.empty() || m1.empty())) throw ParamError("spline: sides() of an interval without tangents");
   const float reach = float((z_[k + 1] - z_[k]) * 4.0 / 27.0);
   for (std::size_t p = 0; p < out.data.size(); ++p) {
     const float slack = between ? 0.0f : reach * (std::abs(m0.data[p]) + std::abs(m1.data[p]));
@@ -270,6 +289,8 @@ void ZInterpolator::evaluate(double q, Grid2f& out, const PixelRuns* only) const
   const std::size_t k = interval(q);
   q = std::clamp(q, z_.front(), z_.back());
   const Grid2f &f0 = slices_[k], &f1 = slices_[k + 1], &m0 = tangents_[k], &m1 = tangents_[k + 1];
+  if (kind_ != SplineKind::Linear && (m0.empty() || m1.empty()))
+    throw ParamError("spline: evaluate() in an interval without tangents");
   const HermiteBasis basis(kind_, z_[k], z_[k + 1], q);
   const float *a = f0.data.data(), *b = f1.data.data(), *ma = m0.data.data(), *mb = m1.data.data();
   float* o = out.data.data();

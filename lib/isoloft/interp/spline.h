@@ -170,9 +170,18 @@ class ZInterpolator {
  public:
   /// \throw ParamError unless slices.size() == z.size() >= 2, z increasing, one size.
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind);
-  /// Only the tangents of knots lo..hi (the others 0): evaluate() and sides()
-  /// on the intervals between them only. \pre lo <= hi < z.size().
+  /// Only the tangents of knots lo..hi (the others not held): evaluate() and
+  /// sides() on the intervals between them only (others throw ParamError
+  /// unless linear). \pre lo <= hi < z.size().
   ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo, std::size_t hi);
+  /// As above, the tangents of knots lo..lo + given.size() - 1 given, not
+  /// computed: each must be the whole column's (e.g. from take_tangents() of
+  /// a window whose tangents were exact there). \pre given.size() <= hi - lo + 1.
+  ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, SplineKind kind, std::size_t lo, std::size_t hi,
+                std::vector<Grid2f> given);
+  /// Moves out the tangents of knots lo..hi (then empty: read no interval
+  /// beside them). \pre lo <= hi < z().size().
+  std::vector<Grid2f> take_tangents(std::size_t lo, std::size_t hi);
   /// The field at z, parallel over rows; with `only`, just those pixels (the
   /// others keep out's values; out must then be width x height already).
   void evaluate(double z, Grid2f& out, const PixelRuns* only = nullptr) const;

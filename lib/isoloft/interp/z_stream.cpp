@@ -37,7 +37,7 @@ ZStream::ZStream(std::vector<double> z, SplineKind kind, int width, int height, 
 
 ZStream::~ZStream() {
   count(-long(pulled_.size()));
-  if (window_) count(-2 * long(w1_ - w0_ + 1));
+  count(-held_);
 }
 
 void ZStream::count(long delta) const {
@@ -50,7 +50,18 @@ void ZStream::next_block() {
   const std::size_t n = z_.size();
   e0_ = window_ ? e1_ : 0;
   e1_ = std::min(n - 1, e0_ + block_);
-  if (window_) count(-2 * long(w1_ - w0_ + 1));
+  // Tangents where they are used: evaluate() on this block's intervals
+  // [e0, e1), sides() on those and the one before (the mesher's previous
+  // layer). The last window's top knots, t0_knot..e0, are carried over: its
+  // tangents there were the whole column's too.
+  const std::size_t t0_knot = e0_ - std::min<std::size_t>(e0_, 1);
+  std::vector<Grid2f> carried;
+  // Fields held: the window's knots, and its tangents unless linear.
+  auto tangent_fields = [&](std::size_t count) { return kind_ == SplineKind::Linear ? 0L : long(count); };
+  if (window_) {
+    carried = window_->take_tangents(t0_knot - w0_, e0_ - w0_);
+    count(-held_ + tangent_fields(carried.size()));
+  }
   window_.reset();
   w0_ = e0_ - std::min(e0_, below_);
   w1_ = std::min(n - 1, e1_ + above_);
@@ -76,12 +87,11 @@ void ZStream::next_block() {
   }
   for (; pulled_first_ < keep_from && !pulled_.empty(); ++pulled_first_, count(-1)) pulled_.pop_front();
   const auto t0 = std::chrono::steady_clock::now();
-  // Tangents only where they are used: evaluate() on this block's intervals
-  // [e0, e1), sides() on those and the one before (the mesher's previous layer).
-  const std::size_t t0_knot = e0_ - std::min<std::size_t>(e0_, 1);
+  const long kept = tangent_fields(carried.size());  // counted already
   window_.emplace(std::move(knots), std::vector<double>(z_.begin() + long(w0_), z_.begin() + long(w1_) + 1), kind_,
-                  t0_knot - w0_, e1_ - w0_);
-  count(2 * long(w1_ - w0_ + 1));  // knots and tangents
+                  t0_knot - w0_, e1_ - w0_, std::move(carried));
+  held_ = long(w1_ - w0_ + 1) + tangent_fields(e1_ - t0_knot + 1);
+  count(held_ - kept);
   tangent_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

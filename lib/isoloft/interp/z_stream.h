@@ -72,9 +72,9 @@ struct ResidentCount {
 /// tangents included); nullopt: all of the column (Natural).
 std::optional<std::size_t> tangent_reach(SplineKind kind);
 
-/// Intervals per ZStream block: each block recomputes the tangents of its
-/// 2 x reach overlap, so ~1.5x the tangent work of a whole ZInterpolator at
-/// Monotone's reach 2, with ~2 (block + 2 reach) fields resident.
+/// Intervals per ZStream block: each block holds its knots with 2 reach + 1
+/// more and the tangents of block + 2 knots (those shared with the block
+/// before taken over, not recomputed).
 inline constexpr std::size_t kZStreamBlock = 8;
 
 class ZStream final : public PlaneSource {
@@ -115,6 +115,7 @@ class ZStream final : public PlaneSource {
   std::size_t pulled_first_ = 0;
   std::optional<ZInterpolator> window_;  // knots [w0_, w1_]; its exact intervals [e0_, e1_)
   std::size_t w0_ = 0, w1_ = 0, e0_ = 0, e1_ = 0;
+  long held_ = 0;  // fields the window holds: its knots and tangents
   double tangent_seconds_ = 0;
 };
 
