@@ -180,7 +180,8 @@ def test_the_cli_batch_uses_the_package_beside_it_and_dask_stays_under_out(spher
     (user / "isoloft" / "cohort.py").write_text("print('the user package')\n")
     copy = tmp_path / "bin" / "isoloft"
     copy.parent.mkdir()
-    shutil.copy2(CLI, copy)
+    shutil.copy2(CLI, copy)  # the launcher, and the CLI it starts from beside it
+    shutil.copy2(os.path.join(os.path.dirname(CLI), "isoloft-cli"), copy.parent / "isoloft-cli")
     env = {**os.environ, "PYTHONPATH": str(user)}
     r = subprocess.run([str(copy), "batch", "x.csv", "--out", str(tmp_path / "o")], env=env, capture_output=True,
                        text=True)
