@@ -321,26 +321,39 @@ SamplePlane::SamplePlane(const unsigned char* samples, int nx, int ny, std::size
     : nx_(nx), ny_(ny), size_(sample_bytes) {
   if (sample_bytes != 1 && sample_bytes != 2)
     throw ParamError("SamplePlane: samples of " + std::to_string(sample_bytes) + " bytes (1 or 2 are held as runs)");
-  const auto value = [&](std::size_t i) {
-    std::uint16_t v = 0;
-    std::memcpy(&v, samples + i * size_, size_);
-    return v;
-  };
-  row_first_.reserve(std::size_t(ny) + 1);
   bool any = false;
-  for (int j = 0; j < ny; ++j) {
-    row_first_.push_back(std::uint32_t(run_end_.size()));
-    const std::size_t row = std::size_t(j) * std::size_t(nx);
-    for (int i = 0; i < nx;) {
-      const std::uint16_t v = value(row + std::size_t(i));
-      int e = i + 1;
-      while (e < nx && value(row + std::size_t(e)) == v) ++e;
-      run_end_.push_back(std::uint32_t(e));
-      value_.push_back(v);
-      any |= v != 0;
-      i = e;
+  // Typed by the sample size, and equal samples skipped 8 bytes at a time:
+  // a label plane is mostly long runs of 0.
+  const auto encode = [&](auto typed) {
+    using T = decltype(typed);
+    constexpr int kPerWord = int(8 / sizeof(T));
+    const auto value = [&](std::size_t i) {
+      T v;
+      std::memcpy(&v, samples + i * sizeof(T), sizeof(T));
+      return std::uint16_t(v);
+    };
+    row_first_.reserve(std::size_t(ny) + 1);
+    for (int j = 0; j < ny; ++j) {
+      row_first_.push_back(std::uint32_t(run_end_.size()));
+      const std::size_t row = std::size_t(j) * std::size_t(nx);
+      for (int i = 0; i < nx;) {
+        const std::uint16_t v = value(row + std::size_t(i));
+        const std::uint64_t word = std::uint64_t(v) * (sizeof(T) == 1 ? 0x0101010101010101ULL : 0x0001000100010001ULL);
+        int e = i + 1;
+        for (std::uint64_t w; e + kPerWord <= nx; e += kPerWord) {
+          std::memcpy(&w, samples + (row + std::size_t(e)) * sizeof(T), 8);
+          if (w != word) break;
+        }
+        while (e < nx && value(row + std::size_t(e)) == v) ++e;
+        run_end_.push_back(std::uint32_t(e));
+        value_.push_back(v);
+        any |= v != 0;
+        i = e;
+      }
     }
-  }
+  };
+  if (sample_bytes == 1) encode(std::uint8_t{});
+  else encode(std::uint16_t{});
   row_first_.push_back(std::uint32_t(run_end_.size()));
   if (!any) {  // all 0: nothing held but the size
     row_first_ = {};
