@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "cli/heap_tunables.h"
 #include "isoloft/core/error.h"
 #include "isoloft/io/atomic_file.h"
 
@@ -217,8 +218,8 @@ int Commands::batch() {
   std::error_code ec;
   std::string self = fs::read_symlink("/proc/self/exe", ec).string();
   // The cohort's runs start through the launcher beside this binary (one start each, its heap set).
-  if (!ec && fs::path(self).filename() == "isoloft-cli" && fs::exists(fs::path(self).parent_path() / "isoloft"))
-    self = (fs::path(self).parent_path() / "isoloft").string();
+  if (!ec && fs::path(self).filename() == kCliName && fs::exists(fs::path(self).parent_path() / kLauncherName))
+    self = (fs::path(self).parent_path() / kLauncherName).string();
   // The build tree's package goes first only for the binary beside it (build/isoloft,
   // build/python/isoloft): an installed copy uses the user's path as it is.
   if (!ec && !package_dir.empty() && fs::exists(fs::path(package_dir) / "isoloft" / "cohort.py") &&

@@ -14,6 +14,9 @@
 
 namespace isoloft::cli {
 
+/// The launcher's file name, and the CLI's it starts from the same folder.
+inline constexpr const char* kLauncherName = "isoloft", *kCliName = "isoloft-cli";
+
 inline constexpr const char* kHeapRerun = "ISOLOFT_HUGE_PAGES", *kCallersTunables = "ISOLOFT_CALLERS_GLIBC_TUNABLES";
 inline constexpr const char* kHeapTunables = "glibc.malloc.hugetlb=1:glibc.malloc.arena_max=1";
 

@@ -19,7 +19,7 @@ int main(int, char** argv) {
   std::string dir = n > 0 ? std::string(self, std::size_t(n)) : std::string(argv[0]);
   const std::size_t slash = dir.rfind('/');
   dir = slash == std::string::npos ? "." : dir.substr(0, slash);
-  const std::string cli = dir + "/isoloft-cli";
+  const std::string cli = dir + "/" + isoloft::cli::kCliName;
   const bool set = isoloft::cli::set_heap_tunables();
   ::execv(cli.c_str(), argv);
   const int err = errno;
