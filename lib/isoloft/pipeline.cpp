@@ -149,14 +149,19 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
       }
       decimate_stage(plan.part(run, group[m]), obj);
       const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
-      if (!run.options.on_object || !listed || obj.slices_with_contours == 0) {
+      const bool writes = run.options.on_object && listed && obj.slices_with_contours > 0;
+      const bool reads = run.options.on_final && !obj.mesh.empty();
+      if (!writes && !reads) {
         check_stage(plan.part(run, group[m]), obj);
         return;
       }
-      // Both only read the mesh: the write beside the check (the run's serial
-      // tail on one object), the mesh freed once both are done.
-      tbb::parallel_invoke([&] { check_stage(plan.part(run, group[m]), obj); }, [&] { run.options.on_object(obj); });
-      obj.free_mesh();
+      // All only read the mesh: the write and the readers beside the check
+      // (the run's serial tail on one object), the mesh freed once all are done.
+      tbb::parallel_invoke([&] { check_stage(plan.part(run, group[m]), obj); }, [&] {
+        if (reads) run.options.on_final(obj);
+        if (writes) run.options.on_object(obj);
+      });
+      if (writes) obj.free_mesh();
     } catch (...) {
       errors[m] = std::current_exception();
     } });

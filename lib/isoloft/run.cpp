@@ -2,6 +2,7 @@
 
 #include <sys/resource.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -250,9 +251,6 @@ void check_surfaces(const Inputs& in, const RunResult& r, bool allow_empty) {
   }
 }
 
-namespace {
-
-// The contour vertices of a polygon stack, at their slice z (working pixels).
 std::vector<Vec3d> contour_vertices(const SliceStack& st) {
   std::vector<Vec3d> v;
   for (const Slice& s : st.slices)
@@ -261,7 +259,26 @@ std::vector<Vec3d> contour_vertices(const SliceStack& st) {
   return v;
 }
 
+namespace {
+
 bool sees_objects_one_by_one(const ReconstructOptions& o) { return o.on_slice_fields || o.on_plane || o.on_sample; }
+
+// What the run reads from a polygon job's final mesh besides its check: the
+// RT ROIs' contour vertex distances (the error of the working grid isoloft
+// chose for them: RT grid, triangle budget) and the volume table's clipped
+// volumes. Beside the check when the method calls on_final, else after.
+void read_final_mesh(const Inputs& in, std::size_t j, ObjectResult& ob) {
+  const Job& job = in.jobs[j];
+  if (ob.mesh.empty()) return;
+  tbb::parallel_invoke(
+      [&] {
+        if (job.roi && !ob.contour_distance)
+          ob.contour_distance = summarize_distances(point_mesh_distances(ob.mesh, contour_vertices(job.stack)));
+      },
+      [&] {
+        if (ob.clipped_volumes.empty()) ob.clipped_volumes = clipped_volumes(in, job, ob);
+      });
+}
 
 // Pixel work of a job, to start the largest first.
 double job_work(const Job& job) {
@@ -286,17 +303,15 @@ std::vector<ReconstructResult> reconstruct_jobs(const Inputs& in, const Reconstr
   for (std::size_t j = 0; j < n; ++j) {
     options[j].labels = labels;
     if (configure) configure(j, options[j]);
+    if (in.jobs[j].stack.has_polygons()) options[j].on_final = [&in, j](ObjectResult& ob) { read_final_mesh(in, j, ob); };
     one_by_one = one_by_one || sees_objects_one_by_one(options[j]);
   }
   auto run_one = [&](std::size_t j) {
     const Job& job = in.jobs[j];
     results[j] = reconstruct(MethodInput{job.stack, job.sections, job.section_label, job.partition.get()}, params, options[j]);
     if (finished) finished(j);
-    // RT ROIs: the error of the working grid isoloft chose for them (RT grid, triangle budget).
-    if (in.jobs[j].roi && in.jobs[j].stack.has_polygons())
-      for (ObjectResult& ob : results[j].objects)
-        if (!ob.mesh.empty())
-          ob.contour_distance = summarize_distances(point_mesh_distances(ob.mesh, contour_vertices(in.jobs[j].stack)));
+    if (in.jobs[j].stack.has_polygons())
+      for (ObjectResult& ob : results[j].objects) read_final_mesh(in, j, ob);
   };
   if (one_by_one) {
     for (std::size_t j = 0; j < n; ++j) run_one(j);

@@ -137,4 +137,8 @@ void check_surfaces(const Inputs& in, const RunResult& r, bool allow_empty);
 /// Peak resident memory of this process in MiB.
 double peak_memory_mib();
 
+/// The contour vertices of a polygon stack at their slice z (working
+/// pixels): what an RT ROI's contour_distance measures.
+std::vector<Vec3d> contour_vertices(const SliceStack& st);
+
 }  // namespace isoloft

@@ -54,6 +54,10 @@ struct ObjectResult {
   /// lie from the mesh (working pixels): the geometric error of the working
   /// grid the reader chose.
   std::optional<DistanceSummary> contour_distance;
+  /// run_jobs(), polygon inputs: the closed surface's volume above the planes
+  /// the volume table clips at (run/volume_table.h clipped_volumes()), px^3;
+  /// empty until computed.
+  std::vector<double> clipped_volumes;
   long triangles_before_decimation = 0;
   int slices_with_contours = 0;
   FitStats fit;                ///< marker2006: summed over slices
@@ -152,6 +156,12 @@ struct ReconstructOptions {
   /// must not change it; the mesh is freed after (ObjectResult::free_mesh()).
   /// Called by the columns family (methods with a family of their own do not).
   std::function<void(ObjectResult&)> on_object;
+  /// Each meshed object once final, from worker threads, beside its mesh
+  /// check and on_object: it reads the mesh (kept unless on_object frees it)
+  /// and may set fields the check and on_object do not touch (e.g. the RT
+  /// ROIs' contour distances), so they are not left for the run's end.
+  /// Called by the columns family.
+  std::function<void(ObjectResult&)> on_final;
   /// Scratch files go in this folder ("": all held in memory): the slice
   /// fields computed early only for an empty slice's value wait there until
   /// their knot (column methods); with on_object, a label partition's meshes

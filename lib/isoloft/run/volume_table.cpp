@@ -60,6 +60,27 @@ double typical_step(const SliceStack& st) {
 
 }  // namespace
 
+int contour_planes(const Inputs& in, const Job& job, const ObjectResult& ob) {
+  return in.format == InputFormat::RtStruct && job.sections.empty() ? int(rt_planes(job.stack).size())
+                                                                    : ob.slices_with_contours;
+}
+
+std::vector<double> clipped_volumes(const Inputs& in, const Job& job, const ObjectResult& ob) {
+  const SliceStack& st = job.stack;
+  if (!st.has_polygons()) return {};
+  // The end caps: beyond the first and last slices with contours (working
+  // px); known for polygon stacks (an image stack's object may leave its
+  // end slices blank, and a label's slices are not kept).
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const Slice& sl : st.slices)
+    if (!sl.polygons.empty()) lo = std::min(lo, sl.z), hi = std::max(hi, sl.z);
+  const bool capped = hi >= lo;
+  if (capped && in.format == InputFormat::RtStruct && contour_planes(in, job, ob) == 1)
+    lo = hi = 0.5 * (lo + hi);  // one plane: two slices round it
+  // The whole volume, above the last slice, above the first: one pass.
+  return volumes_above(ob.mesh, {-std::numeric_limits<double>::infinity(), capped ? hi : 0.0, capped ? lo : 0.0});
+}
+
 std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
   std::vector<VolumeRow> rows(r.objects.size());
   // Objects side by side (each row on its own: the serial rows).
@@ -73,27 +94,19 @@ std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r) {
     row.number = job.roi ? job.roi->number : int(o.object.label);
     row.volume = o.object.check.volume * s * s * s;
     row.area = o.object.check.area * s * s;
-    row.planes = in.format == InputFormat::RtStruct && job.sections.empty() ? int(rt_planes(st).size())
-                                                                           : o.object.slices_with_contours;
+    row.planes = contour_planes(in, job, o.object);
     row.closed = o.object.check.closed && o.object.check.manifold && o.object.check.oriented;
     if (st.has_polygons()) {
       double area = 0;
       for (const Slice& sl : st.slices) area += even_odd_area(sl.polygons);
       row.slab = area * typical_step(st) * s * s * s;
     }
-    // The end caps: beyond the first and last slices with contours (working
-    // px); known for polygon stacks (an image stack's object may leave its
-    // end slices blank, and a label's slices are not kept).
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (const Slice& sl : st.slices)
-      if (!sl.polygons.empty()) lo = std::min(lo, sl.z), hi = std::max(hi, sl.z);
     row.cap_share = std::numeric_limits<double>::quiet_NaN();
     if (st.has_polygons()) {
-      const bool capped = hi >= lo;
-      if (capped && in.format == InputFormat::RtStruct && row.planes == 1) lo = hi = 0.5 * (lo + hi);  // one plane: two slices round it
-      // The whole volume, above the last slice, above the first: one pass.
+      // Computed beside the object's mesh check (run_jobs), else here.
       const std::vector<double> above =
-          volumes_above(o.object.mesh, {-std::numeric_limits<double>::infinity(), capped ? hi : 0.0, capped ? lo : 0.0});
+          o.object.clipped_volumes.empty() ? clipped_volumes(in, job, o.object) : o.object.clipped_volumes;
+      const bool capped = std::any_of(st.slices.begin(), st.slices.end(), [](const Slice& sl) { return !sl.polygons.empty(); });
       const double whole = above[0];
       if (capped && whole > 0) row.cap_share = std::clamp((above[1] + whole - above[2]) / whole, 0.0, 1.0);
     }

@@ -39,7 +39,13 @@ struct VolumeRow {
 /// spacing a 3 mm sphere comes back +41 % and a 5 mm one -13 % (issue 38).
 inline constexpr int kTrustedPlanes = 3;
 
+/// Rows of every object; an object's clipped volumes are computed here
+/// unless run_jobs() already did (ObjectResult::clipped_volumes).
 std::vector<VolumeRow> volume_table(const Inputs& in, const RunResult& r);
+/// The object's volume above -infinity, its last and its first contour
+/// plane (one RT plane: its middle; 0 without contours), px^3: what its row's
+/// end-cap share reads; {} unless the job's stack has polygons.
+std::vector<double> clipped_volumes(const Inputs& in, const Job& job, const ObjectResult& ob);
 /// The table as aligned text (cc and cm^2 for patient mm), CSV, or JSON (mm^3, mm^2).
 std::string volume_table_text(const std::vector<VolumeRow>& rows, bool patient_mm);
 std::string volume_table_csv(const std::vector<VolumeRow>& rows);
