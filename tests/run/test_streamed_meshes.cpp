@@ -128,4 +128,12 @@ TEST(StreamedMeshes, PlyPartWriterJoinsPartsInTheOrderGiven) {
   write_mesh(dir.file("merged.ply"), merged, mo);
   EXPECT_EQ(streamed_bytes(dir.file("joined.ply")), streamed_bytes(dir.file("merged.ply")));
   EXPECT_EQ(dir.entries().size(), 2u) << "the scratch file has no name";
+  // From the parts in memory (a run's combined mesh when not streamed): the same bytes.
+  write_ply_parts(dir.file("parts.ply"), {{&b, place, true, {0, 0, 255}}, {&a, place, false, {255, 0, 0}}}, "LPS");
+  EXPECT_EQ(streamed_bytes(dir.file("parts.ply")), streamed_bytes(dir.file("merged.ply")));
+  TriMesh bad = b;
+  bad.triangles[0][2] = 3;
+  EXPECT_THROW(write_ply_parts(dir.file("bad.ply"), {{&a, place, false, {}}, {&bad, place, false, {}}}, ""), Error)
+      << "a triangle past its own part's vertices";
+  EXPECT_FALSE(fs::exists(dir.file("bad.ply")));
 }

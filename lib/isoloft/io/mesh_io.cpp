@@ -287,41 +287,94 @@ std::size_t PlyPartWriter::add(const TriMesh& m, const std::function<Vec3f(const
   return parts_.size() - 1;
 }
 
-void PlyPartWriter::write(const std::string& path, const std::vector<std::size_t>& order, const std::vector<Rgb>& colours,
-                          const std::string& space) const {
+namespace {
+
+// The binary PLY of parts (counts[k]: vertices, triangles) in order, each
+// part's vertices in colours[k]; `vertices(k, first, chunk)` and
+// `triangles(k, first, chunk)` fill a chunk of part k's placed vertices and
+// (flipped) triangles, the part's own indices.
+template <class Vertices, class Triangles>
+void write_ply_of_parts(const std::string& path, const std::vector<std::array<std::size_t, 2>>& counts,
+                        const std::vector<Rgb>& colours, const std::string& space, Vertices&& vertices,
+                        Triangles&& triangles) {
   std::size_t nv = 0, nt = 0;
-  for (const std::size_t k : order) nv += parts_.at(k).vertices, nt += parts_.at(k).triangles;
+  for (const auto& c : counts) nv += c[0], nt += c[1];
   if (nv > std::size_t(std::numeric_limits<std::int32_t>::max())) throw Error(path + ": too many vertices");
-  const auto get = [&](std::int64_t at, void* data, std::size_t bytes) { file_.read(at, data, bytes); };
   AtomicFile file(path);
   {
     detail::Out o(path, file.temp_path());
     detail::write_ply_header(o, nv, nt, true, false, space);
     std::vector<std::array<float, 3>> v;
-    for (std::size_t k = 0; k < order.size(); ++k) {
-      const Part& p = parts_[order[k]];
+    for (std::size_t k = 0; k < counts.size(); ++k) {
       const Rgb c = colours.at(k);
-      for (std::size_t b = 0; b < p.vertices; b += kSpillChunk) {
-        v.resize(std::min(p.vertices - b, kSpillChunk));
-        get(p.offset + std::int64_t(b * sizeof(v[0])), v.data(), v.size() * sizeof(v[0]));
+      for (std::size_t b = 0; b < counts[k][0]; b += kSpillChunk) {
+        v.resize(std::min(counts[k][0] - b, kSpillChunk));
+        vertices(k, b, v);
         for (const auto& x : v) o.bin(x[0], x[1], x[2], c.r, c.g, c.b);
       }
     }
     std::vector<std::array<std::int32_t, 3>> t;
     std::int32_t first = 0;  // the part's first vertex in the file
-    for (const std::size_t k : order) {
-      const Part& p = parts_[k];
-      const std::int64_t at = p.offset + std::int64_t(p.vertices * sizeof(v[0]));
-      for (std::size_t b = 0; b < p.triangles; b += kSpillChunk) {
-        t.resize(std::min(p.triangles - b, kSpillChunk));
-        get(at + std::int64_t(b * sizeof(t[0])), t.data(), t.size() * sizeof(t[0]));
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+      for (std::size_t b = 0; b < counts[k][1]; b += kSpillChunk) {
+        t.resize(std::min(counts[k][1] - b, kSpillChunk));
+        triangles(k, b, t);
         for (const auto& a : t) o.bin(std::uint8_t(3), a[0] + first, a[1] + first, a[2] + first);
       }
-      first += std::int32_t(p.vertices);
+      first += std::int32_t(counts[k][0]);
     }
     o.close();
   }
   file.commit();
+}
+
+}  // namespace
+
+void PlyPartWriter::write(const std::string& path, const std::vector<std::size_t>& order, const std::vector<Rgb>& colours,
+                          const std::string& space) const {
+  std::vector<std::array<std::size_t, 2>> counts;
+  for (const std::size_t k : order) counts.push_back({parts_.at(k).vertices, parts_.at(k).triangles});
+  const auto get = [&](std::int64_t at, auto& chunk) {
+    file_.read(at, chunk.data(), chunk.size() * sizeof(chunk[0]));
+  };
+  write_ply_of_parts(
+      path, counts, colours, space,
+      [&](std::size_t k, std::size_t b, std::vector<std::array<float, 3>>& v) {
+        get(parts_[order[k]].offset + std::int64_t(b * sizeof(v[0])), v);
+      },
+      [&](std::size_t k, std::size_t b, std::vector<std::array<std::int32_t, 3>>& t) {
+        const Part& p = parts_[order[k]];
+        get(p.offset + std::int64_t(p.vertices * sizeof(std::array<float, 3>) + b * sizeof(t[0])), t);
+      });
+}
+
+void write_ply_parts(const std::string& path, const std::vector<PlyPart>& parts, const std::string& space) {
+  std::vector<std::array<std::size_t, 2>> counts;
+  std::vector<Rgb> colours;
+  for (const PlyPart& p : parts) {
+    const auto n = std::int64_t(p.mesh->vertices.size());
+    for (const auto& t : p.mesh->triangles)
+      for (const std::int32_t i : t)
+        if (i < 0 || i >= n) throw Error(path + ": a triangle references vertex " + std::to_string(i) + " of " + std::to_string(n));
+    counts.push_back({p.mesh->vertices.size(), p.mesh->triangles.size()});
+    colours.push_back(p.colour);
+  }
+  write_ply_of_parts(
+      path, counts, colours, space,
+      [&](std::size_t k, std::size_t b, std::vector<std::array<float, 3>>& v) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, v.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t i = r.begin(); i < r.end(); ++i) {
+            const Vec3f x = parts[k].place(parts[k].mesh->vertices[b + i]);
+            v[i] = {x.x(), x.y(), x.z()};
+          }
+        });
+      },
+      [&](std::size_t k, std::size_t b, std::vector<std::array<std::int32_t, 3>>& t) {
+        for (std::size_t i = 0; i < t.size(); ++i) {
+          const auto& a = parts[k].mesh->triangles[b + i];
+          t[i] = parts[k].flip ? std::array<std::int32_t, 3>{a[0], a[2], a[1]} : std::array<std::int32_t, 3>{a[0], a[1], a[2]};
+        }
+      });
 }
 
 }  // namespace isoloft

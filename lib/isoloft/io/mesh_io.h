@@ -98,6 +98,23 @@ TriMesh merge_meshes(const std::vector<TriMesh>& parts, const std::vector<Rgb>& 
 TriMesh merge_meshes(const std::vector<const TriMesh*>& parts, const std::vector<Rgb>& part_colors = {},
                      std::vector<Rgb>* vertex_colors = nullptr);
 
+/// One part of write_ply_parts(): its mesh, where each vertex goes, whether
+/// its triangles are reversed, and its vertices' colour.
+struct PlyPart {
+  const TriMesh* mesh = nullptr;
+  std::function<Vec3f(const Vec3f&)> place;
+  bool flip = false;
+  Rgb colour;
+};
+
+/// The binary PLY of the parts in order, each part's vertices as `place`
+/// puts them, in its colour, written from the parts themselves (no merged
+/// copy): the bytes write_mesh() writes for merge_meshes() of the placed
+/// parts, and PlyPartWriter::write()'s; `space` named as write_mesh() does.
+/// 	hrow Error naming `path` if writing fails, there are too many vertices
+///        or a triangle references a vertex its part does not have.
+void write_ply_parts(const std::string& path, const std::vector<PlyPart>& parts, const std::string& space);
+
 /// A binary PLY of many parts written without holding them (a run's combined
 /// mesh, run/outputs.h): add() spills each part's vertices, as `place` puts
 /// them, and its triangles to an unnamed scratch file (gone with the writer or

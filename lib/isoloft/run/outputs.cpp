@@ -121,6 +121,20 @@ namespace {
 // The run's objects merged in order (merge_meshes) and placed in patient mm,
 // each part through its job's frame, as its own file is (object_mesh_options()):
 // patient_point(), the triangles reversed where the frame mirrors.
+// One object as a part of the combined PLY (write_ply_parts(),
+// PlyPartWriter): placed as place_parts() places it in the merged mesh, then
+// as write_mesh() writes that with `mo`.
+PlyPart combined_part(const Inputs& in, std::size_t job, const MeshWriteOptions& mo, const TriMesh& mesh, Rgb colour) {
+  const std::optional<PatientFrame>& patient = in.jobs[job].stack.patient;
+  const std::optional<PatientFrame> part = mo.frame && patient ? std::optional(placing_frame(*patient)) : std::nullopt;
+  PlyPart p{&mesh, {}, part && part->axes.determinant() < 0, colour};
+  p.place = [frame = mo.frame, ras = mo.ras, scale = mo.scale, part](const Vec3f& v) -> Vec3f {
+    if (frame) return patient_point(*frame, ras, part ? patient_point(*part, false, v) : v);
+    return scale == 1.0 ? v : Vec3f((v.cast<double>() * scale).cast<float>());
+  };
+  return p;
+}
+
 void place_parts(const Inputs& in, const RunResult& r, TriMesh& combined) {
   std::vector<std::size_t> v0{0}, t0{0};
   for (const RunObject& o : r.objects)
@@ -157,6 +171,12 @@ void write_run_meshes(const std::string& output, const Inputs& in, RunResult& r,
   };
   auto write_combined = [&] {
     if (!several) return;
+    if (!mo.ascii && mesh_format_from_path(output) == MeshFormat::Ply) {  // from the parts, no merged copy
+      std::vector<PlyPart> parts;
+      for (const auto& o : r.objects) parts.push_back(combined_part(in, o.job, mo, o.object.mesh, o.colour));
+      write_ply_parts(combined_path, parts, mo.frame ? (mo.ras ? "RAS" : "LPS") : "");
+      return;
+    }
     std::vector<const TriMesh*> parts;
     std::vector<Rgb> colours;
     std::vector<std::uint32_t> triangle_labels;
@@ -368,15 +388,8 @@ void MeshOutput::stream_object(const RunContext& ctx, std::size_t job, const Obj
   const std::string staged = ctx.files.stage(with_suffix(path_, object_suffix(ctx.in, job, ob.label)));
   write_mesh(staged, ob.mesh, object_mesh_options(ctx.in, named, mo));
   if (!parts_) parts_ = std::make_unique<PlyPartWriter>(fs::path(staged).parent_path().string());  // its folder exists now
-  // As write_run_meshes() places the combined mesh: each part through its
-  // job's frame (place_parts()), then as write_mesh() writes it.
-  const std::optional<PatientFrame>& patient = ctx.in.jobs[job].stack.patient;
-  const std::optional<PatientFrame> part = mo.frame && patient ? std::optional(placing_frame(*patient)) : std::nullopt;
-  const auto place = [&](const Vec3f& v) -> Vec3f {
-    if (mo.frame) return patient_point(*mo.frame, mo.ras, part ? patient_point(*part, false, v) : v);
-    return mo.scale == 1.0 ? v : Vec3f((v.cast<double>() * mo.scale).cast<float>());
-  };
-  spilled_[{job, ob.label}] = parts_->add(ob.mesh, place, part && part->axes.determinant() < 0);
+  const PlyPart part = combined_part(ctx.in, job, mo, ob.mesh, {});
+  spilled_[{job, ob.label}] = parts_->add(ob.mesh, part.place, part.flip);
 }
 
 void MeshOutput::object_done(const RunContext& ctx, std::size_t job, ObjectResult& ob) {
