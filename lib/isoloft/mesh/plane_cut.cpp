@@ -144,6 +144,12 @@ std::vector<double> volumes_above(const TriMesh& mesh, const std::vector<double>
     for (std::size_t k = 0; k < zs.size(); ++k) {
       const double z = at[k];
       const Vec3d origin(0, 0, z);
+      const int above = int(v[0].z() >= z) + int(v[1].z() >= z) + int(v[2].z() >= z);
+      if (above == 0) continue;  // clipped away
+      if (above == 3) {          // whole: the one fan triangle of the clip below, the same arithmetic
+        six[k] += (v[0] - origin).dot((v[1] - origin).cross(v[2] - origin));
+        continue;
+      }
       // The triangle clipped to z >= `z` (a polygon of up to 4 corners, in order), fanned.
       Vec3d poly[4];
       int n = 0;
