@@ -23,6 +23,8 @@ namespace {
 constexpr double kPlaneReachExtents = 2.0, kReachGrowth = 4.0;
 // At most this many points left: candidates by each point's own box, not its plane.
 constexpr std::size_t kFewPoints = 64;
+// Triangles per task when the candidates near the points' planes are picked.
+constexpr std::size_t kSelectChunk = std::size_t(1) << 16;
 
 // A triangle's bounding box, from its float corners.
 struct Box {
@@ -231,11 +233,17 @@ std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<
       for (const std::size_t i : todo) zs.push_back(points[i].z());
       std::sort(zs.begin(), zs.end());
       zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
-      for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-        const Box b = triangle_box(mesh, i);
-        const auto it = std::lower_bound(zs.begin(), zs.end(), double(b.lo.z()) - reach);
-        if (it != zs.end() && *it <= double(b.hi.z()) + reach) ids.push_back(std::int32_t(i));
-      }
+      // Chunks side by side, joined in order: the ids increasing, as one pass gives them.
+      const std::size_t chunks = (mesh.triangles.size() + kSelectChunk - 1) / kSelectChunk;
+      std::vector<std::vector<std::int32_t>> part(chunks);
+      tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        for (std::size_t i = c * kSelectChunk; i < std::min(mesh.triangles.size(), (c + 1) * kSelectChunk); ++i) {
+          const Box b = triangle_box(mesh, i);
+          const auto it = std::lower_bound(zs.begin(), zs.end(), double(b.lo.z()) - reach);
+          if (it != zs.end() && *it <= double(b.hi.z()) + reach) part[c].push_back(std::int32_t(i));
+        }
+      });
+      for (const auto& p : part) ids.insert(ids.end(), p.begin(), p.end());
     }
     const bool every = ids.size() == mesh.triangles.size();
     const TriangleGrid grid(mesh, ids);
