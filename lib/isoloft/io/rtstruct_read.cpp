@@ -6,8 +6,12 @@
 #include "isoloft/io/rtstruct_dcmtk.h"
 
 #include "dcmtk/dcmdata/dcdeftag.h"
+#include "dcmtk/dcmdata/dcitem.h"
+#include "dcmtk/dcmdata/dcsequen.h"
 #include "dcmtk/dcmdata/dcspchrs.h"
 #include "dcmtk/dcmdata/dcuid.h"
+#include "dcmtk/dcmdata/dcvrds.h"
+#include "dcmtk/dcmdata/dcvris.h"
 #include "dcmtk/dcmrt/drtstrct.h"
 #include "dcmtk/oflog/appender.h"
 #include "dcmtk/oflog/spi/logevent.h"
@@ -216,6 +220,9 @@ RtStructureSet read_rtstruct(const std::string& path) {
   if (sop != UID_RTStructureSetStorage)
     throw InputError(path, std::string("not a DICOM RT Structure Set (SOP class ") +
                                (sop.empty() ? "missing" : dcmFindNameOfUID(sop.c_str(), sop.c_str())) + ")");
+  // The contours are read from the dataset itself (below): the IOD's read
+  // checks every ContourData value against its VR, most of the read's time.
+  const std::unique_ptr<DcmElement> roi_contours(ff.getDataset()->remove(DCM_ROIContourSequence));
   auto rt = std::make_unique<DRTStructureSetIOD>();  // large: on the heap
   st = rt->read(*ff.getDataset());
   if (st.bad()) throw InputError(path, std::string("not a valid RT Structure Set (") + st.text() + ")");
@@ -248,31 +255,42 @@ RtStructureSet read_rtstruct(const std::string& path) {
     if (!added) out.rois[it->second].number_shared = out.rois.back().number_shared = true;
   }
   if (out.rois.empty()) throw InputError(path, "the RT Structure Set holds no ROI");
-  DRTROIContourSequence& contours = rt->getROIContourSequence();
-  for (std::size_t r = 0; r < contours.getNumberOfItems(); ++r) {
-    auto& item = contours.getItem(r);
+  // As the IOD reads them: an element of another VR than the standard's is
+  // taken as absent (DcmElement::copyFrom refuses another class).
+  auto typed = [](DcmItem* item, const DcmTagKey& tag, DcmEVR vr) -> DcmElement* {
+    DcmElement* e = nullptr;
+    return item && item->findAndGetElement(tag, e, OFFalse).good() && e && e->ident() == vr ? e : nullptr;
+  };
+  auto items = [](DcmItem* item, const DcmTagKey& tag) -> DcmSequenceOfItems* {
+    DcmSequenceOfItems* seq = nullptr;
+    return item && item->findAndGetSequence(tag, seq, OFFalse).good() ? seq : nullptr;
+  };
+  auto* contours = roi_contours && roi_contours->ident() == EVR_SQ ? static_cast<DcmSequenceOfItems*>(roi_contours.get()) : nullptr;
+  for (unsigned long r = 0; contours && r < contours->card(); ++r) {
+    DcmItem* item = contours->getItem(r);
     OFString ref_text;
-    item.getReferencedROINumber(ref_text);
+    if (DcmElement* e = typed(item, DCM_ReferencedROINumber, EVR_IS)) e->getOFString(ref_text, 0);
     const Sint32 ref = roi_number_of(ref_text, path, "ROIContourSequence item " + std::to_string(r + 1) + ": ReferencedROINumber");
+    DcmSequenceOfItems* seq = items(item, DCM_ContourSequence);
+    const unsigned long count = seq ? seq->card() : 0;
     const auto it = by_number.find(ref);
     if (it == by_number.end()) {  // contours of no listed ROI: nobody's name, colour or number to give them
-      out.unlisted_contours[int(ref)] += int(item.getContourSequence().getNumberOfItems());
+      out.unlisted_contours[int(ref)] += int(count);
       continue;
     }
     RtRoi& roi = out.rois[it->second];
     if (roi.number_shared) continue;  // whose? selecting either ROI is an error
     Sint32 c[3];
-    if (item.getROIDisplayColor(c[0], 0).good() && item.getROIDisplayColor(c[1], 1).good() &&
-        item.getROIDisplayColor(c[2], 2).good())
+    if (auto* colour = static_cast<DcmIntegerString*>(typed(item, DCM_ROIDisplayColor, EVR_IS));
+        colour && colour->getSint32(c[0], 0).good() && colour->getSint32(c[1], 1).good() && colour->getSint32(c[2], 2).good())
       roi.color = Rgb{std::uint8_t(std::clamp(c[0], 0, 255)), std::uint8_t(std::clamp(c[1], 0, 255)),
                       std::uint8_t(std::clamp(c[2], 0, 255))};
-    DRTContourSequence& seq = item.getContourSequence();
-    for (std::size_t k = 0; k < seq.getNumberOfItems(); ++k) {
-      auto& ct = seq.getItem(k);
+    for (unsigned long k = 0; k < count; ++k) {
+      DcmItem* ct = seq->getItem(k);
       OFString type;
-      ct.getContourGeometricType(type);
+      if (DcmElement* e = typed(ct, DCM_ContourGeometricType, EVR_CS)) e->getOFString(type, 0);
       OFVector<Float64> xyz;
-      ct.getContourData(xyz);
+      if (auto* data = static_cast<DcmDecimalString*>(typed(ct, DCM_ContourData, EVR_DS))) data->getFloat64Vector(xyz);
       RtContour contour{rtrim(type.c_str()), {}};
       for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) contour.points.emplace_back(xyz[i], xyz[i + 1], xyz[i + 2]);
       for (const Vec3d& p : contour.points)
