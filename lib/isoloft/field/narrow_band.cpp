@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
@@ -93,21 +94,24 @@ ZeroSet marching_squares(const Grid2f& s, const ImplicitFn& f, int refine_iterat
   std::vector<std::array<std::int32_t, 2>> ends;  // vertex ids of each segment's end points
   const int w = s.width, h = s.height;
   if (w < 2 || h < 2) return zs;
-  auto in = [&](int x, int y) { return s(x, y) > 0.0f; };
   // Each edge vertex is computed once and shared by both cells: the polyline
-  // is watertight and f is evaluated once per crossed edge.
-  std::vector<std::int32_t> hidx(std::size_t(w - 1) * h, -1), vidx(std::size_t(w) * (h - 1), -1);
+  // is watertight and f is evaluated once per crossed edge. Vertex ids of the
+  // cell row's edges only: its top and bottom horizontal edges (the bottom
+  // ones become the next row's top) and its vertical edges.
+  const auto cells = std::size_t(w - 1), pixels = std::size_t(w);
+  std::vector<std::int32_t> htop(cells, -1), hbottom(cells), vrow(pixels);
   std::vector<Vec2d> verts;
-  auto hvert = [&](int x, int y) {  // edge (x, y) - (x + 1, y); returns the vertex id
-    std::int32_t& id = hidx[std::size_t(y) * (w - 1) + x];
+  int y = 0;  // the cell row
+  auto hvert = [&](int x, int yy) {  // edge (x, yy) - (x + 1, yy), yy = y or y + 1; returns the vertex id
+    std::int32_t& id = (yy == y ? htop : hbottom)[std::size_t(x)];
     if (id < 0) {
       id = std::int32_t(verts.size());
-      verts.push_back(edge_zero(Vec2d(x, y), s(x, y), Vec2d(x + 1, y), s(x + 1, y), f, refine_iterations));
+      verts.push_back(edge_zero(Vec2d(x, yy), s(x, yy), Vec2d(x + 1, yy), s(x + 1, yy), f, refine_iterations));
     }
     return id;
   };
-  auto vvert = [&](int x, int y) {  // edge (x, y) - (x, y + 1)
-    std::int32_t& id = vidx[std::size_t(y) * w + x];
+  auto vvert = [&](int x) {  // edge (x, y) - (x, y + 1)
+    std::int32_t& id = vrow[std::size_t(x)];
     if (id < 0) {
       id = std::int32_t(verts.size());
       verts.push_back(edge_zero(Vec2d(x, y), s(x, y), Vec2d(x, y + 1), s(x, y + 1), f, refine_iterations));
@@ -127,18 +131,43 @@ ZeroSet marching_squares(const Grid2f& s, const ImplicitFn& f, int refine_iterat
     }
     ends.push_back({prev, ib});
   };
-  for (int y = 0; y + 1 < h; ++y) {
+  // Per cell of the row, its corners' sides (v0 bit 0 .. v3 bit 3); 0 and 15
+  // (no crossing) are skipped eight cells at a time.
+  std::vector<std::uint8_t> in_top(pixels), in_bottom(pixels), code(cells);
+  const auto sides = [&](int row, std::vector<std::uint8_t>& out) {
+    const float* v = &s.data[s.index(0, row)];
+    for (int x = 0; x < w; ++x) out[std::size_t(x)] = v[x] > 0.0f;
+  };
+  sides(0, in_bottom);
+  constexpr std::uint64_t kAllIn = 0x0F0F0F0F0F0F0F0FULL;
+  for (; y + 1 < h; ++y) {
+    std::swap(in_top, in_bottom);
+    sides(y + 1, in_bottom);
+    if (y > 0) std::swap(htop, hbottom);
+    std::fill(hbottom.begin(), hbottom.end(), -1);
+    std::fill(vrow.begin(), vrow.end(), -1);
+    for (int x = 0; x + 1 < w; ++x)
+      code[std::size_t(x)] = std::uint8_t(in_top[std::size_t(x)] | in_top[std::size_t(x) + 1] << 1 |
+                                          in_bottom[std::size_t(x) + 1] << 2 | in_bottom[std::size_t(x)] << 3);
     for (int x = 0; x + 1 < w; ++x) {
+      if (x + 8 <= w - 1) {
+        std::uint64_t eight;
+        std::memcpy(&eight, &code[std::size_t(x)], sizeof eight);
+        if (eight == 0 || eight == kAllIn) {
+          x += 7;
+          continue;
+        }
+      }
       // Corners v0 (x,y), v1 (x+1,y), v2 (x+1,y+1), v3 (x,y+1);
       // edges e0 = v0v1, e1 = v1v2, e2 = v3v2, e3 = v0v3.
-      const int c = int(in(x, y)) | int(in(x + 1, y)) << 1 | int(in(x + 1, y + 1)) << 2 | int(in(x, y + 1)) << 3;
+      const int c = code[std::size_t(x)];
       if (c == 0 || c == 15) continue;
       auto e = [&](int k) {
         switch (k) {
           case 0: return hvert(x, y);
-          case 1: return vvert(x + 1, y);
+          case 1: return vvert(x + 1);
           case 2: return hvert(x, y + 1);
-          default: return vvert(x, y);
+          default: return vvert(x);
         }
       };
       // Edges whose corners differ, in order e0..e3.
