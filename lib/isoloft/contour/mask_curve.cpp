@@ -25,9 +25,17 @@ Grid2f gaussian(const Grid2u8& m, double sigma) {
   double sum = 0;
   for (int i = -r; i <= r; ++i) sum += wt[std::size_t(i + r)] = float(std::exp(-0.5 * i * i / (sigma * sigma)));
   for (float& v : wt) v = float(v / sum);
+  // Rows without a mask pixel sum to +0 (every product is +0): skipped, as
+  // are output rows whose stencil meets only such rows.
+  std::vector<char> row_set(static_cast<std::size_t>(h));
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* row = &m.data[m.index(0, y)];
+    row_set[std::size_t(y)] = std::any_of(row, row + w, [](std::uint8_t v) { return v != 0; });
+  }
   Grid2f tmp(w, h);
   const int x0 = std::min(r, w), x1 = std::max(x0, w - r);  // [x0, x1): whole row stencils
   for (int y = 0; y < h; ++y) {
+    if (!row_set[std::size_t(y)]) continue;
     const float* in = &out.data[out.index(0, y)];
     float* __restrict t = &tmp.data[tmp.index(0, y)];
     const auto clipped = [&](int x) {
@@ -47,7 +55,9 @@ Grid2f gaussian(const Grid2u8& m, double sigma) {
   for (int y = 0; y < h; ++y) {
     float* __restrict o = &out.data[out.index(0, y)];
     std::fill(o, o + w, 0.0f);
-    for (int i = std::max(-r, -y); i <= std::min(r, h - 1 - y); ++i) {
+    const int i0 = std::max(-r, -y), i1 = std::min(r, h - 1 - y);
+    if (std::none_of(&row_set[std::size_t(y + i0)], &row_set[std::size_t(y + i1)] + 1, [](char v) { return v != 0; })) continue;
+    for (int i = i0; i <= i1; ++i) {
       const float g = wt[std::size_t(i + r)];
       const float* __restrict src = &tmp.data[tmp.index(0, y + i)];
       for (int x = 0; x < w; ++x) o[x] += g * src[x];
@@ -97,7 +107,9 @@ Grid2u8 thin_side(const Grid2u8& m, double width) {
   for (int dy = -r; dy <= r; ++dy)
     for (int dx = 0; dx <= r && dx * dx + dy * dy < s_min; ++dx) span[std::size_t(dy + r)] = dx;
   Grid2u8 side(w, h), deep(w, h, 1);
-  for (std::size_t i = 0; i < m.size(); ++i) side.data[i] = m.data[i] != 0;
+  const std::uint8_t* in = m.data.data();
+  std::uint8_t* sides = side.data.data();  // raw: a byte store may alias a vector's own pointer
+  for (std::size_t i = 0, n = m.size(); i < n; ++i) sides[i] = in[i] != 0;
   // Row v's `run[s]`: every pixel of row v within s of x (in the grid) is on
   // x's side. Deep (every window pixel in the grid on p's side) is the AND,
   // over the window's rows, of row p.y + dy's run[span] at x and its side
@@ -134,7 +146,7 @@ Grid2u8 thin_side(const Grid2u8& m, double width) {
     const std::uint8_t* d = &deep.data[deep.index(0, y)];
     const std::uint8_t* sy = &side.data[side.index(0, y)];
     std::uint8_t* __restrict o = &rows.data[rows.index(0, y)];
-    const auto bits = [&](int x) { return std::uint8_t(d[x] << (1 - sy[x])); };
+    const auto bits = [&](int x) { return std::uint8_t((d[x] & sy[x]) | (d[x] & (sy[x] ^ 1)) * 2); };
     const auto edge = [&](int x) { o[x] = std::uint8_t((x > 0 ? bits(x - 1) : 0) | bits(x) | (x + 1 < w ? bits(x + 1) : 0)); };
     edge(0);
     for (int x = 1; x + 1 < w; ++x) o[x] = std::uint8_t(bits(x - 1) | bits(x) | bits(x + 1));

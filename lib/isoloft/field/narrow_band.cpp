@@ -247,28 +247,40 @@ void fill_band(NarrowBandResult& r, double bw) {
     const int x1 = std::min(w - 1, int(std::floor(std::max(sg[0].x(), sg[1].x()) + bw)));
     const int y0 = std::max(0, int(std::ceil(std::min(sg[0].y(), sg[1].y()) - bw)));
     const int y1 = std::min(h - 1, int(std::floor(std::max(sg[0].y(), sg[1].y()) + bw)));
+    // closest_point_on_segment's arithmetic, the segment's part once.
+    const double ax = sg[0].x(), ay = sg[0].y(), abx = sg[1].x() - ax, aby = sg[1].y() - ay;
+    const double len2 = abx * abx + aby * aby;
     for (int y = y0; y <= y1; ++y) {
+      double* row_best = &best[r.nearest_segment.index(0, y)];
+      std::int32_t* row_seg = &r.nearest_segment.data[r.nearest_segment.index(0, y)];
       for (int x = x0; x <= x1; ++x) {
-        const Vec2d p(x, y);
-        const double d2 = (p - detail::closest_point_on_segment(p, sg[0], sg[1])).squaredNorm();
-        const std::size_t i = r.nearest_segment.index(x, y);
-        if (d2 < best[i]) {
-          best[i] = d2;
-          r.nearest_segment.data[i] = std::int32_t(k);
+        double cx = ax, cy = ay;
+        if (!(len2 <= 0.0)) {
+          const double t = std::clamp(((x - ax) * abx + (y - ay) * aby) / len2, 0.0, 1.0);
+          cx = ax + t * abx, cy = ay + t * aby;
+        }
+        const double ex = x - cx, ey = y - cy, d2 = ex * ex + ey * ey;
+        if (d2 < row_best[x]) {
+          row_best[x] = d2;
+          row_seg[x] = std::int32_t(k);
         }
       }
     }
   }
   r.distance = Grid2f(w, h);
-  for (std::size_t i = 0; i < best.size(); ++i) {
-    const float sign = r.inside.data[i] ? 1.0f : -1.0f;
-    if (best[i] <= bw * bw) {
-      r.known.data[i] = 1;
-      r.distance.data[i] = sign * float(std::sqrt(best[i]));
-    } else {
-      r.distance.data[i] = sign * kNoSurfaceDistance;
-      r.nearest_segment.data[i] = -1;
-    }
+  const double bw2 = bw * bw;
+  // Raw pointers: a byte store may alias a vector's own pointer, which would
+  // be loaded again on every pixel.
+  const std::uint8_t* inside = r.inside.data.data();
+  std::uint8_t* known = r.known.data.data();
+  float* distance = r.distance.data.data();
+  std::int32_t* nearest = r.nearest_segment.data.data();
+  for (std::size_t i = 0, n = best.size(); i < n; ++i) {
+    const float sign = inside[i] ? 1.0f : -1.0f;
+    const bool in_band = best[i] <= bw2;
+    known[i] = in_band;
+    distance[i] = sign * (in_band ? float(std::sqrt(best[i])) : kNoSurfaceDistance);
+    if (!in_band) nearest[i] = -1;
   }
 }
 
@@ -301,17 +313,22 @@ NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn&
   params_table<NarrowBandParams>().validate(params);
   if (f_samples.empty()) throw InputError("implicit samples", "grid is empty");
   const int w = f_samples.width, h = f_samples.height;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (std::isnan(f_samples(x, y)))
-        throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+  int any_nan = 0;  // one pass without a branch (an int: vectorised), then the first NaN named
+  for (const float v : f_samples.data) any_nan |= v != v;
+  if (any_nan)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (std::isnan(f_samples(x, y)))
+          throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
 
   NarrowBandResult r;
   detail::ZeroSet zs = detail::marching_squares(f_samples, f, params.refine_iterations, params.segment_splits);
   r.segments = std::move(zs.segments);
   r.links = std::move(zs.links);
   r.inside = Grid2u8(w, h, 0);
-  for (std::size_t i = 0; i < f_samples.size(); ++i) r.inside.data[i] = f_samples.data[i] > 0.0f ? 1 : 0;
+  const float* samples = f_samples.data.data();
+  std::uint8_t* inside = r.inside.data.data();  // raw: see fill_band
+  for (std::size_t i = 0, n = f_samples.size(); i < n; ++i) inside[i] = samples[i] > 0.0f ? 1 : 0;
   detail::fill_band(r, params.band_width);
   return r;
 }
