@@ -337,12 +337,17 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
   auto at = [pw](int x, int y) { return (y + 1) * pw + x + 1; };
   long left = 0;  // required pixels not known yet
   bool any = false;
+  // Raw pointers: the cells' byte stores may alias a vector's own pointer,
+  // which would be loaded again on every pixel.
+  const std::uint8_t* known = band.known.data.data();
+  const std::uint8_t* needed = required ? required->data.data() : nullptr;
   for (int y = 0; y < h; ++y) {
+    MarchCell* row = &cell[std::size_t(at(0, y))];
     for (int x = 0; x < w; ++x) {
       const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
-      MarchCell& c = cell[std::size_t(at(x, y))];
-      c.required = required && required->data[i];
-      if (!band.known.data[i]) {
+      MarchCell& c = row[x];
+      c.required = needed && needed[i];
+      if (!known[i]) {
         c.status = kFar;
         left += c.required;
         continue;
@@ -374,7 +379,7 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
   };
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      if (band.known.data[std::size_t(y) * std::size_t(w) + std::size_t(x)]) offer_from(at(x, y), x, y);
+      if (known[std::size_t(y) * std::size_t(w) + std::size_t(x)]) offer_from(at(x, y), x, y);
   while (!trial.empty() && !(required && left == 0)) {
     double m = kInf;
     for (int p : trial) m = std::min(m, cell[std::size_t(p)].value);
@@ -411,12 +416,14 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
     }
   }
   Grid2f out(w, h);
+  const std::uint8_t* inside = band.inside.data.data();
   for (int y = 0; y < h; ++y) {
+    const MarchCell* row = &cell[std::size_t(at(0, y))];
     for (int x = 0; x < w; ++x) {
       const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
-      const double v = cell[std::size_t(at(x, y))].value;
-      const float sign = band.inside.data[i] ? 1.0f : -1.0f;
-      if (band.known.data[i])
+      const double v = row[x].value;
+      const float sign = inside[i] ? 1.0f : -1.0f;
+      if (known[i])
         out.data[i] = band.distance.data[i];
       else if (!any || !std::isfinite(v))
         out.data[i] = sign * kNoSurfaceDistance;

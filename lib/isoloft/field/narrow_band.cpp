@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
@@ -93,21 +94,24 @@ ZeroSet marching_squares(const Grid2f& s, const ImplicitFn& f, int refine_iterat
   std::vector<std::array<std::int32_t, 2>> ends;  // vertex ids of each segment's end points
   const int w = s.width, h = s.height;
   if (w < 2 || h < 2) return zs;
-  auto in = [&](int x, int y) { return s(x, y) > 0.0f; };
   // Each edge vertex is computed once and shared by both cells: the polyline
-  // is watertight and f is evaluated once per crossed edge.
-  std::vector<std::int32_t> hidx(std::size_t(w - 1) * h, -1), vidx(std::size_t(w) * (h - 1), -1);
+  // is watertight and f is evaluated once per crossed edge. Vertex ids of the
+  // cell row's edges only: its top and bottom horizontal edges (the bottom
+  // ones become the next row's top) and its vertical edges.
+  const auto cells = std::size_t(w - 1), pixels = std::size_t(w);
+  std::vector<std::int32_t> htop(cells, -1), hbottom(cells), vrow(pixels);
   std::vector<Vec2d> verts;
-  auto hvert = [&](int x, int y) {  // edge (x, y) - (x + 1, y); returns the vertex id
-    std::int32_t& id = hidx[std::size_t(y) * (w - 1) + x];
+  int y = 0;  // the cell row
+  auto hvert = [&](int x, int yy) {  // edge (x, yy) - (x + 1, yy), yy = y or y + 1; returns the vertex id
+    std::int32_t& id = (yy == y ? htop : hbottom)[std::size_t(x)];
     if (id < 0) {
       id = std::int32_t(verts.size());
-      verts.push_back(edge_zero(Vec2d(x, y), s(x, y), Vec2d(x + 1, y), s(x + 1, y), f, refine_iterations));
+      verts.push_back(edge_zero(Vec2d(x, yy), s(x, yy), Vec2d(x + 1, yy), s(x + 1, yy), f, refine_iterations));
     }
     return id;
   };
-  auto vvert = [&](int x, int y) {  // edge (x, y) - (x, y + 1)
-    std::int32_t& id = vidx[std::size_t(y) * w + x];
+  auto vvert = [&](int x) {  // edge (x, y) - (x, y + 1)
+    std::int32_t& id = vrow[std::size_t(x)];
     if (id < 0) {
       id = std::int32_t(verts.size());
       verts.push_back(edge_zero(Vec2d(x, y), s(x, y), Vec2d(x, y + 1), s(x, y + 1), f, refine_iterations));
@@ -127,18 +131,43 @@ ZeroSet marching_squares(const Grid2f& s, const ImplicitFn& f, int refine_iterat
     }
     ends.push_back({prev, ib});
   };
-  for (int y = 0; y + 1 < h; ++y) {
+  // Per cell of the row, its corners' sides (v0 bit 0 .. v3 bit 3); 0 and 15
+  // (no crossing) are skipped eight cells at a time.
+  std::vector<std::uint8_t> in_top(pixels), in_bottom(pixels), code(cells);
+  const auto sides = [&](int row, std::vector<std::uint8_t>& out) {
+    const float* v = &s.data[s.index(0, row)];
+    for (int x = 0; x < w; ++x) out[std::size_t(x)] = v[x] > 0.0f;
+  };
+  sides(0, in_bottom);
+  constexpr std::uint64_t kAllIn = 0x0F0F0F0F0F0F0F0FULL;
+  for (; y + 1 < h; ++y) {
+    std::swap(in_top, in_bottom);
+    sides(y + 1, in_bottom);
+    if (y > 0) std::swap(htop, hbottom);
+    std::fill(hbottom.begin(), hbottom.end(), -1);
+    std::fill(vrow.begin(), vrow.end(), -1);
+    for (int x = 0; x + 1 < w; ++x)
+      code[std::size_t(x)] = std::uint8_t(in_top[std::size_t(x)] | in_top[std::size_t(x) + 1] << 1 |
+                                          in_bottom[std::size_t(x) + 1] << 2 | in_bottom[std::size_t(x)] << 3);
     for (int x = 0; x + 1 < w; ++x) {
+      if (x + 8 <= w - 1) {
+        std::uint64_t eight;
+        std::memcpy(&eight, &code[std::size_t(x)], sizeof eight);
+        if (eight == 0 || eight == kAllIn) {
+          x += 7;
+          continue;
+        }
+      }
       // Corners v0 (x,y), v1 (x+1,y), v2 (x+1,y+1), v3 (x,y+1);
       // edges e0 = v0v1, e1 = v1v2, e2 = v3v2, e3 = v0v3.
-      const int c = int(in(x, y)) | int(in(x + 1, y)) << 1 | int(in(x + 1, y + 1)) << 2 | int(in(x, y + 1)) << 3;
+      const int c = code[std::size_t(x)];
       if (c == 0 || c == 15) continue;
       auto e = [&](int k) {
         switch (k) {
           case 0: return hvert(x, y);
-          case 1: return vvert(x + 1, y);
+          case 1: return vvert(x + 1);
           case 2: return hvert(x, y + 1);
-          default: return vvert(x, y);
+          default: return vvert(x);
         }
       };
       // Edges whose corners differ, in order e0..e3.
@@ -218,28 +247,40 @@ void fill_band(NarrowBandResult& r, double bw) {
     const int x1 = std::min(w - 1, int(std::floor(std::max(sg[0].x(), sg[1].x()) + bw)));
     const int y0 = std::max(0, int(std::ceil(std::min(sg[0].y(), sg[1].y()) - bw)));
     const int y1 = std::min(h - 1, int(std::floor(std::max(sg[0].y(), sg[1].y()) + bw)));
+    // closest_point_on_segment's arithmetic, the segment's part once.
+    const double ax = sg[0].x(), ay = sg[0].y(), abx = sg[1].x() - ax, aby = sg[1].y() - ay;
+    const double len2 = abx * abx + aby * aby;
     for (int y = y0; y <= y1; ++y) {
+      double* row_best = &best[r.nearest_segment.index(0, y)];
+      std::int32_t* row_seg = &r.nearest_segment.data[r.nearest_segment.index(0, y)];
       for (int x = x0; x <= x1; ++x) {
-        const Vec2d p(x, y);
-        const double d2 = (p - detail::closest_point_on_segment(p, sg[0], sg[1])).squaredNorm();
-        const std::size_t i = r.nearest_segment.index(x, y);
-        if (d2 < best[i]) {
-          best[i] = d2;
-          r.nearest_segment.data[i] = std::int32_t(k);
+        double cx = ax, cy = ay;
+        if (!(len2 <= 0.0)) {
+          const double t = std::clamp(((x - ax) * abx + (y - ay) * aby) / len2, 0.0, 1.0);
+          cx = ax + t * abx, cy = ay + t * aby;
+        }
+        const double ex = x - cx, ey = y - cy, d2 = ex * ex + ey * ey;
+        if (d2 < row_best[x]) {
+          row_best[x] = d2;
+          row_seg[x] = std::int32_t(k);
         }
       }
     }
   }
   r.distance = Grid2f(w, h);
-  for (std::size_t i = 0; i < best.size(); ++i) {
-    const float sign = r.inside.data[i] ? 1.0f : -1.0f;
-    if (best[i] <= bw * bw) {
-      r.known.data[i] = 1;
-      r.distance.data[i] = sign * float(std::sqrt(best[i]));
-    } else {
-      r.distance.data[i] = sign * kNoSurfaceDistance;
-      r.nearest_segment.data[i] = -1;
-    }
+  const double bw2 = bw * bw;
+  // Raw pointers: a byte store may alias a vector's own pointer, which would
+  // be loaded again on every pixel.
+  const std::uint8_t* inside = r.inside.data.data();
+  std::uint8_t* known = r.known.data.data();
+  float* distance = r.distance.data.data();
+  std::int32_t* nearest = r.nearest_segment.data.data();
+  for (std::size_t i = 0, n = best.size(); i < n; ++i) {
+    const float sign = inside[i] ? 1.0f : -1.0f;
+    const bool in_band = best[i] <= bw2;
+    known[i] = in_band;
+    distance[i] = sign * (in_band ? float(std::sqrt(best[i])) : kNoSurfaceDistance);
+    if (!in_band) nearest[i] = -1;
   }
 }
 
@@ -272,17 +313,22 @@ NarrowBandResult narrow_band_distance(const Grid2f& f_samples, const ImplicitFn&
   params_table<NarrowBandParams>().validate(params);
   if (f_samples.empty()) throw InputError("implicit samples", "grid is empty");
   const int w = f_samples.width, h = f_samples.height;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (std::isnan(f_samples(x, y)))
-        throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
+  int any_nan = 0;  // one pass without a branch (an int: vectorised), then the first NaN named
+  for (const float v : f_samples.data) any_nan |= v != v;
+  if (any_nan)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (std::isnan(f_samples(x, y)))
+          throw InputError("implicit samples", "NaN at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")");
 
   NarrowBandResult r;
   detail::ZeroSet zs = detail::marching_squares(f_samples, f, params.refine_iterations, params.segment_splits);
   r.segments = std::move(zs.segments);
   r.links = std::move(zs.links);
   r.inside = Grid2u8(w, h, 0);
-  for (std::size_t i = 0; i < f_samples.size(); ++i) r.inside.data[i] = f_samples.data[i] > 0.0f ? 1 : 0;
+  const float* samples = f_samples.data.data();
+  std::uint8_t* inside = r.inside.data.data();  // raw: see fill_band
+  for (std::size_t i = 0, n = f_samples.size(); i < n; ++i) inside[i] = samples[i] > 0.0f ? 1 : 0;
   detail::fill_band(r, params.band_width);
   return r;
 }

@@ -41,28 +41,39 @@ constexpr int kGivenBoundaryUnknownWithin = 2;
 Grid2u8 dilate_square(const Grid2u8& g, int r) {
   if (r <= 0) return g;
   const int w = g.width, h = g.height;
-  Grid2u8 rows(w, h, 0), out(w, h, 0);
-  // A row pass then a column pass of running counts: O(1) per pixel for any r.
+  Grid2u8 rows(w, h), out(w, h);
+  // Row pass: each row zero-padded by r, OR-ed with itself shifted by 1, 2,
+  // 4, ... (cur[i]: any of the 2^k from i), then two such windows cover the
+  // 2r + 1 around a pixel. Byte loops over contiguous pixels.
+  const int span = 2 * r + 1, n = w + 2 * r;
+  std::vector<std::uint8_t> cur(std::size_t(n), 0);
+  int len = 1;
+  while (2 * len <= span) len *= 2;
   for (int y = 0; y < h; ++y) {
     const std::uint8_t* in = &g.data[g.index(0, y)];
-    std::uint8_t* o = &rows.data[rows.index(0, y)];
-    int count = 0;
-    for (int x = 0; x < std::min(w, r); ++x) count += in[x];
-    for (int x = 0; x < w; ++x) {
-      if (x + r < w) count += in[x + r];
-      if (x - r - 1 >= 0) count -= in[x - r - 1];
-      o[x] = count > 0;
+    for (int x = 0; x < w; ++x) cur[std::size_t(r + x)] = in[x] != 0;
+    std::fill(cur.begin() + r + w, cur.end(), std::uint8_t(0));
+    std::fill(cur.begin(), cur.begin() + r, std::uint8_t(0));
+    for (int l = 1; l < len; l *= 2) {
+      std::uint8_t* c = cur.data();
+      for (int i = 0; i + 2 * l <= n; ++i) c[i] |= c[i + l];
     }
+    std::uint8_t* o = &rows.data[rows.index(0, y)];
+    const std::uint8_t *lo = cur.data(), *hi = cur.data() + (span - len);
+    for (int x = 0; x < w; ++x) o[x] = lo[x] | hi[x];
   }
+  // Column pass: running counts of the rows pass over y - r .. y + r.
   std::vector<int> count(std::size_t(w), 0);
-  for (int y = 0; y < std::min(h, r); ++y)
-    for (int x = 0; x < w; ++x) count[std::size_t(x)] += rows(x, y);
+  const auto add = [&](int y, int sign) {
+    const std::uint8_t* row = &rows.data[rows.index(0, y)];
+    for (int x = 0; x < w; ++x) count[std::size_t(x)] += sign * row[x];
+  };
+  for (int y = 0; y < std::min(h, r); ++y) add(y, 1);
   for (int y = 0; y < h; ++y) {
-    if (y + r < h)
-      for (int x = 0; x < w; ++x) count[std::size_t(x)] += rows(x, y + r);
-    if (y - r - 1 >= 0)
-      for (int x = 0; x < w; ++x) count[std::size_t(x)] -= rows(x, y - r - 1);
-    for (int x = 0; x < w; ++x) out(x, y) = count[std::size_t(x)] > 0;
+    if (y + r < h) add(y + r, 1);
+    if (y - r - 1 >= 0) add(y - r - 1, -1);
+    std::uint8_t* o = &out.data[out.index(0, y)];
+    for (int x = 0; x < w; ++x) o[x] = count[std::size_t(x)] > 0;
   }
   return out;
 }
