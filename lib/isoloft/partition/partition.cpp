@@ -168,13 +168,8 @@ class HealingAhead {
   HealingAhead(std::vector<SliceRuns> runs, int image_width, const PixelBox& box, std::size_t s0, std::size_t s1,
                std::size_t window)
       : runs_(std::move(runs)), width_(image_width), box_(box), next_(s0), s1_(s1), window_(std::max<std::size_t>(1, window)) {}
-  ~HealingAhead() {  // a batch still computing (the caller threw) is cancelled and waited for
-    if (!ahead_) return;
-    group_.cancel();
-    try {
-      group_.wait();
-    } catch (...) {
-    }
+  ~HealingAhead() {
+    if (ahead_) cancel_batch(group_);
   }
   HealingAhead(const HealingAhead&) = delete;
   HealingAhead& operator=(const HealingAhead&) = delete;
