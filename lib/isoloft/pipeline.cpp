@@ -13,6 +13,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <exception>
 #include <numeric>
 #include <optional>
@@ -138,33 +139,50 @@ void group_stages(const Run& run, Plan& plan, const std::vector<std::size_t>& gr
   }
   const std::size_t meshed = group.size() == 1 ? 1 : group.size() - 1;
   std::vector<std::exception_ptr> errors(meshed);
-  tbb::parallel_for(std::size_t(0), meshed, [&](std::size_t m) {
-    // Isolated: a thread waiting in the decimator's or check's own tasks
-    // does not start another object (and read back another spilled mesh).
-    tbb::this_task_arena::isolate([&] { try {
-      ObjectResult& obj = plan.objects[group[m]];
-      if (obj.spilled) {  // read back from its scratch file (partition_stages)
-        obj.mesh = obj.spilled->load();
-        obj.spilled.reset();
-      }
-      decimate_stage(plan.part(run, group[m]), obj);
-      const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
-      const bool writes = run.options.on_object && listed && obj.slices_with_contours > 0;
-      const bool reads = run.options.on_final && !obj.mesh.empty();
-      if (!writes && !reads) {
-        check_stage(plan.part(run, group[m]), obj);
-        return;
-      }
-      // All only read the mesh: the write and the readers beside the check
-      // (the run's serial tail on one object), the mesh freed once all are done.
-      tbb::parallel_invoke([&] { check_stage(plan.part(run, group[m]), obj); }, [&] {
-        if (reads) run.options.on_final(obj);
-        if (writes) run.options.on_object(obj);
+  // The largest meshes first (their check and write are the run's tail),
+  // each thread taking the next object when done.
+  std::vector<std::size_t> order(meshed);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  const auto triangles = [&](std::size_t m) {
+    const ObjectResult& obj = plan.objects[group[m]];
+    return obj.spilled ? obj.spilled->triangles() : obj.mesh.triangles.size();
+  };
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return triangles(a) > triangles(b); });
+  const auto finish = [&](std::size_t m) {
+    ObjectResult& obj = plan.objects[group[m]];
+    if (obj.spilled) {  // read back from its scratch file (partition_stages)
+      obj.mesh = obj.spilled->load();
+      obj.spilled.reset();
+    }
+    decimate_stage(plan.part(run, group[m]), obj);
+    const bool listed = std::find(plan.listed.begin(), plan.listed.end(), group[m]) != plan.listed.end();
+    const bool writes = run.options.on_object && listed && obj.slices_with_contours > 0;
+    const bool reads = run.options.on_final && !obj.mesh.empty();
+    if (!writes && !reads) {
+      check_stage(plan.part(run, group[m]), obj);
+      return;
+    }
+    // All only read the mesh: the write and the readers beside the check
+    // (the run's serial tail on one object), the mesh freed once all are done.
+    tbb::parallel_invoke([&] { check_stage(plan.part(run, group[m]), obj); }, [&] {
+      if (reads) run.options.on_final(obj);
+      if (writes) run.options.on_object(obj);
+    });
+    if (writes) obj.free_mesh();
+  };
+  std::atomic<std::size_t> next{0};
+  const std::size_t workers = std::min<std::size_t>(meshed, std::size_t(std::max(1, tbb::this_task_arena::max_concurrency())));
+  // Isolated: a thread waiting in the decimator's or check's own tasks
+  // does not start another object (and read back another spilled mesh).
+  tbb::parallel_for(std::size_t(0), workers, [&](std::size_t) {
+    for (std::size_t i; (i = next++) < meshed;)
+      tbb::this_task_arena::isolate([&] {
+        try {
+          finish(order[i]);
+        } catch (...) {
+          errors[order[i]] = std::current_exception();
+        }
       });
-      if (writes) obj.free_mesh();
-    } catch (...) {
-      errors[m] = std::current_exception();
-    } });
   });
   for (const auto& e : errors)
     if (e) std::rethrow_exception(e);

@@ -57,15 +57,31 @@ std::vector<PlannedObject> planned_objects(const Inputs& in, const std::vector<s
     for (std::size_t j = 0; j < in.jobs.size(); ++j) out.push_back({j, 0});
     return out;
   }
+  // Slices side by side (lazy stacks decode each image now); the first
+  // failing slice in order is rethrown.
+  const std::size_t n = in.first().slices.size();
+  std::vector<std::vector<std::uint32_t>> per_slice(n);
+  std::vector<std::exception_ptr> errors(n);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+    try {
+      detail::with_slice(in.first(), k, [&](const Slice& s) {
+        std::vector<std::uint32_t>& seen = per_slice[k];
+        std::uint32_t last = 0;  // labels come in runs: most pixels repeat their neighbour
+        for (const std::uint32_t v : s.image.data)
+          if (v != 0 && v != last) seen.push_back(last = v);
+        std::sort(seen.begin(), seen.end());
+        seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+      });
+    } catch (...) {
+      errors[k] = std::current_exception();
+    }
+  });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
   std::vector<std::uint32_t> seen;
-  for (std::size_t k = 0; k < in.first().slices.size(); ++k)
-    detail::with_slice(in.first(), k, [&](const Slice& s) {  // lazy stacks: the image decoded now
-      std::uint32_t last = 0;  // labels come in runs: most pixels repeat their neighbour
-      for (const std::uint32_t v : s.image.data)
-        if (v != 0 && v != last) seen.push_back(last = v);
-      std::sort(seen.begin(), seen.end());
-      seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
-    });
+  for (const auto& labels : per_slice) seen.insert(seen.end(), labels.begin(), labels.end());
+  std::sort(seen.begin(), seen.end());
+  seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
   for (const std::uint32_t l : seen)
     if (asked.empty() || std::find(asked.begin(), asked.end(), l) != asked.end()) out.push_back({0, l});
   return out;
@@ -371,7 +387,8 @@ RunResult run_jobs(const Inputs& in, const ReconstructParams& params, const std:
 
 RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) {
   const auto t_start = Clock::now();
-  check_run(in, params, o);
+  tbb::task_arena arena(o.threads > 0 ? o.threads : int(tbb::task_arena::automatic));
+  arena.execute([&] { check_run(in, params, o); });  // its slice scan in the run's threads
   OutputSet files;
   const RunContext ctx{in, params, files};
   auto activity = [&](const std::string& what) {
@@ -442,7 +459,6 @@ RunResult run(const Inputs& in, const ReconstructParams& params, RunOptions& o) 
     activity("reconstructing " + what);
   };
 
-  tbb::task_arena arena(o.threads > 0 ? o.threads : int(tbb::task_arena::automatic));
   std::vector<JobHooks> hooks(in.jobs.size());
   ProgressTracker tracker(params.decimate.max_error > 0);
   RunResult r;

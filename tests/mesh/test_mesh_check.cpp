@@ -127,6 +127,32 @@ TEST(MeshCheck, DetectsNonManifoldVertex) {
   EXPECT_EQ(c.components, 1);
 }
 
+TEST(MeshCheck, VertexStarsCountedOverManyVertexBlocks) {
+  // 12,000 tetrahedra (48,000 vertices: several of the star pass's blocks),
+  // pairs touching at one vertex every 1,000th: those vertices non-manifold,
+  // and a vertex no triangle uses after each pair.
+  TriMesh m;
+  long touching = 0;
+  for (int i = 0; i < 12000; ++i) {
+    TriMesh t = tetrahedron(Vec3f(float(3 * i), 0, 0));
+    if (i % 1000 == 999) {  // the last vertex of the one before, shared
+      t.vertices[0] = m.vertices.back();
+      ++touching;
+    }
+    const auto n = std::int32_t(m.vertices.size());
+    for (const auto& v : t.vertices) m.vertices.push_back(v);
+    for (auto f : t.triangles) {
+      for (auto& v : f) v = v == 0 && i % 1000 == 999 ? n - 1 : v + n;
+      m.triangles.push_back(f);
+    }
+  }
+  const MeshCheck c = check_mesh(m);
+  EXPECT_EQ(c.nonmanifold_vertices, touching);
+  EXPECT_EQ(c.nonmanifold_edges, 0);
+  EXPECT_EQ(c.components, 12000 - touching);
+  EXPECT_EQ(c.euler, 2 * (12000 - touching) + touching);  // a touching pair: V - E + F = 7 - 12 + 8 = 3
+}
+
 TEST(MeshCheck, CountsComponentsAndDegenerateTriangles) {
   TriMesh m = merged(unit_cube(), unit_cube(Vec3f(3, 0, 0)));
   const MeshCheck two = check_mesh(m);

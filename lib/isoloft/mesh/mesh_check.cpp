@@ -1,6 +1,8 @@
 #include "isoloft/mesh/mesh_check.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_invoke.h>
+#include <tbb/parallel_reduce.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -14,6 +16,9 @@
 namespace isoloft {
 
 namespace {
+
+// Vertices per task of the star pass: ~1 ms of work each.
+constexpr std::size_t kStarVertices = 16384;
 
 struct UnionFind {
   std::vector<std::int32_t> parent;
@@ -103,22 +108,34 @@ MeshCheck check_mesh(const TriMesh& mesh) {
     std::vector<std::uint32_t> incident(start.back()), fill(start.begin(), start.end() - 1);
     for (std::size_t f = 0; f < nf; ++f)
       for (std::int32_t v : mesh.triangles[f]) incident[fill[std::size_t(v)]++] = std::uint32_t(f);
-    std::vector<std::pair<std::int32_t, std::int32_t>> other;  // (opposite-edge vertex w, local triangle index)
-    for (std::size_t v = 0; v < nv; ++v) {
-      const std::uint32_t b = start[v], e = start[v + 1];
-      if (b == e) continue;
-      ++used_vertices;
-      other.clear();
-      for (std::uint32_t k = b; k < e; ++k)
-        for (std::int32_t w : mesh.triangles[incident[k]])
-          if (std::size_t(w) != v) other.emplace_back(w, std::int32_t(k - b));
-      std::sort(other.begin(), other.end());
-      UnionFind fans(e - b);
-      int n_fans = int(e - b);
-      for (std::size_t k = 1; k < other.size(); ++k)
-        if (other[k].first == other[k - 1].first && fans.unite(other[k].second, other[k - 1].second)) --n_fans;
-      if (n_fans > 1) ++r.nonmanifold_vertices;
-    }
+    // Vertex blocks side by side (the longest pass): the counts are sums.
+    struct Counts {
+      long used = 0, nonmanifold = 0;
+    };
+    const Counts c = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, nv, kStarVertices), Counts{},
+        [&](const tbb::blocked_range<std::size_t>& vs, Counts c) {
+          std::vector<std::pair<std::int32_t, std::int32_t>> other;  // (opposite-edge vertex w, local triangle index)
+          for (std::size_t v = vs.begin(); v < vs.end(); ++v) {
+            const std::uint32_t b = start[v], e = start[v + 1];
+            if (b == e) continue;
+            ++c.used;
+            other.clear();
+            for (std::uint32_t k = b; k < e; ++k)
+              for (std::int32_t w : mesh.triangles[incident[k]])
+                if (std::size_t(w) != v) other.emplace_back(w, std::int32_t(k - b));
+            std::sort(other.begin(), other.end());
+            UnionFind fans(e - b);
+            int n_fans = int(e - b);
+            for (std::size_t k = 1; k < other.size(); ++k)
+              if (other[k].first == other[k - 1].first && fans.unite(other[k].second, other[k - 1].second)) --n_fans;
+            if (n_fans > 1) ++c.nonmanifold;
+          }
+          return c;
+        },
+        [](Counts a, const Counts& b) { return Counts{a.used + b.used, a.nonmanifold + b.nonmanifold}; });
+    used_vertices = c.used;
+    r.nonmanifold_vertices = c.nonmanifold;
   };
   auto component_pass = [&] {  // components through shared vertices (of the vertices some triangle uses)
     UnionFind comp(nv);

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <atomic>
 #include <chrono>
@@ -66,6 +67,16 @@ void for_slices(const Run& run, std::size_t k0, std::size_t k1, const char* stag
   });
   for (const auto& e : errors)
     if (e) std::rethrow_exception(e);
+}
+
+// A batch computing ahead in `group` (the caller stopped early, or threw):
+// cancelled and waited for, its error dropped (for destructors).
+inline void cancel_batch(tbb::task_group& group) noexcept {
+  group.cancel();
+  try {
+    group.wait();
+  } catch (...) {
+  }
 }
 
 /// \throw InputError for < 2 slices, z not increasing or empty images.

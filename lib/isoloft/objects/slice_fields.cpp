@@ -173,13 +173,24 @@ std::vector<LabelMasks> label_masks(const Grid2u32& image) {
   return out;
 }
 
-Grid2f union_healing(const Grid2u32& image, const PixelBox& box) {
-  // One pixel of background around the box: a mask touching the image
-  // border is closed there, as the fields' crops are.
-  const int w = box.width() + 2, h = box.height() + 2;
-  Grid2u32 labels(w, h, 0);
-  for (int y = box.y0; y < box.y1; ++y)
-    for (int x = box.x0; x < box.x1; ++x) labels(x - box.x0 + 1, y - box.y0 + 1) = image(x, y);
+Grid2u32 labels_around_box(const std::vector<LabelRuns>& runs, int image_width, const PixelBox& box) {
+  Grid2u32 labels(box.width() + 2, box.height() + 2, 0);
+  const auto W = std::size_t(image_width);
+  for (const LabelRuns& l : runs)
+    for (std::size_t r = 0; r + 1 < l.inside->size(); r += 2)
+      for (std::size_t i = (*l.inside)[r], e = (*l.inside)[r + 1]; i < e;) {  // a run may span rows
+        const int y = int(i / W), x = int(i % W);
+        const int x1 = int(std::min<std::size_t>(W, std::size_t(x) + (e - i)));
+        i += std::size_t(x1 - x);
+        if (y < box.y0 || y >= box.y1) continue;
+        const int a = std::max(x, box.x0), b = std::min(x1, box.x1);
+        if (a < b) std::fill_n(&labels(a - box.x0 + 1, y - box.y0 + 1), b - a, l.label);
+      }
+  return labels;
+}
+
+Grid2f union_healing(const Grid2u32& labels) {
+  const int w = labels.width, h = labels.height;
   Grid2u8 uni(w, h, 0);
   for (std::size_t i = 0; i < uni.size(); ++i) uni.data[i] = labels.data[i] != 0;
   const Grid2f d_union = distance_to_mask_edge_signed(uni);
@@ -192,7 +203,7 @@ Grid2f union_healing(const Grid2u32& image, const PixelBox& box) {
         PixelBox& b = it->second;
         b = {std::min(b.x0, x), std::min(b.y0, y), std::max(b.x1, x + 1), std::max(b.y1, y + 1)};
       }
-  Grid2f out(box.width(), box.height(), 0.0f);
+  Grid2f out(w - 2, h - 2, 0.0f);
   for (const auto& [v, b0] : bounds) {
     const PixelBox b{b0.x0 - 1, b0.y0 - 1, b0.x1 + 1, b0.y1 + 1};  // within the padded grid
     Grid2u8 own(b.width(), b.height(), 0);

@@ -93,11 +93,24 @@ struct LabelMasks {
 /// its pixels (the same masks as slice_masks() of each label in turn).
 std::vector<LabelMasks> label_masks(const Grid2u32& image);
 
-/// Over `box` of a label image: inside the labels' union, how much farther its
-/// edge is than the edge of the pixel's own label (exact distances to the
-/// edges halfway between pixel centres), else 0. Zero wherever a label meets
-/// only the background; the union's field is its labels' plus this.
-Grid2f union_healing(const Grid2u32& image, const PixelBox& box);
+/// A label's inside runs (PackedMasks::inside) in one slice.
+struct LabelRuns {
+  std::uint32_t label = 0;
+  const std::vector<std::uint32_t>* inside = nullptr;
+};
+
+/// The label image over `box` with one pixel of background around it (a mask
+/// touching the image border is closed there, as the fields' crops are),
+/// from every label's inside runs of a slice of `image_width` columns: the
+/// image's own values where the runs are every non-zero label's.
+Grid2u32 labels_around_box(const std::vector<LabelRuns>& runs, int image_width, const PixelBox& box);
+
+/// Over a box of a label image (`labels`: labels_around_box()): inside the
+/// labels' union, how much farther its edge is than the edge of the pixel's
+/// own label (exact distances to the edges halfway between pixel centres),
+/// else 0. Zero wherever a label meets only the background; the union's
+/// field is its labels' plus this.
+Grid2f union_healing(const Grid2u32& labels);
 
 /// Bounding box of a slice's inside and contour pixels; empty if m.empty.
 PixelBox mask_bounds(const SliceMasks& m);

@@ -4,10 +4,13 @@
 // the mesher skip.
 #include "isoloft/partition/partition.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <cstdint>
+#include <deque>
 #include <limits>
 #include <map>
 #include <memory>
@@ -19,6 +22,7 @@
 #include "isoloft/mesh/mesh_spill.h"
 #include "isoloft/mesh/stream_mesher.h"
 #include "isoloft/methods/columns/column_stream.h"
+#include "isoloft/objects/slice_fields.h"
 
 namespace isoloft::detail {
 
@@ -93,31 +97,44 @@ struct Competition {
   Grid2<std::int32_t> who;
 
   // phi[l] over boxes[l] for the labels l < labels; phi[labels] the union's.
+  // Row blocks side by side (it runs between the labels' parallel loops):
+  // each pixel sees the labels in order, as one pass would.
   void compute(const std::vector<Grid2f>& phi, const std::vector<PixelBox>& boxes, std::size_t labels) {
     const Grid2f& uni = phi[labels];
     const PixelBox& ubox = boxes[labels];
-    top1 = uni;
-    for (float& v : top1.data) v = -v;
-    top2 = Grid2f(uni.width, uni.height, -std::numeric_limits<float>::infinity());
-    who = Grid2<std::int32_t>(uni.width, uni.height, -1);
-    for (std::size_t l = 0; l < labels; ++l) {
-      const PixelBox& b = boxes[l];
-      for (int y = 0; y < b.height(); ++y) {
-        const float* f = &phi[l](0, y);
-        const std::size_t row = std::size_t(y + b.y0 - ubox.y0) * std::size_t(uni.width) + std::size_t(b.x0 - ubox.x0);
+    const int w = uni.width;
+    if (top1.width != w || top1.height != uni.height) {
+      top1 = top2 = Grid2f(w, uni.height);
+      who = Grid2<std::int32_t>(w, uni.height);
+    }
+    tbb::parallel_for(tbb::blocked_range<int>(0, uni.height, kCompetitionRows), [&](const tbb::blocked_range<int>& rows) {
+      for (int uy = rows.begin(); uy < rows.end(); ++uy) {
+        const std::size_t row = std::size_t(uy) * std::size_t(w);
+        const float* u = uni.data.data() + row;
         float* t1 = top1.data.data() + row;
         float* t2 = top2.data.data() + row;
-        std::int32_t* w = who.data.data() + row;
-        for (int x = 0; x < b.width(); ++x) {
-          const float v = f[x];
-          if (v > t1[x]) {
-            t2[x] = t1[x], t1[x] = v, w[x] = std::int32_t(l);
-          } else if (v > t2[x]) {
-            t2[x] = v;
+        std::int32_t* wh = who.data.data() + row;
+        for (int x = 0; x < w; ++x) t1[x] = -u[x];
+        std::fill(t2, t2 + w, -std::numeric_limits<float>::infinity());
+        std::fill(wh, wh + w, std::int32_t(-1));
+        for (std::size_t l = 0; l < labels; ++l) {
+          const PixelBox& b = boxes[l];
+          const int y = uy + ubox.y0 - b.y0;
+          if (y < 0 || y >= b.height()) continue;
+          const float* f = &phi[l](0, y);
+          const std::size_t dx = std::size_t(b.x0 - ubox.x0);
+          for (int x = 0; x < b.width(); ++x) {
+            const float v = f[x];
+            const std::size_t ux = dx + std::size_t(x);
+            if (v > t1[ux]) {
+              t2[ux] = t1[ux], t1[ux] = v, wh[ux] = std::int32_t(l);
+            } else if (v > t2[ux]) {
+              t2[ux] = v;
+            }
           }
         }
       }
-    }
+    });
   }
 
   // Label l's partition field over its box: its field minus the best other.
@@ -134,6 +151,70 @@ struct Competition {
       }
   }
   static constexpr float kTieWinner = std::numeric_limits<float>::denorm_min();
+  // Rows of the union's box per task of compute(): a few tasks per thread
+  // on a few-hundred-row box.
+  static constexpr int kCompetitionRows = 16;
+};
+
+// The union's healing (union_healing) of slices [s0, s1), handed out in
+// order; each batch of `window` slices computed ahead as a task of the run's
+// arena, as the labels' slice fields are (SliceFields), so the loop that
+// waits for the union's knots does not compute it. The label images come
+// from the labels' inside runs (copied from their masks), not decoded again.
+class HealingAhead {
+ public:
+  // runs[s]: every label's inside runs of slice s (label, runs).
+  using SliceRuns = std::vector<std::pair<std::uint32_t, std::vector<std::uint32_t>>>;
+  HealingAhead(std::vector<SliceRuns> runs, int image_width, const PixelBox& box, std::size_t s0, std::size_t s1,
+               std::size_t window)
+      : runs_(std::move(runs)), width_(image_width), box_(box), next_(s0), s1_(s1), window_(std::max<std::size_t>(1, window)) {}
+  ~HealingAhead() {
+    if (ahead_) cancel_batch(group_);
+  }
+  HealingAhead(const HealingAhead&) = delete;
+  HealingAhead& operator=(const HealingAhead&) = delete;
+
+  Grid2f take(std::size_t s) {
+    if (s != next_ || s >= s1_) throw Error("HealingAhead::take: slices out of order");
+    if (ready_.empty()) compute(s);
+    Grid2f h = std::move(ready_.front());
+    ready_.pop_front();
+    ++next_;
+    return h;
+  }
+
+ private:
+  Grid2f one(std::size_t s) {
+    std::vector<LabelRuns> r;
+    for (const auto& [label, inside] : runs_[s]) r.push_back({label, &inside});
+    Grid2f h = union_healing(labels_around_box(r, width_, box_));
+    SliceRuns().swap(runs_[s]);
+    return h;
+  }
+  void start(std::size_t k0) {
+    const std::size_t k1 = std::min(s1_, k0 + window_);
+    ahead_ = k0;
+    batch_.assign(k1 - k0, Grid2f());
+    group_.run([this, k0, k1] { tbb::parallel_for(k0, k1, [&](std::size_t s) { batch_[s - k0] = one(s); }); });
+  }
+  void compute(std::size_t k0) {
+    if (ahead_ && *ahead_ != k0) throw Error("HealingAhead::compute: batch out of order");
+    if (!ahead_) start(k0);
+    ahead_.reset();
+    group_.wait();  // rethrows the batch's error
+    ready_.assign(std::make_move_iterator(batch_.begin()), std::make_move_iterator(batch_.end()));
+    batch_.clear();
+    if (const std::size_t k1 = k0 + ready_.size(); k1 < s1_) start(k1);
+  }
+
+  std::vector<SliceRuns> runs_;
+  int width_;
+  PixelBox box_;
+  std::size_t next_, s1_, window_;
+  std::optional<std::size_t> ahead_;
+  std::vector<Grid2f> batch_;
+  std::deque<Grid2f> ready_;
+  tbb::task_group group_;
 };
 
 // The labels' union as a field, from the labels' own knots: knot i is the
@@ -146,10 +227,16 @@ struct Competition {
 // same knots, in lockstep).
 class UnionStream {
  public:
-  // first_knot: the labels' streams' (a z slab's).
-  UnionStream(const Run& run, ObjectResult& obj, std::size_t labels, std::size_t first_knot)
+  // first_knot: the labels' streams' (a z slab's); runs: as HealingAhead's,
+  // every slice's.
+  UnionStream(const Run& run, ObjectResult& obj, std::size_t labels, std::size_t first_knot,
+              std::vector<HealingAhead::SliceRuns> runs)
       : run_(run), obj_(obj), labels_(labels), z_(knot_z(run)), next_(first_knot) {
     z_.erase(z_.begin(), z_.begin() + std::ptrdiff_t(first_knot));
+    // Knots 1..n are the slices (0 and n + 1 the end caps: no healing).
+    const std::size_t last_knot = first_knot + z_.size() - 1;
+    healing_.emplace(std::move(runs), run.stack.width, obj.box, first_knot - std::min<std::size_t>(first_knot, 1),
+                     std::min(run.slices(), last_knot), std::max(kPartitionZBlock, partition_slice_window(labels)));
     stream_ = z_scheme_spec(run.params.z_scheme)
                   .make(ZSchemeInput{z_, obj.box.width(), obj.box.height(), [this] { return next(); }, &count_,
                                      kPartitionZBlock},
@@ -191,12 +278,10 @@ class UnionStream {
       d = std::move(it->second);
       pending_.erase(it);
     }
-    // Knots 1..n are the slices (0 and n + 1 the end caps: no healing).
-    if (i >= 1 && i <= run_.slices())
-      with_slice(run_.stack, i - 1, [&](const Slice& s) {
-        const Grid2f h = union_healing(s.image, obj_.box);
-        for (std::size_t j = 0; j < h.size(); ++j) d.field.data[j] += h.data[j];
-      });
+    if (i >= 1 && i <= run_.slices()) {
+      const Grid2f h = healing_->take(i - 1);
+      for (std::size_t j = 0; j < h.size(); ++j) d.field.data[j] += h.data[j];
+    }
     return std::move(d.field);
   }
 
@@ -208,6 +293,7 @@ class UnionStream {
   std::mutex m_;
   std::map<std::size_t, Pending> pending_;
   std::size_t next_ = 0;
+  std::optional<HealingAhead> healing_;
   std::unique_ptr<PlaneSource> stream_;
 };
 
@@ -225,7 +311,11 @@ void partition_stages_once(const Run& run, std::vector<PartitionObject>& objects
   const std::vector<double> all_knots = knot_z(run);
   const SlabRange range =
       slab_range(run, all_knots, mesh_planes(all_knots, run.params.interp), std::vector<char>(run.slices(), 0));
-  UnionStream uni(objects[labels].run, objects[labels].obj, labels, range.first_knot);
+  std::vector<HealingAhead::SliceRuns> runs(run.slices());
+  for (std::size_t l = 0; l < labels; ++l)
+    for (std::size_t k = 0; k < run.slices(); ++k)
+      if (!objects[l].masks[k].empty) runs[k].emplace_back(objects[l].obj.label, objects[l].masks[k].inside);
+  UnionStream uni(objects[labels].run, objects[labels].obj, labels, range.first_knot, std::move(runs));
   std::vector<std::unique_ptr<ObjectStream>> streams(labels);
   for (std::size_t l = 0; l < labels; ++l) {
     std::optional<FieldBand::Setup> own = band;

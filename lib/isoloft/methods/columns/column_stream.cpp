@@ -86,13 +86,8 @@ class SliceFields {
     if (band) band_.emplace(masks, obj.box, *band);
     next_ = first;
   }
-  ~SliceFields() {  // a batch still computing (the caller stopped early, or threw) is cancelled and waited for
-    if (!ahead_) return;
-    group_.cancel();
-    try {
-      group_.wait();
-    } catch (...) {
-    }
+  ~SliceFields() {
+    if (ahead_) cancel_batch(group_);
   }
   SliceFields(const SliceFields&) = delete;
   SliceFields& operator=(const SliceFields&) = delete;
