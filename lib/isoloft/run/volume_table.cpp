@@ -58,12 +58,13 @@ double typical_step(const SliceStack& st) {
   return steps[steps.size() / 2];
 }
 
-}  // namespace
-
+// The object's contour planes: the RT set's own for an RT Structure Set.
 int contour_planes(const Inputs& in, const Job& job, const ObjectResult& ob) {
   return in.format == InputFormat::RtStruct && job.sections.empty() ? int(rt_planes(job.stack).size())
                                                                     : ob.slices_with_contours;
 }
+
+}  // namespace
 
 std::vector<double> clipped_volumes(const Inputs& in, const Job& job, const ObjectResult& ob) {
   const SliceStack& st = job.stack;
