@@ -118,19 +118,16 @@ class FastDecimator {
     });
   }
 
-  // `stages` passes (DecimateParams::stages); `slabs` per pass, 0 = from
-  // the faces left (decimate()).
-  void run(std::size_t slabs, int stages, double ratio) {
-    for (int k = 1; k <= stages; ++k) {
-      const double cap = tolerance_ * std::pow(ratio, double(stages - k));
-      if (k > 1) rebase(cap);
-      pass_tolerance_ = cap;
-      pass(slabs > 0 ? slabs : slabs_for(live_faces()));
-    }
-  }
-
-  [[nodiscard]] static std::size_t slabs_for(std::size_t triangles) {
-    return std::clamp<std::size_t>(triangles / kTrianglesPerSlab, 1, kMaxSlabs);
+  void run(std::size_t slabs) {
+    for (auto& s : state_)
+      if (!(s & kFixed)) s |= kDirty;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Vec3d& p : pos_) lo = std::min(lo, p.z()), hi = std::max(hi, p.z());
+    if (slabs > 1 && hi > lo) in_slabs(slabs, lo, hi);  // not flat in z (nor empty): there is something to cut
+    std::vector<std::int32_t> all(state_.size());
+    std::iota(all.begin(), all.end(), 0);
+    Scratch scratch(tolerance_);
+    rounds(scratch, all);
   }
 
   [[nodiscard]] TriMesh result() const {
@@ -147,53 +144,6 @@ class FastDecimator {
   }
 
  private:
-  void pass(std::size_t slabs) {
-    for (auto& s : state_)
-      if (!(s & kFixed) && !(s & kDead)) s |= kDirty;
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (const Vec3d& p : pos_) lo = std::min(lo, p.z()), hi = std::max(hi, p.z());
-    if (slabs > 1 && hi > lo) in_slabs(slabs, lo, hi);  // not flat in z (nor empty): there is something to cut
-    std::vector<std::int32_t> all(state_.size());
-    std::iota(all.begin(), all.end(), 0);
-    Scratch scratch(pass_tolerance_);
-    rounds(scratch, all);
-    std::fill(mark_.begin(), mark_.end(), 0u);  // a next pass's Scratch counts its stamps from 0 again
-  }
-
-  [[nodiscard]] std::size_t live_faces() const {
-    return std::size_t(std::count_if(tri_.begin(), tri_.end(), [](const auto& t) { return t[0] >= 0; }));
-  }
-
-  // Makes the faces left the pieces of the next pass, bounded by `cap`: each
-  // face's spent is the largest distance from a point it holds to it (the
-  // spent of the piece's triangle plus its farthest corner: convexity), so
-  // every input point within spent(f) of f, f within cap - spent(f) of the
-  // next result, and the input within cap (+ kDecimateSurfaceSlack).
-  void rebase(double cap) {
-    std::vector<double> spent(tri_.size(), 0.0);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tri_.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t f = r.begin(); f < r.end(); ++f) {
-        const auto& g = tri_[f];
-        if (g[0] < 0) continue;
-        const PreparedTriangle face(pos_[std::size_t(g[0])], pos_[std::size_t(g[1])], pos_[std::size_t(g[2])]);
-        double worst = 0;
-        for (const PieceKey& key : pieces_[f]) {
-          const auto& t = original_[key.triangle];
-          const TrianglePiece q = expand(key, pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
-          double d2 = 0;
-          for (const Vec3d& p : q.p) d2 = std::max(d2, face.distance_sq(p));
-          worst = std::max(worst, (spent_.empty() ? 0.0 : spent_[key.triangle]) + std::sqrt(d2));
-        }
-        spent[f] = worst;
-        pieces_[f].assign(1, PieceKey{0u, std::uint32_t(f), 7u, 0u});
-      }
-    });
-    spent_ = std::move(spent);
-    budget_.resize(spent_.size());
-    for (std::size_t f = 0; f < spent_.size(); ++f) budget_[f] = std::max(0.0, cap - spent_[f]);
-    original_ = tri_;
-  }
-
   // Rounds over `count` z slabs concurrently (slab k: vertices with z in the
   // k-th of `count` equal parts of [lo, hi]); the vertices of faces that span
   // two slabs are held, then set free for the seams.
@@ -207,7 +157,7 @@ class FastDecimator {
     std::vector<std::vector<std::int32_t>> members(count);
     for (std::size_t v = 0; v < pos_.size(); ++v) members[slab[v]].push_back(std::int32_t(v));
     tbb::parallel_for(std::size_t(0), count, [&](std::size_t k) {
-      Scratch scratch(pass_tolerance_);
+      Scratch scratch(tolerance_);
       rounds(scratch, members[k]);
     });
     for (auto& s : state_)  // held vertices are candidates again
@@ -353,7 +303,6 @@ class FastDecimator {
       for (std::size_t j = 0; j < held.size(); ++j) {
         const auto& t = original_[held[j].triangle];
         const TrianglePiece q = expand(held[j], pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
-        if (!budget_.empty()) s.cover.set_tolerance(budget_[held[j].triangle]);
         if (own >= 0 && s.cover.covered_by(s.tris[std::size_t(own)], q)) continue;
         if (!s.cover.cover(q, s.tris, own, false, record)) return false;
         if (own >= 0) s.leaving.emplace_back(own, std::uint32_t(j));
@@ -428,8 +377,7 @@ class FastDecimator {
   std::vector<unsigned> mark_;  // == Scratch::stamp: marked in the current collapse
   std::vector<std::array<std::int32_t, 3>> original_;  // the input triangles: corners of the pieces
   std::vector<std::vector<PieceKey>> pieces_;  // held by each face
-  std::vector<double> spent_, budget_;  // per triangle of original_ after a rebase (empty before)
-  double tolerance_, cos_max_, pass_tolerance_ = 0;
+  double tolerance_, cos_max_;
 };
 
 }  // namespace
@@ -441,13 +389,14 @@ DecimateResult detail::decimate_in_slabs(TriMesh& mesh, const DecimateParams& pa
   if (params.max_error == 0 || before == 0) return {before, before};
   FastDecimator d(mesh, params);
   mesh = {};  // d holds its own copy: free this one while decimating
-  d.run(slabs, params.stages, params.stage_ratio);
+  d.run(std::max<std::size_t>(slabs, 1));
   mesh = d.result();
   return {before, long(mesh.triangles.size())};
 }
 
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params) {
-  return detail::decimate_in_slabs(mesh, params, 0);
+  const std::size_t slabs = std::clamp<std::size_t>(mesh.triangles.size() / detail::kTrianglesPerSlab, 1, detail::kMaxSlabs);
+  return detail::decimate_in_slabs(mesh, params, slabs);
 }
 
 }  // namespace isoloft

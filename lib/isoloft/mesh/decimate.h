@@ -25,8 +25,6 @@ inline constexpr double kDecimateSurfaceSlack = 1e-3;
 struct DecimateParams {
   double max_error = 0.0;
   double max_normal_deviation_deg = 60.0;
-  int stages = 1;
-  double stage_ratio = 0.5;
 };
 
 template <>
@@ -38,13 +36,6 @@ inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
           .cli("--decimate-error"),
       field("max_normal_deviation_deg", &DecimateParams::max_normal_deviation_deg, "deg",
             "largest turn of a face normal in one collapse (no fold-overs)", open_between(0, 90)),
-      field("stages", &DecimateParams::stages, "",
-            "passes, each ending in a rebase: its faces become the next pass's pieces, each with the distance it "
-            "already spends; 1 = one pass over the input triangles",
-            between(1, 16)),
-      field("stage_ratio", &DecimateParams::stage_ratio, "",
-            "pass k of n keeps every input point within max_error * stage_ratio^(n - k) of its result",
-            open_between(0, 1)),
   });
   return t;
 }
@@ -63,7 +54,7 @@ struct DecimateResult {
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params);
 
 namespace detail {
-/// decimate() with a given slab count per pass (tests); 0 = decimate()'s.
+/// decimate() with a given slab count (tests).
 DecimateResult decimate_in_slabs(TriMesh& mesh, const DecimateParams& params, std::size_t slabs);
 }  // namespace detail
 

@@ -137,14 +137,9 @@ void coarsen(std::vector<P>& pieces) {
 // Covers pieces by the faces a collapse changes (in their new shape).
 class PieceCover {
  public:
-  explicit PieceCover(double tolerance) { set_tolerance(tolerance); }
-
-  // The bound of the pieces tested next (a staged decimation's pieces each
-  // have their own: mesh/decimate.h DecimateParams::stages).
-  void set_tolerance(double tolerance) {
-    vertex_tol2_ = tolerance * tolerance;
-    surface_tol2_ = (tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack);
-  }
+  explicit PieceCover(double tolerance)
+      : vertex_tol2_(tolerance * tolerance),
+        surface_tol2_((tolerance + kDecimateSurfaceSlack) * (tolerance + kDecimateSurfaceSlack)) {}
 
   [[nodiscard]] bool covered_by(const PreparedTriangle& t, const TrianglePiece& q) const {
     for (std::size_t k = 0; k < 3; ++k)
