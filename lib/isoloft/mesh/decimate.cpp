@@ -5,9 +5,6 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
-#include <cstdio>
-#include <ctime>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -40,16 +37,13 @@ void validate_decimate_input(const TriMesh& mesh, const DecimateParams& params) 
 }
 
 namespace {
-double repair_shrink() { static const double x = std::getenv("ISOLOFT_SHRINK") ? std::atof(std::getenv("ISOLOFT_SHRINK")) : 0.0; return x; }
-std::uint8_t repair_cap() { return repair_shrink() > 0 ? 4 : 1; }
 
 // Vertex states.
 constexpr std::uint8_t kDead = 1;     // collapsed away
 constexpr std::uint8_t kFixed = 2;    // boundary or non-manifold vertex: never moved, never a target
 constexpr std::uint8_t kDirty = 4;    // its neighbourhood changed: its edges are candidates next round
 constexpr std::uint8_t kTouched = 8;  // target of a collapse this round: its costs are stale until the next
-constexpr std::uint8_t kBorder = 16;
-constexpr std::uint8_t kPinned = 32;  // uncovered in a certificate (proxy_scale > 0): never collapsed away, may be a target  // has a neighbour in another slab: fixed while the slabs run in parallel
+constexpr std::uint8_t kBorder = 16;  // has a neighbour in another slab: fixed while the slabs run in parallel
 
 // Large meshes are first decimated in z slabs concurrently, each slab's
 // vertices next to another slab held fixed (so no two slabs touch one face,
@@ -75,7 +69,7 @@ struct Scratch {
   unsigned stamp = 0;  // marks in mark_ equal to it are this collapse's
   std::vector<Candidate> candidates, sorted;
   std::vector<std::uint32_t> count;
-  std::vector<PreparedTriangle> tris, near;
+  std::vector<PreparedTriangle> tris;
   std::vector<std::int32_t> kept, own;
   std::vector<std::pair<std::int32_t, PieceKey>> placed;          // (index in kept, part)
   std::vector<std::pair<std::int32_t, std::uint32_t>> leaving;    // (index in kept, index in its pieces)
@@ -83,11 +77,8 @@ struct Scratch {
 
 class FastDecimator {
  public:
-  // `pinned` (empty or one per vertex): vertices held like boundary ones.
-  FastDecimator(const TriMesh& mesh, const DecimateParams& params, const std::vector<std::uint8_t>& pinned = {})
-      : tolerance_(params.max_error),
-        proxy_(params.proxy_scale * params.max_error),
-        cos_max_(std::cos(params.max_normal_deviation_deg * std::numbers::pi / 180.0)) {
+  FastDecimator(const TriMesh& mesh, const DecimateParams& params)
+      : tolerance_(params.max_error), cos_max_(std::cos(params.max_normal_deviation_deg * std::numbers::pi / 180.0)) {
     const std::size_t nv = mesh.vertices.size(), nf = mesh.triangles.size();
     pos_.reserve(nv);
     for (const Vec3f& p : mesh.vertices) pos_.emplace_back(p.cast<double>());
@@ -105,15 +96,6 @@ class FastDecimator {
     state_.assign(nv, 0);
     mark_.assign(nv, 0);
     for (std::size_t v = 0; v < nv; ++v) classify(std::int32_t(v));
-    for (std::size_t v = 0; v < pinned.size(); ++v)
-      if (pinned[v] >= repair_cap()) state_[v] |= kPinned;
-    if (!pinned.empty()) {
-      point_tol2_.resize(nv);
-      for (std::size_t v = 0; v < nv; ++v) {
-        const double t = proxy_ * std::pow(repair_shrink(), pinned[v]);
-        point_tol2_[v] = t * t;
-      }
-    }
 
     // Each vertex sums the quadrics of its faces in face order (the same
     // bits for any thread count).
@@ -130,11 +112,6 @@ class FastDecimator {
           quad_[v] += Quadric::plane(n, -a.dot(n), 0.5 * twice_area);
         }
     });
-    if (proxy_ > 0) {  // no pieces: certified after
-      cluster_.resize(nv);
-      for (std::size_t v = 0; v < nv; ++v) cluster_[v].assign(1, std::int32_t(v));
-      return;
-    }
     pieces_.resize(nf);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf), [&](const tbb::blocked_range<std::size_t>& r) {
       for (std::size_t f = r.begin(); f < r.end(); ++f) pieces_[f].assign(1, PieceKey{0u, std::uint32_t(f), 7u, 0u});
@@ -267,7 +244,7 @@ class FastDecimator {
 
   // Collapses v0 into v1 if that is legal (decimate.h); returns whether it did.
   bool collapse(Scratch& s, std::int32_t v0, std::int32_t v1) {
-    if (state_[std::size_t(v0)] & (kFixed | kBorder | kPinned)) return false;
+    if (state_[std::size_t(v0)] & (kFixed | kBorder)) return false;
     const auto& around = faces_of_[std::size_t(v0)];
     std::int32_t fl = -1, fr = -1, vl = -1, vr = -1;
     for (std::int32_t f : around) {
@@ -312,11 +289,6 @@ class FastDecimator {
       s.own.push_back(std::int32_t(s.tris.size()));
       s.kept.push_back(f);
       s.tris.emplace_back(c[0], c[1], c[2]);
-    }
-    if (proxy_ > 0) {
-      if (!proxy_allows(s, v0, v1)) return false;
-      connect(s, v0, v1, fl, fr);
-      return true;
     }
     // The bound: every piece held around v0 is covered by the new faces,
     // first tried against the face that holds it (usually enough: such a
@@ -376,51 +348,7 @@ class FastDecimator {
       i = end;
     }
 
-    connect(s, v0, v1, fl, fr);
-    return true;
-  }
-
-  // The proxy of the bound (proxy_ > 0): the merged quadric's mean squared
-  // plane distance at v1, and v0's distance to the new faces, within proxy_.
-  bool proxy_allows(Scratch& s, std::int32_t v0, std::int32_t v1) {
-    static const int kind = std::getenv("ISOLOFT_PROXY") ? std::atoi(std::getenv("ISOLOFT_PROXY")) : 3;
-    const double p2 = proxy_ * proxy_;
-    if (kind & 1) {
-      Quadric q = quad_[std::size_t(v0)];
-      q += quad_[std::size_t(v1)];
-      const double weight = q.a11 + q.a22 + q.a33;  // unit normals: the sum of the weights
-      if (weight > 0 && q(pos_[std::size_t(v1)]) > p2 * weight) return false;
-    }
-    if (kind & 2) {
-      const Vec3d& p0 = pos_[std::size_t(v0)];
-      double d2 = std::numeric_limits<double>::infinity();
-      for (const PreparedTriangle& t : s.tris) d2 = std::min(d2, t.distance_sq(p0));
-      if (d2 > p2) return false;
-    }
-    if (kind & 4) {
-      const double p2_all = p2;
-      for (std::int32_t f : faces_of_[std::size_t(v1)]) {
-        const auto& t = tri_[std::size_t(f)];
-        if (t[0] == v0 || t[1] == v0 || t[2] == v0) continue;
-        s.near.emplace_back(pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
-      }
-      for (std::int32_t v : {v0, v1})
-        for (std::int32_t u : cluster_[std::size_t(v)]) {
-          const Vec3d& p = pos_[std::size_t(u)];
-          const double p2 = point_tol2_.empty() ? p2_all : point_tol2_[std::size_t(u)];
-          bool ok = false;
-          for (const PreparedTriangle& t : s.tris)
-            if (t.distance_sq(p) <= p2) { ok = true; break; }
-          for (std::size_t j = 0; j < s.near.size() && !ok; ++j) ok = s.near[j].distance_sq(p) <= p2;
-          if (!ok) { s.near.clear(); return false; }
-        }
-      s.near.clear();
-    }
-    return true;
-  }
-
-  // Connectivity of the collapse of v0 into v1 (fl, fr: the faces on the edge).
-  void connect(Scratch& s, std::int32_t v0, std::int32_t v1, std::int32_t fl, std::int32_t fr) {
+    // Connectivity.
     for (std::int32_t f : {fl, fr}) {
       for (std::int32_t w : tri_[std::size_t(f)])
         if (w != v0) erase(faces_of_[std::size_t(w)], f);
@@ -433,16 +361,12 @@ class FastDecimator {
       faces1.push_back(f);
     }
     faces_of_[std::size_t(v0)] = {};
-    if (!cluster_.empty()) {
-      auto& c1 = cluster_[std::size_t(v1)];
-      c1.insert(c1.end(), cluster_[std::size_t(v0)].begin(), cluster_[std::size_t(v0)].end());
-      std::vector<std::int32_t>().swap(cluster_[std::size_t(v0)]);
-    }
     quad_[std::size_t(v1)] += quad_[std::size_t(v0)];
     state_[std::size_t(v0)] |= kDead;
     state_[std::size_t(v1)] |= kTouched;
     for (std::int32_t f : faces1)
       for (std::int32_t w : tri_[std::size_t(f)]) state_[std::size_t(w)] |= kDirty;
+    return true;
   }
 
   std::vector<Vec3d> pos_;
@@ -453,155 +377,9 @@ class FastDecimator {
   std::vector<unsigned> mark_;  // == Scratch::stamp: marked in the current collapse
   std::vector<std::array<std::int32_t, 3>> original_;  // the input triangles: corners of the pieces
   std::vector<std::vector<PieceKey>> pieces_;  // held by each face
-  std::vector<std::vector<std::int32_t>> cluster_;  // proxy_scale > 0: input vertices collapsed into each
-  std::vector<double> point_tol2_;
-  double tolerance_, proxy_, cos_max_;
+  double tolerance_, cos_max_;
 };
 
-// The grid of certify() holds at most about this many cells (memory of its
-// cell index), coarser cells beyond.
-constexpr double kMaxCertifyCells = 4e6;
-
-// The input triangles that `result` does not keep within `tolerance` by
-// today's bound (each part of a split triangle within its bound of one face,
-// PieceCover). Candidate faces: those whose box, grown by the bound, meets
-// the triangle's box (a bucket grid over the result's faces).
-std::vector<std::uint8_t> uncovered(const TriMesh& input, const TriMesh& result, double tolerance) {
-  const std::size_t nf = result.triangles.size(), ni = input.triangles.size();
-  std::vector<std::uint8_t> bad(ni, 0);
-  if (nf == 0) return std::vector<std::uint8_t>(ni, 1);
-  const double reach = tolerance + kDecimateSurfaceSlack;
-  std::vector<PreparedTriangle> tris;
-  std::vector<Eigen::AlignedBox3d> box(nf);
-  tris.reserve(nf);
-  Eigen::AlignedBox3d all;
-  double extent = 0;
-  for (std::size_t f = 0; f < nf; ++f) {
-    const auto& t = result.triangles[f];
-    const Vec3d a = result.vertices[std::size_t(t[0])].cast<double>(), b = result.vertices[std::size_t(t[1])].cast<double>(),
-                c = result.vertices[std::size_t(t[2])].cast<double>();
-    tris.emplace_back(a, b, c);
-    box[f].extend(a), box[f].extend(b), box[f].extend(c);
-    box[f].min().array() -= reach, box[f].max().array() += reach;
-    all.extend(box[f]);
-    extent += box[f].sizes().maxCoeff();
-  }
-  const Vec3d size = all.sizes();
-  const double cell = std::max(extent / double(nf), std::cbrt(size.prod() / kMaxCertifyCells));
-  const Eigen::Array3i dims = (size.array() / cell).floor().cast<int>() + 1;
-  auto cell_of = [&](const Vec3d& p) {
-    return ((p - all.min()).array() / cell).floor().cast<int>().max(0).min(dims - 1).eval();
-  };
-  auto index = [&](int x, int y, int z) { return (std::size_t(z) * std::size_t(dims.y()) + std::size_t(y)) * std::size_t(dims.x()) + std::size_t(x); };
-  std::vector<std::uint32_t> start(std::size_t(dims.prod()) + 1, 0), faces, fill;
-  for (int pass = 0; pass < 2; ++pass) {  // count, then fill (CSR)
-    if (pass == 1) {
-      for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-      faces.resize(start.back());
-      fill.assign(start.begin(), start.end() - 1);
-    }
-    for (std::size_t f = 0; f < nf; ++f) {
-      const Eigen::Array3i lo = cell_of(box[f].min()), hi = cell_of(box[f].max());
-      for (int z = lo.z(); z <= hi.z(); ++z)
-        for (int y = lo.y(); y <= hi.y(); ++y)
-          for (int x = lo.x(); x <= hi.x(); ++x)
-            if (pass == 0)
-              ++start[index(x, y, z) + 1];
-            else
-              faces[fill[index(x, y, z)]++] = std::uint32_t(f);
-    }
-  }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ni), [&](const tbb::blocked_range<std::size_t>& r) {
-    PieceCover cover(tolerance);
-    std::vector<PreparedTriangle> near;
-    std::vector<std::uint32_t> ids;
-    std::uint32_t last = std::uint32_t(-1);
-    for (std::size_t i = r.begin(); i < r.end(); ++i) {
-      const auto& t = input.triangles[i];
-      const Vec3d a = input.vertices[std::size_t(t[0])].cast<double>(), b = input.vertices[std::size_t(t[1])].cast<double>(),
-                  c = input.vertices[std::size_t(t[2])].cast<double>();
-      Eigen::AlignedBox3d tb;
-      tb.extend(a), tb.extend(b), tb.extend(c);
-      const Eigen::Array3i lo = cell_of(tb.min()), hi = cell_of(tb.max());
-      ids.clear();
-      for (int z = lo.z(); z <= hi.z(); ++z)
-        for (int y = lo.y(); y <= hi.y(); ++y)
-          for (int x = lo.x(); x <= hi.x(); ++x) {
-            const std::size_t k = index(x, y, z);
-            for (std::uint32_t j = start[k]; j < start[k + 1]; ++j)
-              if (box[faces[j]].intersects(tb)) ids.push_back(faces[j]);
-          }
-      std::sort(ids.begin(), ids.end());
-      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-      const auto it = std::find(ids.begin(), ids.end(), last);  // the neighbour's face first: usually covers
-      if (it != ids.end()) std::iter_swap(ids.begin(), it);
-      near.clear();
-      for (std::uint32_t j : ids) near.push_back(tris[j]);
-      std::size_t first = near.size();
-      const TrianglePiece whole{{a, b, c}, std::uint32_t(i), 7u, 0u, 0u};
-      if (!cover.cover(whole, near, near.empty() ? -1 : 0, false, [&](std::size_t k, const TrianglePiece&) {
-            first = std::min(first, k);
-          }))
-        bad[i] = 1;
-      else if (first < ids.size())
-        last = ids[first];
-    }
-  });
-  return bad;
-}
-
-}  // namespace
-}  // namespace detail
-
-namespace detail {
-namespace {
-// proxy_scale > 0: decimate by the proxy, certify, pin the corners of the
-// uncovered input triangles (if all were pinned already, every corner of
-// their neighbours: each pass pins more, and all pinned certifies) and redo.
-DecimateResult decimate_certified_after(TriMesh& mesh, const DecimateParams& params, std::size_t slabs) {
-  const long before = long(mesh.triangles.size());
-  std::vector<std::uint8_t> pinned(mesh.vertices.size(), 0);
-  std::vector<std::vector<std::int32_t>> faces_of;
-  for (int pass = 1;; ++pass) {
-    const std::clock_t c0 = std::clock();
-    FastDecimator d(mesh, params, pinned);
-    const std::clock_t c1 = std::clock();
-    d.run(std::max<std::size_t>(slabs, 1));
-    TriMesh out = d.result();
-    const std::clock_t c2 = std::clock();
-    const std::vector<std::uint8_t> bad = uncovered(mesh, out, params.max_error);
-    const std::clock_t c3 = std::clock();
-    bool grew = false, any = false;
-    for (std::size_t i = 0; i < bad.size(); ++i)
-      if (bad[i]) {
-        any = true;
-        for (std::int32_t v : mesh.triangles[i])
-          if (pinned[std::size_t(v)] < repair_cap()) ++pinned[std::size_t(v)], grew = true;
-      }
-    if (std::getenv("ISOLOFT_DEBUG")) {
-      long nb = 0, np = 0;
-      for (auto x : bad) nb += x;
-      for (auto x : pinned) np += x > 0;
-      fprintf(stderr, "pass %d: out %zu, uncovered %ld, pinned %ld; cpu setup %.2f run %.2f certify %.2f\n", pass, out.triangles.size(), nb, np,
-              double(c1 - c0) / CLOCKS_PER_SEC, double(c2 - c1) / CLOCKS_PER_SEC, double(c3 - c2) / CLOCKS_PER_SEC);
-    }
-    if (!any) {
-      mesh = std::move(out);
-      return {before, long(mesh.triangles.size()), pass};
-    }
-    if (grew) continue;
-    if (faces_of.empty()) {
-      faces_of.resize(mesh.vertices.size());
-      for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-        for (std::int32_t v : mesh.triangles[f]) faces_of[std::size_t(v)].push_back(std::int32_t(f));
-    }
-    for (std::size_t i = 0; i < bad.size(); ++i)
-      if (bad[i])
-        for (std::int32_t v : mesh.triangles[i])
-          for (std::int32_t f : faces_of[std::size_t(v)])
-            for (std::int32_t w : mesh.triangles[std::size_t(f)]) pinned[std::size_t(w)] = repair_cap();
-  }
-}
 }  // namespace
 }  // namespace detail
 
@@ -609,7 +387,6 @@ DecimateResult detail::decimate_in_slabs(TriMesh& mesh, const DecimateParams& pa
   validate_decimate_input(mesh, params);
   const long before = long(mesh.triangles.size());
   if (params.max_error == 0 || before == 0) return {before, before};
-  if (params.proxy_scale > 0) return decimate_certified_after(mesh, params, slabs);
   FastDecimator d(mesh, params);
   mesh = {};  // d holds its own copy: free this one while decimating
   d.run(std::max<std::size_t>(slabs, 1));

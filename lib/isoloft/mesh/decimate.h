@@ -25,7 +25,6 @@ inline constexpr double kDecimateSurfaceSlack = 1e-3;
 struct DecimateParams {
   double max_error = 0.0;
   double max_normal_deviation_deg = 60.0;
-  double proxy_scale = 0.0;
 };
 
 template <>
@@ -37,10 +36,6 @@ inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
           .cli("--decimate-error"),
       field("max_normal_deviation_deg", &DecimateParams::max_normal_deviation_deg, "deg",
             "largest turn of a face normal in one collapse (no fold-overs)", open_between(0, 90)),
-      field("proxy_scale", &DecimateParams::proxy_scale, "",
-            "0 = every collapse keeps the bound (piece tests); > 0 = collapses gated by a cheap proxy at this times "
-            "max_error, the result certified once after and redone with the uncovered vertices pinned",
-            at_least(0)),
   });
   return t;
 }
@@ -48,7 +43,6 @@ inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
 struct DecimateResult {
   long triangles_before = 0;
   long triangles_after = 0;
-  int passes = 1;  // decimation passes (proxy_scale > 0: one per failed certificate, plus the last)
 };
 
 /// Decimates `mesh` in place (renumbered; unused vertices kept).
