@@ -22,7 +22,12 @@ constexpr std::size_t kStarVertices = 16384;
 
 struct UnionFind {
   std::vector<std::int32_t> parent;
-  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  UnionFind() = default;
+  explicit UnionFind(std::size_t n) { reset(n); }
+  void reset(std::size_t n) {  // n elements, each its own set (the storage kept)
+    parent.resize(n);
+    std::iota(parent.begin(), parent.end(), 0);
+  }
   std::int32_t find(std::int32_t a) {
     while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
     return a;
@@ -86,6 +91,7 @@ MeshCheck check_mesh(const TriMesh& mesh) {
             bool forward;         // traversed from v to it
           };
           std::vector<HalfEdge> he;
+          UnionFind fans;
           for (std::size_t v = vs.begin(); v < vs.end(); ++v) {
             const std::uint32_t b = start[v], e = start[v + 1];
             if (b == e) continue;
@@ -103,7 +109,7 @@ MeshCheck check_mesh(const TriMesh& mesh) {
               }
             }
             std::sort(other.begin(), other.end());
-            UnionFind fans(e - b);
+            fans.reset(e - b);
             int n_fans = int(e - b);
             for (std::size_t k = 1; k < other.size(); ++k)
               if (other[k].first == other[k - 1].first && fans.unite(other[k].second, other[k - 1].second)) --n_fans;
