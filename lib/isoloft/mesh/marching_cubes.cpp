@@ -319,9 +319,9 @@ void layer_cells_to_visit(const Grid2<std::int8_t>& bottom, const Grid2<std::int
     const std::int8_t* r0 = both.data() + std::size_t(y) * std::size_t(w);
     const std::int8_t* r1 = r0 + w;
     std::uint8_t* out = visit.data() + std::size_t(y) * std::size_t(w - 1);
-    for (int x = 0; x + 1 < w; ++x) {
+    for (int x = 0; x + 1 < w; ++x) {  // branch-free, so it vectorises
       const std::int8_t s = r0[x];
-      out[x] = !(s != 0 && r0[x + 1] == s && r1[x] == s && r1[x + 1] == s);
+      out[x] = std::uint8_t((s == 0) | (r0[x + 1] != s) | (r1[x] != s) | (r1[x + 1] != s));
     }
   }
 }
