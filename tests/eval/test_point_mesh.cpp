@@ -77,6 +77,38 @@ TEST(PointMesh, PointsOnAFewPlanesEqualTheBruteForceMinimum) {
   }
 }
 
+// Points as contour vertices are: on planes, on or near the surface (most
+// within the first round's reach, some a round or two farther, a few beyond
+// the rounds from the triangles to the points), some on a large flat triangle
+// (offered to its planes' points, not cell by cell): each distance is the
+// brute-force minimum, bit for bit (the same expression, least of the same set).
+TEST(PointMesh, PointsNearTheSurfaceEqualTheBruteForceMinimumExactly) {
+  TriMesh mesh = sphere_mesh();
+  const auto v = std::int32_t(mesh.vertices.size());
+  for (const Vec3f& c : {Vec3f(-6, -6, 3), Vec3f(30, -6, 3), Vec3f(12, 30, 3)}) mesh.vertices.push_back(c);
+  mesh.triangles.push_back({v, v + 1, v + 2});
+  std::vector<detail::PreparedTriangle> tris;
+  for (const auto& t : mesh.triangles)
+    tris.emplace_back(mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(), mesh.vertices[t[2]].cast<double>());
+  std::mt19937 rng(54);
+  std::uniform_real_distribution<double> angle(0.0, 6.283185307179586), off(-0.3, 0.3), far(-6.0, 6.0);
+  std::vector<Vec3d> points;
+  for (const double z : {5.0, 11.7, 16.25}) {
+    const double r = std::sqrt(81.0 - (z - 11.7) * (z - 11.7));
+    for (int i = 0; i < 200; ++i) {
+      const double a = angle(rng), rr = r + (i % 10 == 0 ? far(rng) : off(rng));
+      points.emplace_back(11.5 + rr * std::cos(a), 12.0 + rr * std::sin(a), z);
+    }
+  }
+  for (int i = 0; i < 20; ++i) points.emplace_back(far(rng) + 8.0, far(rng) - 2.0, 3.0);  // on the flat triangle
+  const std::vector<double> got = point_mesh_distances(mesh, points);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : tris) best = std::min(best, t.distance_sq(points[i]));
+    EXPECT_EQ(got[i], std::sqrt(best)) << "point " << i;
+  }
+}
+
 // A few points far from the mesh (as specks a grid drops): searched by their
 // own boxes, round after round, until the nearest triangle is in reach.
 TEST(PointMesh, AFewFarPointsEqualTheBruteForceMinimum) {

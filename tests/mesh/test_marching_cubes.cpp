@@ -285,7 +285,7 @@ TEST(MarchingCubes, VisitingOnlyCellsThatMayHoldTheSurfaceGivesTheSameMesh) {
   const auto sdf = [&](const Vec3d& p) { return 7.5 - (p - c).norm(); };
   const std::vector<double> knots{0, 4, 8, 12, 16, 20};
   const ZInterpolator interp(sample(sdf, 23, 21, knots), knots, SplineKind::Monotone);
-  MarchingCubes full(23, 21), skipping(23, 21);
+  MarchingCubes full(23, 21), skipping(23, 21), any_byte(23, 21);  // any_byte: active bytes other than 1 too
   Grid2f plane;
   Grid2<std::int8_t> below, above;
   std::vector<std::uint8_t> visit;
@@ -296,6 +296,7 @@ TEST(MarchingCubes, VisitingOnlyCellsThatMayHoldTheSurfaceGivesTheSameMesh) {
     full.add_plane(plane, z);
     if (j == 0) {
       skipping.add_plane(plane, z);
+      any_byte.add_plane(plane, z);
       continue;
     }
     interp.sides(interp.interval(z - 0.5), 0.0f, kMargin, below);
@@ -304,11 +305,15 @@ TEST(MarchingCubes, VisitingOnlyCellsThatMayHoldTheSurfaceGivesTheSameMesh) {
     cells += visit.size();
     visited += std::size_t(std::count(visit.begin(), visit.end(), std::uint8_t(1)));
     skipping.add_plane(plane, z, &visit);
+    for (std::size_t c = 0; c < visit.size(); ++c) visit[c] = visit[c] ? std::uint8_t(c % 2 ? 255 : 3) : 0;
+    any_byte.add_plane(plane, z, &visit);
   }
-  const TriMesh a = full.finish(), b = skipping.finish();
+  const TriMesh a = full.finish(), b = skipping.finish(), d = any_byte.finish();
   ASSERT_FALSE(a.empty());
   EXPECT_EQ(a.vertices, b.vertices);
   EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.vertices, d.vertices);
+  EXPECT_EQ(a.triangles, d.triangles);
   EXPECT_LT(visited, cells / 2) << "the test should skip most cells";
 }
 

@@ -2,8 +2,12 @@
 // known: a hole, a flipped triangle, a non-manifold edge and vertex.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "isoloft/core/error.h"
 #include "isoloft/mesh/mesh_check.h"
@@ -168,6 +172,45 @@ TEST(MeshCheck, CountsComponentsAndDegenerateTriangles) {
   d.vertices = {Vec3f(0, 0, 0), Vec3f(1, 1, 1), Vec3f(2, 2, 2), Vec3f(0, 1, 0)};
   d.triangles = {{0, 1, 2}, {0, 0, 3}, {0, 1, 3}};  // collinear, repeated index, fine
   EXPECT_EQ(check_mesh(d).degenerate_triangles, 2);
+}
+
+TEST(MeshCheck, EdgeCountsEqualThoseOfEveryHalfEdgeGrouped) {
+  // Triangle soups on few vertices (shared, repeated and degenerate
+  // triangles; every kind of edge): the star pass's edge counts against the
+  // half-edges of all triangles grouped by their vertex pair.
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<std::int32_t> vertex(0, 11);
+    TriMesh m;
+    for (int v = 0; v < 13; ++v) m.vertices.push_back(Vec3f(float(v), float(v * v % 7), float(v % 3)));
+    for (int f = 0; f < 40; ++f) m.triangles.push_back({vertex(rng), vertex(rng), vertex(rng)});
+    m.triangles.push_back(m.triangles[5]);  // a repeated triangle
+    m.triangles.push_back({3, 3, 3});
+    std::map<std::pair<std::int32_t, std::int32_t>, std::pair<int, int>> half;  // (min, max) -> (forward, backward)
+    for (const auto& t : m.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const std::int32_t a = t[k], b = t[(k + 1) % 3];
+        if (a == b) continue;
+        auto& h = half[{std::min(a, b), std::max(a, b)}];
+        (a < b ? h.first : h.second) += 1;
+      }
+    long boundary = 0, nonmanifold = 0, inconsistent = 0;
+    for (const auto& [key, h] : half) {
+      const int n = h.first + h.second;
+      if (n == 1) ++boundary;
+      else if (n > 2) ++nonmanifold;
+      else if (h.first != 1) ++inconsistent;
+    }
+    std::vector<bool> used(m.vertices.size(), false);
+    for (const auto& t : m.triangles)
+      for (const std::int32_t v : t) used[std::size_t(v)] = true;
+    const long n_used = long(std::count(used.begin(), used.end(), true));
+    const MeshCheck c = check_mesh(m);
+    EXPECT_EQ(c.boundary_edges, boundary) << "seed " << seed;
+    EXPECT_EQ(c.nonmanifold_edges, nonmanifold) << "seed " << seed;
+    EXPECT_EQ(c.inconsistent_edges, inconsistent) << "seed " << seed;
+    EXPECT_EQ(c.euler, n_used - long(half.size()) + long(m.triangles.size())) << "seed " << seed;
+  }
 }
 
 TEST(MeshCheck, EmptyMeshAndBadIndices) {

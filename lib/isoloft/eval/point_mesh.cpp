@@ -1,5 +1,7 @@
 #include "isoloft/eval/point_mesh.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
@@ -11,6 +13,7 @@
 #include <functional>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include "isoloft/mesh/decimate_bound.h"
 
@@ -18,10 +21,28 @@ namespace isoloft {
 
 namespace {
 
-// Triangles within this many mean triangle extents of a point's plane are
-// searched first, then this many times farther each round (point_mesh_distances).
-constexpr double kPlaneReachExtents = 2.0, kReachGrowth = 4.0;
-// At most this many points left: candidates by each point's own box, not its plane.
+// Each round of point_mesh_distances searches this many times farther than
+// the one before, for the points whose distance was beyond its reach.
+constexpr double kReachGrowth = 4.0;
+// The first rounds go from the triangles to the points (PointCells): the
+// first reach, in mean triangle extents (a contour vertex lies a fraction of
+// a pixel off the surface made of it: on the RT set 99.4 % within it), and
+// the largest reach such a round takes (its work grows with the triangles
+// within reach of each point); farther, the triangle grid's rounds.
+constexpr double kPointReachExtents = 0.25, kPointReachMaxExtents = 4.0;
+// PointCells' cell side in reaches: a small triangle's box grown by the
+// reach meets at most 2 x 2 cells of a plane (2 and 8: slower on BODY).
+constexpr double kPointCellReaches = 4.0;
+// Consecutive triangles boxed together (a run), and runs per task, of a
+// round from the triangles to the points.
+constexpr std::size_t kBoxRun = 256, kOfferRuns = 64;
+// A triangle's box is grown by this much more than the reach a distance is
+// taken as exact within, so that a triangle whose computed distance is
+// within the reach is surely offered (the distance and the box, in double
+// from the same float corners, round ~1e-15 relative).
+constexpr double kReachSlack = 1e-6;
+// The triangle grid's rounds: at most this many points left, candidates by
+// each point's own box, not its plane.
 constexpr std::size_t kFewPoints = 64;
 // Triangles per task when the candidates near the points' planes are picked.
 constexpr std::size_t kSelectChunk = std::size_t(1) << 16;
@@ -190,30 +211,184 @@ class TriangleGrid {
   std::vector<std::int32_t> ids_;
 };
 
+// The points still to do by plane (their distinct z), row (y) and column
+// (x) of cells of side `cell`: for each plane's rows its occupied cells, in
+// x order. One pass over the triangles offers each triangle near a plane to
+// the points in the cells its box, grown by the reach, meets (a large
+// triangle: to its planes' points, if fewer than those rows): a triangle
+// within the reach of a point is among those offered to it, so a distance
+// <= reach is exact, the least of the same distances as the triangle grid's
+// search.
+class PointCells {
+ public:
+  /// A thread's part: the least squared distance found for each point
+  /// (best2[k] for todo[k]) and the candidates of the triangle at hand.
+  struct Part {
+    std::vector<double> best2;
+    std::vector<std::uint32_t> near;
+  };
+
+  PointCells(const std::vector<Vec3d>& points, const std::vector<std::size_t>& todo, std::vector<double> zs, double reach)
+      : reach_(reach * (1 + kReachSlack)), cell_(kPointCellReaches * reach), zs_(std::move(zs)) {
+    Vec2d hi = Vec2d::Constant(-std::numeric_limits<double>::infinity());
+    lo_ = -hi;
+    for (const std::size_t i : todo) lo_ = lo_.cwiseMin(points[i].head<2>()), hi = hi.cwiseMax(points[i].head<2>());
+    // At most kMaxCells columns (the key packs (plane, row, column) in 64
+    // bits), and rows, all planes', at most kRowsPerPoint per point.
+    cell_ = std::max({cell_, (hi - lo_).maxCoeff() / double(kMaxCells - 1),
+                      (hi.y() - lo_.y()) * double(zs_.size()) / (kRowsPerPoint * double(todo.size()))});
+    for (int a = 0; a < 2; ++a) n_[a] = int(std::floor((hi[a] - lo_[a]) / cell_)) + 1;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(todo.size());
+    for (std::size_t k = 0; k < todo.size(); ++k) {
+      const Vec3d& p = points[todo[k]];
+      const auto plane = std::uint64_t(std::lower_bound(zs_.begin(), zs_.end(), p.z()) - zs_.begin());
+      keyed[k] = {(plane << 42) | (std::uint64_t(cell_of(p.y(), 1)) << 21) | std::uint64_t(cell_of(p.x(), 0)),
+                  std::uint32_t(k)};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    row_start_.assign(zs_.size() * std::size_t(n_[1]) + 1, 0);
+    for (std::size_t k = 0; k < keyed.size(); ++k) {
+      index_.push_back(keyed[k].second);
+      at_.push_back(points[todo[keyed[k].second]]);
+      if (k > 0 && keyed[k].first == keyed[k - 1].first) continue;
+      const std::uint64_t row = keyed[k].first >> 21;
+      ++row_start_[std::size_t(row >> 21) * std::size_t(n_[1]) + std::size_t(row & (kMaxCells - 1)) + 1];
+      column_.push_back(std::int32_t(keyed[k].first & (kMaxCells - 1)));
+      cell_start_.push_back(std::uint32_t(k));
+    }
+    cell_start_.push_back(std::uint32_t(keyed.size()));
+    std::partial_sum(row_start_.begin(), row_start_.end(), row_start_.begin());
+  }
+
+  /// Whether box `b` grown by the reach meets a plane within the points' box.
+  [[nodiscard]] bool near(const Box& b) const {
+    const Vec3d lo = b.lo.cast<double>() - Vec3d::Constant(reach_), hi = b.hi.cast<double>() + Vec3d::Constant(reach_);
+    const auto plane = std::lower_bound(zs_.begin(), zs_.end(), lo.z());
+    return plane != zs_.end() && *plane <= hi.z() && hi.x() >= lo_.x() && hi.y() >= lo_.y() &&
+           cell_of(lo.x(), 0) < n_[0] && cell_of(lo.y(), 1) < n_[1];
+  }
+
+  /// Offers triangle `i` to the points near it.
+  void offer(const TriMesh& mesh, std::size_t i, Part& part) const {
+    const Box b = triangle_box(mesh, i);
+    const Vec3d lo = b.lo.cast<double>() - Vec3d::Constant(reach_), hi = b.hi.cast<double>() + Vec3d::Constant(reach_);
+    const auto p0 = std::size_t(std::lower_bound(zs_.begin(), zs_.end(), lo.z()) - zs_.begin());
+    if (p0 == zs_.size() || zs_[p0] > hi.z() || hi.x() < lo_.x() || hi.y() < lo_.y()) return;
+    const int x0 = cell_of(lo.x(), 0), y0 = cell_of(lo.y(), 1);
+    if (x0 >= n_[0] || y0 >= n_[1]) return;
+    const int x1 = std::min(cell_of(hi.x(), 0), n_[0] - 1), y1 = std::min(cell_of(hi.y(), 1), n_[1] - 1);
+    const auto p1 = std::size_t(std::upper_bound(zs_.begin() + std::ptrdiff_t(p0), zs_.end(), hi.z()) - zs_.begin());
+    part.near.clear();
+    const auto visit = [&](std::uint32_t begin, std::uint32_t end) {
+      for (std::uint32_t q = begin; q < end; ++q)
+        if (((at_[q].array() >= lo.array()) && (at_[q].array() <= hi.array())).all()) part.near.push_back(q);
+    };
+    const std::size_t rows = (p1 - p0) * std::size_t(y1 - y0 + 1);
+    const std::uint32_t first = cell_start_[row_start_[p0 * std::size_t(n_[1])]],
+                        last = cell_start_[row_start_[p1 * std::size_t(n_[1])]];
+    if (rows > last - first) {
+      visit(first, last);
+    } else {
+      for (std::size_t plane = p0; plane < p1; ++plane)
+        for (int y = y0; y <= y1; ++y) {
+          const std::size_t row = plane * std::size_t(n_[1]) + std::size_t(y);
+          const auto end = column_.begin() + std::ptrdiff_t(row_start_[row + 1]);
+          for (auto c = std::lower_bound(column_.begin() + std::ptrdiff_t(row_start_[row]), end, x0); c != end && *c <= x1;
+               ++c) {
+            const auto cell = std::size_t(c - column_.begin());
+            visit(cell_start_[cell], cell_start_[cell + 1]);
+          }
+        }
+    }
+    if (part.near.empty()) return;
+    const auto& t = mesh.triangles[i];
+    const detail::PreparedTriangle tri(vertex(mesh, t[0]), vertex(mesh, t[1]), vertex(mesh, t[2]));
+    for (const std::uint32_t q : part.near) {
+      double& best = part.best2[index_[q]];
+      best = std::min(best, tri.distance_sq(at_[q]));
+    }
+  }
+
+ private:
+  static constexpr int kMaxCells = 1 << 21;
+  // Rows of cells (all planes') per point at most: bounds the row table
+  // where the points lie on many planes.
+  static constexpr double kRowsPerPoint = 8.0;
+
+  static Vec3d vertex(const TriMesh& mesh, std::int32_t v) { return mesh.vertices[std::size_t(v)].cast<double>(); }
+  // Cell along axis a of a coordinate: 0 below the points' low corner; the caller bounds it above.
+  [[nodiscard]] int cell_of(double x, int a) const {
+    return int(std::clamp(std::floor((x - lo_[a]) / cell_), 0.0, double(kMaxCells)));
+  }
+
+  double reach_, cell_;
+  std::vector<double> zs_;
+  Vec2d lo_;
+  std::array<int, 2> n_{1, 1};
+  std::vector<std::uint32_t> row_start_;   // row (plane, y)'s cells: column_[row_start_[r] .. row_start_[r + 1])
+  std::vector<std::int32_t> column_;       // each occupied cell's x, by row then x
+  std::vector<std::uint32_t> cell_start_;  // cell c's points: at_[cell_start_[c] .. cell_start_[c + 1])
+  std::vector<std::uint32_t> index_;       // by cell: the point's index in todo
+  std::vector<Vec3d> at_;                  // by cell: the point
+};
+
 }  // namespace
 
 std::vector<double> point_mesh_distances(const TriMesh& mesh, const std::vector<Vec3d>& points) {
   std::vector<double> d(points.size(), std::numeric_limits<double>::infinity());
   if (mesh.triangles.empty() || points.empty()) return d;
-  // Contour vertices lie on a few planes: each round searches only the
-  // triangles within `reach` of the z of a point still to do (of the point
-  // itself when few are left); a triangle nearer than reach to a point is
-  // among them, so a distance <= reach is exact. The others go on with
-  // kReachGrowth times the reach, until the round that holds every triangle.
-  // The triangles' boxes are made from their corners where needed, not held.
-  const double extent = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, mesh.triangles.size()), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& r, double sum) {
-        for (std::size_t i = r.begin(); i < r.end(); ++i) {
-          const Box b = triangle_box(mesh, i);
-          sum += double((b.hi - b.lo).maxCoeff());
-        }
-        return sum;
-      },
-      std::plus<double>());
-  double reach = kPlaneReachExtents * extent / double(mesh.triangles.size());
+  // Rounds, each exact for the points within its reach of the mesh, the
+  // others going on with kReachGrowth times the reach: first from the
+  // triangles to the points (PointCells), each triangle offered to the
+  // points near it; then over a grid of the triangles within the reach of
+  // the z of a point still to do (of the point itself when few are left),
+  // until the round that holds every triangle. A contour vertex lies on or
+  // near the surface made of it, so nearly all are done in the first round.
+  // The triangles' boxes are made from their corners where needed, not held;
+  // those of runs of kBoxRun consecutive triangles (a Marching Cubes mesh's
+  // are near each other) are, so a round from the triangles skips the runs
+  // far from every point. The extents summed in order.
+  const std::size_t runs = (mesh.triangles.size() + kBoxRun - 1) / kBoxRun;
+  std::vector<Box> run_box(runs);
+  std::vector<double> run_extent(runs, 0.0);
+  tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
+    const std::size_t end = std::min(mesh.triangles.size(), (r + 1) * kBoxRun);
+    Box& all = run_box[r];
+    all = triangle_box(mesh, r * kBoxRun);
+    for (std::size_t i = r * kBoxRun; i < end; ++i) {
+      const Box b = triangle_box(mesh, i);
+      all.lo = all.lo.cwiseMin(b.lo), all.hi = all.hi.cwiseMax(b.hi);
+      run_extent[r] += double((b.hi - b.lo).maxCoeff());
+    }
+  });
+  const double extent = std::accumulate(run_extent.begin(), run_extent.end(), 0.0);
+  const double mean_extent = extent / double(mesh.triangles.size());
+  double reach = kPointReachExtents * mean_extent;
   std::vector<std::size_t> todo(points.size());
   std::iota(todo.begin(), todo.end(), std::size_t(0));
+  for (; !todo.empty() && reach > 0 && reach <= kPointReachMaxExtents * mean_extent; reach *= kReachGrowth) {
+    std::vector<double> zs;
+    for (const std::size_t i : todo) zs.push_back(points[i].z());
+    std::sort(zs.begin(), zs.end());
+    zs.erase(std::unique(zs.begin(), zs.end()), zs.end());
+    if (zs.size() >= std::size_t(1) << 22) break;  // not planes (a key holds 22 bits of plane): the triangle grid's rounds
+    const PointCells cells(points, todo, std::move(zs), reach);
+    tbb::enumerable_thread_specific<PointCells::Part> parts(
+        PointCells::Part{std::vector<double>(todo.size(), std::numeric_limits<double>::infinity()), {}});
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs, kOfferRuns), [&](const tbb::blocked_range<std::size_t>& rs) {
+      PointCells::Part& b = parts.local();
+      for (std::size_t r = rs.begin(); r < rs.end(); ++r)
+        if (cells.near(run_box[r]))
+          for (std::size_t i = r * kBoxRun; i < std::min(mesh.triangles.size(), (r + 1) * kBoxRun); ++i) cells.offer(mesh, i, b);
+    });
+    // The least over the threads' parts: the same whichever thread offered what.
+    for (std::size_t k = 0; k < todo.size(); ++k) {
+      double b = std::numeric_limits<double>::infinity();
+      for (const auto& part : parts) b = std::min(b, part.best2[k]);
+      d[todo[k]] = std::sqrt(b);
+    }
+    std::erase_if(todo, [&](std::size_t i) { return d[i] <= reach; });
+  }
   while (!todo.empty()) {
     std::vector<std::int32_t> ids;
     if (todo.size() <= kFewPoints) {

@@ -2,7 +2,9 @@
 // @brief Distances from points to a triangle mesh: how far an input's own
 // contour vertices lie from the surface made of them (the geometric error
 // of a working grid, docs/decisions.md: RT grid). Exact point-triangle
-// distances over a uniform grid of the triangles. Units: the mesh's.
+// distances: the triangles offered to the points near them (hashed by plane
+// and cell), then, for points farther off, a uniform grid of the triangles.
+// Units: the mesh's.
 #pragma once
 
 #include <vector>

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -163,7 +164,7 @@ MarchingCubes::MarchingCubes(int width, int height, double x0, double y0, Marchi
   (void)detail::mc_case_triangles(0);  // build the table outside the hot loop
 }
 
-void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active) {
+void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active, Grid2f* replaced) {
   const std::string where = "marching cubes: plane " + std::to_string(planes_);
   if (values.width != width_ || values.height != height_ || values.size() != std::size_t(width_) * std::size_t(height_))
     throw ParamError(where + " is " + std::to_string(values.width) + "x" + std::to_string(values.height) + ", expected " +
@@ -197,6 +198,7 @@ void MarchingCubes::add_plane(Grid2f values, double z, const std::vector<std::ui
     std::swap(set_[kXBottom], set_[kXTop]);
     std::swap(set_[kYBottom], set_[kYTop]);
   }
+  if (replaced) *replaced = std::move(prev_);
   prev_ = std::move(values);
   prev_z_ = z;
   ++planes_;
@@ -218,6 +220,21 @@ void grow_mesh_array(std::vector<T>& v) {
 
 }  // namespace
 
+namespace {
+
+// The first non-zero byte of [p, end), or end: the active cells are a thin
+// band, so the runs of inactive ones between are skipped 8 bytes at a time.
+const std::uint8_t* next_active(const std::uint8_t* p, const std::uint8_t* end) {
+  for (std::uint64_t word; end - p >= 8; p += 8) {
+    std::memcpy(&word, p, sizeof word);
+    if (word != 0) break;
+  }
+  while (p < end && *p == 0) ++p;
+  return p;
+}
+
+}  // namespace
+
 void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std::vector<std::uint8_t>* active) {
   const int W = width_, H = height_;
   const float iso = params_.iso;
@@ -229,7 +246,10 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
     const float* t1 = t0 + W;
     const std::uint8_t* on = active ? active->data() + std::size_t(j) * std::size_t(W - 1) : nullptr;
     for (int i = 0; i + 1 < W; ++i) {
-      if (on && !on[i]) continue;
+      if (on && !on[i]) {
+        i = int(next_active(on + i, on + (W - 1)) - on);
+        if (i + 1 >= W) break;
+      }
       const std::array<float, 8> v{b0[i], b0[i + 1], b1[i], b1[i + 1], t0[i], t0[i + 1], t1[i], t1[i + 1]};
       int mask = 0;
       for (int c = 0; c < 8; ++c) mask |= int(v[c] > iso) << c;
@@ -299,9 +319,9 @@ void layer_cells_to_visit(const Grid2<std::int8_t>& bottom, const Grid2<std::int
     const std::int8_t* r0 = both.data() + std::size_t(y) * std::size_t(w);
     const std::int8_t* r1 = r0 + w;
     std::uint8_t* out = visit.data() + std::size_t(y) * std::size_t(w - 1);
-    for (int x = 0; x + 1 < w; ++x) {
+    for (int x = 0; x + 1 < w; ++x) {  // branch-free, so it vectorises
       const std::int8_t s = r0[x];
-      out[x] = !(s != 0 && r0[x + 1] == s && r1[x] == s && r1[x + 1] == s);
+      out[x] = std::uint8_t((s == 0) | (r0[x + 1] != s) | (r1[x] != s) | (r1[x + 1] != s));
     }
   }
 }

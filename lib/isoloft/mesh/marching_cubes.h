@@ -55,8 +55,10 @@ class MarchingCubes {
   /// skipping cells whose `active` byte ((width - 1) x (height - 1), rows) is 0.
   /// \throw ParamError for a wrong size of values or active, or z not finite and
   ///        above the previous; InputError naming a non-finite value.
+  /// `replaced`, if given, receives the plane before the previous one (its
+  /// buffer to refill: empty until two planes are added).
   /// @warning A skipped cell must not hold the surface, or the mesh opens there.
-  void add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active = nullptr);
+  void add_plane(Grid2f values, double z, const std::vector<std::uint8_t>* active = nullptr, Grid2f* replaced = nullptr);
 
   /// The mesh (pixel units); resets the builder. Fewer than 2 planes: empty.
   /// With a spill: the mesh is in the spill, and finish() returns it empty.

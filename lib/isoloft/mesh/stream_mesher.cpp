@@ -22,6 +22,16 @@ Grid2<T> pad(const Grid2<T>& g, T outside) {
   return out;
 }
 
+// pad() into `out`, whose border holds `outside` already if it is of the
+// padded size (a plane this mesher padded before): the inside rows alone.
+void pad_into(const Grid2f& g, float outside, Grid2f& out) {
+  if (out.width != g.width + 2 || out.height != g.height + 2) {
+    out = pad(g, outside);
+    return;
+  }
+  for (int y = 0; y < g.height; ++y) std::copy_n(&g(0, y), g.width, &out(1, y + 1));
+}
+
 }  // namespace
 
 // The padded side maps of the last two knot intervals, one slot per interval
@@ -133,6 +143,7 @@ bool StreamMesher::layer_visit(std::size_t k) {
     const Grid2<std::int8_t>& below = sides_->of(k_prev_);  // k_prev and k use different slots, or are equal
     layer_cells_to_visit(below, sides_->of(k), visit_);
     visit_for_ = {k_prev_, k};
+    visited_ = long(std::count(visit_.begin(), visit_.end(), std::uint8_t(1)));
   }
   return skip;
 }
@@ -167,16 +178,17 @@ const PixelRuns* StreamMesher::needed(std::size_t k, bool next_in_interval) {
 
 void StreamMesher::add(const Grid2f& plane, double z, std::size_t k, long count) {
   const auto t0 = Clock::now();
-  Grid2f padded = pad(plane, options_.outside);
+  Grid2f padded = std::move(spare_);
+  pad_into(plane, options_.outside, padded);
   const std::size_t j = std::size_t(builder_.planes_added());
   if (options_.on_plane) options_.on_plane(padded, x0_ - 1.0, y0_ - 1.0, z, int(j), int(count));
   const bool skip = layer_visit(k);
   if (j > 0) {
     const long layer = long(field_.width() + 1) * long(field_.height() + 1);
     out_.cells += layer;
-    out_.cells_visited += skip ? long(std::count(visit_.begin(), visit_.end(), std::uint8_t(1))) : layer;
+    out_.cells_visited += skip ? visited_ : layer;
   }
-  builder_.add_plane(std::move(padded), z, skip ? &visit_ : nullptr);
+  builder_.add_plane(std::move(padded), z, skip ? &visit_ : nullptr, &spare_);
   k_prev_ = k;
   out_.mesh_seconds += seconds_since(t0);
   if (options_.progress) options_.progress(long(j + 1), count);

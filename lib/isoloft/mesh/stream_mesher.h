@@ -85,6 +85,8 @@ class StreamMesher {
   StreamMeshResult out_;
   std::vector<std::uint8_t> visit_;
   std::array<std::size_t, 2> visit_for_{std::size_t(-1), std::size_t(-1)};  // the interval pair visit_ was made for
+  long visited_ = 0;  // cells visit_ visits
+  Grid2f spare_;      // a padded plane Marching Cubes is done with, refilled by the next add()
   std::size_t k_prev_ = std::size_t(-1);
   PixelRuns needed_;
   std::array<std::size_t, 2> needed_for_{std::size_t(-1), std::size_t(-1)};  // the interval pair needed_ was made for
