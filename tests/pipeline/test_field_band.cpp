@@ -195,6 +195,19 @@ double band_left_out(const SliceStack& st, const ReconstructParams& p) {
   return all > 0 ? out / all : 0;
 }
 
+// reconstruct() with the band gives the one object's mesh of whole fields, bit for bit.
+void expect_whole_field_mesh(const SliceStack& st, const ReconstructParams& p, const std::string& name) {
+  ReconstructOptions whole;
+  whole.whole_fields = true;
+  const ReconstructResult want = reconstruct(st, p, whole);
+  const ReconstructResult got = reconstruct(st, p);
+  ASSERT_EQ(want.objects.size(), 1u) << name;
+  ASSERT_EQ(got.objects.size(), 1u) << name;
+  ASSERT_FALSE(want.objects[0].mesh.triangles.empty()) << name;
+  EXPECT_EQ(got.objects[0].mesh.vertices, want.objects[0].mesh.vertices) << name;
+  EXPECT_EQ(got.objects[0].mesh.triangles, want.objects[0].mesh.triangles) << name;
+}
+
 TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
   struct Case {
     std::string name;
@@ -227,15 +240,48 @@ TEST(FieldBand, ReconstructGivesTheMeshOfWholeFields) {
     p.interp.isolated_empty = c.isolated;
     const double left_out = band_left_out(c.stack, p);
     ASSERT_GT(left_out, 0) << c.name << ": no band, or one that leaves no pixel out";
-    ReconstructOptions whole;
-    whole.whole_fields = true;
-    const ReconstructResult want = reconstruct(c.stack, p, whole);
-    const ReconstructResult got = reconstruct(c.stack, p);
-    ASSERT_EQ(want.objects.size(), 1u) << c.name;
-    ASSERT_EQ(got.objects.size(), 1u) << c.name;
-    ASSERT_FALSE(want.objects[0].mesh.triangles.empty()) << c.name;
-    EXPECT_EQ(got.objects[0].mesh.vertices, want.objects[0].mesh.vertices) << c.name;
-    EXPECT_EQ(got.objects[0].mesh.triangles, want.objects[0].mesh.triangles) << c.name;
+    expect_whole_field_mesh(c.stack, p, c.name);
+  }
+}
+
+// Slab and flat caps and closings read their slices pixel by pixel: end
+// slices, the caps' trend slices and slices next to an empty one take the
+// union of their readers' bands; dome and round caps read their end slices'
+// maximum, so end slices and slices next to an empty one stay whole (the
+// default slab caps: ReconstructGivesTheMeshOfWholeFields).
+TEST(FieldBand, CapsReadingPixelByPixelBandTheirEndAndEmptyNeighbourSlices) {
+  struct Case {
+    std::string name;
+    SliceStack stack;
+    SplineKind spline;
+    CapShape cap;
+    IsolatedEmpty isolated = InterpParams{}.isolated_empty;
+  };
+  const std::vector<Case> cases{
+      {"sphere, drawn polygons, isolated empty slices, secant, monotone, flat caps",
+       cut("sphere", 96, 3.0, InputKind::Polylines, {6, 7, 8, 12, 13, 14, 15}), SplineKind::Monotone, CapShape::Flat,
+       IsolatedEmpty::Secant},
+      {"square prism, drawn polygons, linear, round caps (the trend slices banded, the ends whole)",
+       prism(96, 30.5, 6, 5.0), SplineKind::Linear, CapShape::Round},
+  };
+  for (const Case& c : cases) {
+    ReconstructParams p;
+    p.interp.spline = c.spline;
+    p.interp.isolated_empty = c.isolated;
+    p.interp.cap_shape = c.cap;
+    const Packed pk = packed(c.stack, p);
+    const auto setup = detail::field_band_setup(p, c.stack.kind, pk.masks);
+    ASSERT_TRUE(setup) << c.name;
+    detail::FieldBand band(pk.masks, pk.box, *setup);
+    band.prepare(0, pk.masks.size());
+    const std::size_t n = pk.masks.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      if (pk.masks[k].empty) continue;
+      const bool empty_next = (k > 0 && pk.masks[k - 1].empty) || (k + 1 < n && pk.masks[k + 1].empty);
+      const bool whole = c.cap == CapShape::Round && (k == 0 || k + 1 == n || empty_next);
+      ASSERT_EQ(!band.band(k), whole) << c.name << ": slice " << k;
+    }
+    expect_whole_field_mesh(c.stack, p, c.name);
   }
 }
 

@@ -123,16 +123,23 @@ std::optional<FieldBand::Setup> field_band_setup(const ReconstructParams& p, Inp
   s.reach = tangent_reach(spline).value();
   s.filter_reach = filter_reach(p.filter);
   s.trend_caps = p.interp.cap_shape == CapShape::Slab || p.interp.cap_shape == CapShape::Round;
+  s.whole_ends = p.interp.cap_shape == CapShape::Dome || p.interp.cap_shape == CapShape::Round;
+  s.spread = rule == IsolatedEmpty::Secant ? 2 : 1;  // an isolated empty slice's secant reads the slice 2 away
   return s;
 }
 
 FieldBand::FieldBand(const std::vector<PackedMasks>& masks, const PixelBox& box, const Setup& setup)
-    : masks_(masks), box_(box), setup_(setup), full_(masks.size(), 0) {
+    : masks_(masks), box_(box), setup_(setup), full_(masks.size(), 0), readers_(masks.size()) {
   const std::size_t n = masks.size();
   for (std::size_t k = 0; k < n; ++k) {
     const bool empty_next = (k > 0 && masks[k - 1].empty) || (k + 1 < n && masks[k + 1].empty);
-    const bool trend = setup.trend_caps && (k == 1 || k + 2 == n);
-    full_[k] = k == 0 || k + 1 == n || empty_next || trend;
+    full_[k] = setup.whole_ends && (k == 0 || k + 1 == n || empty_next);
+    // The end caps' knots read no interval their end slices' do not: the
+    // trend slice's readers reach the end slice.
+    std::size_t first = setup.trend_caps && k == 1 ? 0 : k, last = setup.trend_caps && k + 2 == n ? n - 1 : k;
+    for (std::size_t d = 1; d <= setup.spread && d <= k && masks[k - d].empty; ++d) first = std::min(first, k - d);
+    for (std::size_t d = 1; d <= setup.spread && k + d < n && masks[k + d].empty; ++d) last = std::max(last, k + d);
+    readers_[k] = {first, last};
   }
 }
 
@@ -191,11 +198,20 @@ std::pair<std::size_t, std::size_t> intervals_read(std::size_t k0, std::size_t k
   return {k0 - std::min(k0, reach), std::min(n, k1 + reach)};
 }
 
+// The intervals [j_lo, j_hi] the knots of slices [first, last] read (the
+// union of their bands' intervals).
+std::pair<std::size_t, std::size_t> slice_intervals(std::size_t first, std::size_t last, std::size_t reach,
+                                                    std::size_t n) {
+  const std::size_t i0 = first + 1, i1 = last + 1;
+  return {i0 - std::min(i0, reach + 1), std::min(n, i1 + reach)};
+}
+
 }  // namespace
 
 void FieldBand::prepare(std::size_t k0, std::size_t k1) {
   if (setup_.partition) return setup_.partition->prepare(setup_.label, k0, k1);
-  const auto [j_lo, j_hi] = intervals_read(k0, k1, setup_.reach, masks_.size());
+  // A slice's band may join its readers' up to `spread` slices away.
+  const auto [j_lo, j_hi] = intervals_read(k0, k1, setup_.reach + setup_.spread, masks_.size());
   for (; first_ < j_lo && !crossing_.empty(); ++first_) crossing_.pop_front();
   if (crossing_.empty()) first_ = j_lo;
   const std::size_t from = first_ + crossing_.size();
@@ -250,13 +266,15 @@ Grid2<std::int32_t> PartitionCrossings::slice_sides(std::size_t k) const {
   return out;
 }
 
-void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t k1) {
+void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t k1_asked) {
   std::lock_guard lock(m_);
   asked_.at(label) = k0;
-  const std::size_t n = masks_.empty() ? 0 : masks_[0].size(), r = setup_.reach;
-  const std::size_t lagging = *std::min_element(asked_.begin(), asked_.end());
-  for (; first_band_ < lagging && !bands_.empty(); ++first_band_) bands_.pop_front();
-  if (bands_.empty()) first_band_ = std::min(k0, lagging);
+  const std::size_t n = masks_.empty() ? 0 : masks_[0].size(), r = setup_.reach, spread = setup_.spread;
+  // A slice's band may join its readers' up to `spread` slices away: those kept and made too.
+  const std::size_t lagging = *std::min_element(asked_.begin(), asked_.end()), keep = lagging - std::min(lagging, spread);
+  const std::size_t k1 = std::min(n, k1_asked + spread);
+  for (; first_band_ < keep && !bands_.empty(); ++first_band_) bands_.pop_front();
+  if (bands_.empty()) first_band_ = std::min(k0 - std::min(k0, spread), keep);
   const std::size_t s_from = first_band_ + bands_.size();
   if (s_from >= k1) return;
   // The intervals slices [s_from, k1) read.
@@ -287,23 +305,28 @@ void PartitionCrossings::prepare(std::size_t label, std::size_t k0, std::size_t 
   });
 }
 
-SliceBand PartitionCrossings::band(std::size_t k, const PixelBox& box) const {
-  const auto crop = [&](const Grid2u8& g) {
-    Grid2u8 c(box.width(), box.height());
+SliceBand PartitionCrossings::band(std::size_t first, std::size_t last, const PixelBox& box) const {
+  // The union's bands OR-ed into one crop (equal to dilating the union of
+  // their crossings: a dilation of a union is the union of the dilations).
+  SliceBand out{Grid2u8(box.width(), box.height(), 0), Grid2u8(box.width(), box.height(), 0)};
+  const auto crop_or = [&](const Grid2u8& g, Grid2u8& c) {
     for (int y = 0; y < c.height; ++y)
-      std::copy_n(&g.data[g.index(box.x0 - ubox_.x0, y + box.y0 - ubox_.y0)], c.width, &c.data[c.index(0, y)]);
-    return c;
+      or_into(&c.data[c.index(0, y)], &g.data[g.index(box.x0 - ubox_.x0, y + box.y0 - ubox_.y0)], std::size_t(c.width));
   };
   std::lock_guard lock(m_);
-  const SliceBand& b = bands_.at(k - first_band_);
-  return {crop(b.needed), crop(b.required)};
+  for (std::size_t k = first; k <= last; ++k) {
+    const SliceBand& b = bands_.at(k - first_band_);
+    crop_or(b.needed, out.needed);
+    crop_or(b.required, out.required);
+  }
+  return out;
 }
 
 std::optional<SliceBand> FieldBand::band(std::size_t k) const {
   if (full_.at(k)) return std::nullopt;
-  if (setup_.partition) return setup_.partition->band(k, box_);
-  const std::size_t i = k + 1, r = setup_.reach, n = masks_.size();
-  const std::size_t j0 = i - std::min(i, r + 1), j1 = std::min(n, i + r);
+  const auto [first, last] = readers_.at(k);
+  if (setup_.partition) return setup_.partition->band(first, last, box_);
+  const auto [j0, j1] = slice_intervals(first, last, setup_.reach, masks_.size());
   Grid2u8 crossing(box_.width(), box_.height(), 0);
   for (std::size_t j = j0; j <= j1; ++j) {
     const Grid2u8& c = crossing_.at(j - first_);

@@ -17,11 +17,17 @@
 // (`required`, where the extension stops). Elsewhere any value of the known
 // side gives the same mesh, bit for bit.
 //
-// End slices, the slices the caps' trend reads (the second and the second to
-// last) and slices next to an empty slice are `full`: caps and the closing of
-// empty slices read them whole. Empty slices and the caps are outside
-// everywhere (cap_extent <= 1). Inside pixels on the ring of the crop box
-// count as unknown: the mesher's outside pad meets them.
+// A slice's field is also read through the knots made from it: the end caps
+// (from the end slice and, round and slab, the trend of the slice before it)
+// and the closing of an empty neighbour (secant: of the isolated empty slice
+// beyond it too). Slab and flat caps and closings read it pixel by pixel, so
+// its band is the union of the bands of the slices whose knots read it
+// (`spread` slices at most on each side; a cap's knot reads no interval its
+// end slice's does not). Dome and round caps read its maximum: end slices
+// and slices next to an empty one are then `full` (the whole field). Empty
+// slices and the caps are outside everywhere (cap_extent <= 1). Inside pixels
+// on the ring of the crop box count as unknown: the mesher's outside pad
+// meets them.
 // @warning Only for the paths whose sign is the masks' (traced masks, drawn
 // polygons); field_band_setup() says which runs qualify.
 #pragma once
@@ -58,6 +64,8 @@ class FieldBand {
     std::size_t reach = 0;   ///< the spline's tangent reach (interp/z_stream.h)
     int filter_reach = 0;    ///< px: the filter's stencil radius (0 = no filter)
     bool trend_caps = false;  ///< the caps read the second (and second to last) slice too
+    bool whole_ends = false;  ///< caps and closings read their slice's maximum (dome, round)
+    std::size_t spread = 1;   ///< slices: an empty slice's knot reads non-empty slices this far
     /// A label partition's: its labels' bands (PartitionCrossings), this label's index there.
     std::shared_ptr<PartitionCrossings> partition;
     std::size_t label = 0;
@@ -77,6 +85,9 @@ class FieldBand {
   PixelBox box_;
   Setup setup_;
   std::vector<char> full_;
+  // Per slice: the slices [first, last] whose knots read its field (its own,
+  // a cap's end slice, an empty neighbour).
+  std::vector<std::pair<std::size_t, std::size_t>> readers_;
   // Per knot interval j (knots j, j + 1; knot 0 the cap below): 1 where its
   // sides are unknown or differ. Intervals [first_, first_ + size).
   std::deque<Grid2u8> crossing_;
@@ -109,8 +120,9 @@ class PartitionCrossings {
   /// intervals their splines read: FieldBand::prepare), those no label reads
   /// any more dropped.
   void prepare(std::size_t label, std::size_t k0, std::size_t k1);
-  /// Slice k's band over `box` (within the union's), after prepare() for k.
-  [[nodiscard]] SliceBand band(std::size_t k, const PixelBox& box) const;
+  /// The union of slices [first, last]'s bands over `box` (within the
+  /// union's), after prepare() for a slice within `spread` of them.
+  [[nodiscard]] SliceBand band(std::size_t first, std::size_t last, const PixelBox& box) const;
 
  private:
   // Slice k over the union's box: l + 1 inside label l, -1 in none, 0 where
