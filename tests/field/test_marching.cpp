@@ -99,29 +99,6 @@ TEST(Extend, EikonalMethodsSolveTheSameDiscreteProblem) {
     }
 }
 
-// A march stopped at its required pixels (one pixel 5 px inside the circle)
-// gives the pixels it never reached its front's distance, signed: at most the
-// whole run's value beyond them, never kNoSurfaceDistance (docs/decisions.md,
-// the front's value for unreached pixels).
-TEST(Extend, StoppedMarchGivesUnreachedPixelsItsFront) {
-  const CircleCase cc;
-  const ImplicitFn f = [&](const Vec2d& p) { return cc.r - (p - cc.c).norm(); };
-  const NarrowBandResult band = narrow_band_distance(sample(f, cc.n, cc.n), f);
-  Grid2u8 required(cc.n, cc.n, 0);
-  required(63, 64 - int(cc.r) + 5) = 1;
-  for (const ExtendMethod m : {ExtendMethod::MarchingCorrectness, ExtendMethod::FastMarching})
-    for (const ExtendUpdate u : {ExtendUpdate::ClosestPoint, ExtendUpdate::Eikonal}) {
-      const Grid2f whole = extend_distance(band, {m, u});
-      const Grid2f stopped = extend_distance(band, {m, u}, &required);
-      const float corner = stopped(0, 0), centre = stopped(63, 65);
-      EXPECT_LT(corner, 0.0f) << name(m) << ": outside";
-      EXPECT_GT(centre, 0.0f) << name(m) << ": inside";
-      EXPECT_EQ(-corner, centre) << name(m) << ": both the front's distance";
-      EXPECT_GT(centre, 4.0f) << name(m);
-      EXPECT_LT(centre, whole(63, 65)) << name(m) << ": the front lies before the centre";
-    }
-}
-
 TEST(Extend, EmptyBandGivesNoSurfaceDistance) {
   const NarrowBandResult band = narrow_band_distance(Grid2f(9, 7, -1.0f), ImplicitFn{});
   for (const ExtendMethod m : kMethods)

@@ -223,18 +223,17 @@ double eikonal_update(const ExtendState& s, int x, int y, const std::uint8_t* st
   return u;
 }
 
-Grid2f finish_extend(const NarrowBandResult& band, const ExtendState& s, ExtendUpdate update, double unreached) {
+Grid2f finish_extend(const NarrowBandResult& band, const ExtendState& s, ExtendUpdate update) {
   Grid2f out(s.width, s.height);
   const bool any = std::any_of(s.fixed.begin(), s.fixed.end(), [](std::uint8_t f) { return f != 0; });
   for (std::size_t i = 0; i < out.size(); ++i) {
     const float sign = band.inside.data[i] ? 1.0f : -1.0f;
-    const double v = std::isfinite(s.value[i]) ? s.value[i] : unreached;
     if (s.fixed[i]) {
       out.data[i] = band.distance.data[i];
-    } else if (!any || !std::isfinite(v)) {
+    } else if (!any || !std::isfinite(s.value[i])) {
       out.data[i] = sign * kNoSurfaceDistance;
     } else {
-      const double d = update == ExtendUpdate::ClosestPoint ? std::sqrt(v) : v;
+      const double d = update == ExtendUpdate::ClosestPoint ? std::sqrt(s.value[i]) : s.value[i];
       out.data[i] = sign * float(d);
     }
   }
@@ -266,11 +265,7 @@ Grid2f extend_fast_marching(const NarrowBandResult& band, ExtendUpdate update, c
     settle(s, i, update);
     offer(s, status, i, update, push);
   }
-  std::vector<int> front;  // the trial pixels left (the heap holds stale entries too)
-  if (left.done())
-    for (int i = 0; i < int(status.size()); ++i)
-      if (status[i] == kTrial) front.push_back(i);
-  return detail::finish_extend(band, s, update, detail::unreached_value(front, [&](int i) { return s.value[i]; }));
+  return detail::finish_extend(band, s, update);
 }
 
 Grid2f detail::marching_cc_generic(const NarrowBandResult& band, ExtendUpdate update, const Grid2u8* required) {
@@ -310,7 +305,7 @@ Grid2f detail::marching_cc_generic(const NarrowBandResult& band, ExtendUpdate up
     for (int i : newly) settle(s, i, update);
     for (int i : newly) offer(s, status, i, update, add);
   }
-  return detail::finish_extend(band, s, update, detail::unreached_value(trial, [&](int i) { return s.value[i]; }));
+  return detail::finish_extend(band, s, update);
 }
 
 
@@ -420,14 +415,13 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
       offer_from(p, x, y);
     }
   }
-  const double unreached = detail::unreached_value(trial, [&](int p) { return cell[std::size_t(p)].value; });
   Grid2f out(w, h);
   const std::uint8_t* inside = band.inside.data.data();
   for (int y = 0; y < h; ++y) {
     const MarchCell* row = &cell[std::size_t(at(0, y))];
     for (int x = 0; x < w; ++x) {
       const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
-      const double v = std::isfinite(row[x].value) ? row[x].value : unreached;
+      const double v = row[x].value;
       const float sign = inside[i] ? 1.0f : -1.0f;
       if (known[i])
         out.data[i] = band.distance.data[i];

@@ -12,10 +12,8 @@
 // (tested against FMM, fast sweeping and brute force).
 #pragma once
 
-#include <algorithm>
 #include <array>
 #include <cstdint>
-#include <limits>
 #include <vector>
 
 #include "isoloft/core/grid.h"
@@ -65,8 +63,7 @@ inline const ParamTable<ExtendParams>& params_table<ExtendParams>() {
 /// \param required if given (the grid's size): the marching methods stop once
 ///        its non-zero pixels are known; those hold the values of the whole
 ///        run bit for bit (a march is a prefix of the whole one), the others
-///        only their sign (magnitude: a trial value, or for pixels never
-///        reached the front's, unreached_value()). Fast sweeping ignores it.
+///        only their sign (magnitude unspecified). Fast sweeping ignores it.
 /// \throw ParamError if the band's grids or links disagree, `required` has
 ///        another size, or a parameter is out of range.
 /// @warning No known band pixel (no curve): +-kNoSurfaceDistance by band.inside.
@@ -134,24 +131,8 @@ enum MarchStatus : std::uint8_t { kFar = 0, kTrial = 1, kKnown = 2 };
 /// given); +inf if none is finite.
 double eikonal_update(const ExtendState& s, int x, int y, const std::uint8_t* status = nullptr);
 
-/// Signed output: band values as given, others signed by band.inside; a
-/// pixel without a value takes `unreached` (ExtendState::value's units) if
-/// finite (a stopped march's front: unreached_value()), else kNoSurfaceDistance.
-Grid2f finish_extend(const NarrowBandResult& band, const ExtendState& s, ExtendUpdate update,
-                     double unreached = std::numeric_limits<double>::infinity());
-
-/// What a march stopped at its required pixels gives the pixels it never
-/// reached: the least trial value (its front; +inf if none). Only their sign
-/// is read, but a value near the values around keeps the z spline's sides()
-/// decisive there (an extremum-preserving interval's overshoot bound grows
-/// with its knots' jumps: kNoSurfaceDistance next to a true distance makes
-/// the mesher evaluate and visit that column).
-template <class Trial, class Value>
-double unreached_value(const Trial& trial, Value&& value) {
-  double m = std::numeric_limits<double>::infinity();
-  for (const auto i : trial) m = std::min(m, double(value(i)));
-  return m;
-}
+/// Signed output: band values as given, others signed by band.inside.
+Grid2f finish_extend(const NarrowBandResult& band, const ExtendState& s, ExtendUpdate update);
 
 /// Mauch's correctness threshold on the square grid, px.
 inline constexpr double kCorrectnessDelta = 0.70710678118654752440;
