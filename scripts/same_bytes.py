@@ -6,7 +6,7 @@
 #   scripts/same_bytes.py BASE NEW [--work DIR] [--only NAME,...] [--threads N]
 #
 # BASE, NEW: an isoloft binary or a build folder holding one. Each binary's
-# outputs go to WORK/<sha256 of the binary>/ and are kept: a binary already run
+# outputs go to WORK/<sha256 of the binary and its isoloft-cli>/ and are kept: a binary already run
 # (every case done) is not run again, so a baseline costs its run once.
 # Cases: the bundled frog (scripts/example.sh's command, the label partition;
 # and independent labels with --volume), the shared RT set with every ROI
@@ -122,8 +122,18 @@ def binary_of(arg: str) -> Path:
     return p.resolve()
 
 
+def digest_of(binary: Path) -> str:
+    """The binary's sha256 (16 hex digits), with the isoloft-cli beside it: the
+    `isoloft` launcher execs that one, and is the same file in every build."""
+    h = hashlib.sha256(binary.read_bytes())
+    cli = binary.parent / "isoloft-cli"
+    if cli.is_file():
+        h.update(cli.read_bytes())
+    return h.hexdigest()[:16]
+
+
 def run_all(binary: Path, work: Path, only, threads: int, aal: Path, again: bool = False) -> Path:
-    digest = hashlib.sha256(binary.read_bytes()).hexdigest()[:16]
+    digest = digest_of(binary)
     root = work / (digest + (".again" if again else ""))
     root.mkdir(parents=True, exist_ok=True)
     for name, steps in cases():
@@ -227,7 +237,7 @@ def main():
     ba, bb = binary_of(a.base), binary_of(a.new)
     ra = run_all(ba, work, only, a.threads, aal)
     # The same binary twice: a second run of its own (a determinism check).
-    rb = run_all(bb, work, only, a.threads, aal, again=ra == work / hashlib.sha256(bb.read_bytes()).hexdigest()[:16])
+    rb = run_all(bb, work, only, a.threads, aal, again=ra == work / digest_of(bb))
     return compare(ra, rb, only)
 
 
