@@ -15,21 +15,20 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// `g` inside a border of `outside` into `out`. An `out` of the padded size
+// is a plane this mesher padded before (its border holds `outside` already):
+// only the inside rows are written.
 template <class T>
-Grid2<T> pad(const Grid2<T>& g, T outside) {
-  Grid2<T> out(g.width + 2, g.height + 2, outside);
+void pad_into(const Grid2<T>& g, T outside, Grid2<T>& out) {
+  if (out.width != g.width + 2 || out.height != g.height + 2) out = Grid2<T>(g.width + 2, g.height + 2, outside);
   for (int y = 0; y < g.height; ++y) std::copy_n(&g(0, y), g.width, &out(1, y + 1));
-  return out;
 }
 
-// pad() into `out`, whose border holds `outside` already if it is of the
-// padded size (a plane this mesher padded before): the inside rows alone.
-void pad_into(const Grid2f& g, float outside, Grid2f& out) {
-  if (out.width != g.width + 2 || out.height != g.height + 2) {
-    out = pad(g, outside);
-    return;
-  }
-  for (int y = 0; y < g.height; ++y) std::copy_n(&g(0, y), g.width, &out(1, y + 1));
+template <class T>
+Grid2<T> pad(const Grid2<T>& g, T outside) {
+  Grid2<T> out;
+  pad_into(g, outside, out);
+  return out;
 }
 
 }  // namespace
