@@ -13,7 +13,7 @@
 // With --csl FILE --ref MESH (the CSL reader, io/csl.h): the same against a reference mesh.
 //
 // usage: field3d_kit [--out FILE.csv] [--threads N] [--resolution R] [--smoothness S] [--contour-weight W]
-//                    [--band B] [--plane-weight P] [--refinement R] [--refine-width W] [--reweight-passes P] [--reweight-factor F]
+//                    [--band B] [--margin M] [--boundary-weight W] [--plane-weight P] [--refinement R] [--refine-width W] [--reweight-passes P] [--reweight-factor F]
 //                    [--reweight-tolerance T] [--no-prune] [--plane-signs 0|1] [--plane-sign-distance D]
 //                    [--csl FILE --ref MESH --name NAME [--allow-self-intersections] [--write MESH]]
 #include <tbb/global_control.h>
@@ -121,6 +121,8 @@ int main(int argc, char** argv) {
     else if (a == "--smoothness") params.smoothness = std::stod(next());
     else if (a == "--contour-weight") params.contour_weight = std::stod(next());
     else if (a == "--band") params.band = std::stod(next());
+    else if (a == "--margin") params.margin = std::stod(next());
+    else if (a == "--boundary-weight") params.boundary_weight = std::stod(next());
     else if (a == "--plane-weight") params.plane_weight = std::stod(next());
     else if (a == "--refinement") params.refinement = std::stoi(next());
     else if (a == "--refine-width") params.refine_width = std::stod(next());

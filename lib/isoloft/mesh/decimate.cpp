@@ -53,6 +53,16 @@ constexpr std::uint8_t kBorder = 16;  // has a neighbour in another slab: fixed 
 constexpr std::size_t kTrianglesPerSlab = 100000;
 constexpr std::size_t kMaxSlabs = 8;
 
+// Flip-then-collapse passes for slivers (min_angle_deg): each pass that flips
+// nothing ends them; measured, a second pass rarely flips (docs/decisions.md).
+constexpr int kSliverPasses = 3;
+
+// Least interior angle of the triangle (a, b, c), radians; 0 if degenerate.
+double least_angle(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  auto angle = [](const Vec3d& u, const Vec3d& v) { return std::atan2(u.cross(v).norm(), u.dot(v)); };
+  return std::min({angle(b - a, c - a), angle(c - b, a - b), angle(a - c, b - c)});
+}
+
 // Candidates are ordered by the top 16 bits of their float cost (sign 0,
 // 8 exponent, 7 mantissa bits): relative steps of < 1 %, a counting sort.
 constexpr int kCostKeyShift = 16;
@@ -78,7 +88,9 @@ struct Scratch {
 class FastDecimator {
  public:
   FastDecimator(const TriMesh& mesh, const DecimateParams& params)
-      : tolerance_(params.max_error), cos_max_(std::cos(params.max_normal_deviation_deg * std::numbers::pi / 180.0)) {
+      : tolerance_(params.max_error),
+        cos_max_(std::cos(params.max_normal_deviation_deg * std::numbers::pi / 180.0)),
+        min_angle_(params.min_angle_deg * std::numbers::pi / 180.0) {
     const std::size_t nv = mesh.vertices.size(), nf = mesh.triangles.size();
     pos_.reserve(nv);
     for (const Vec3f& p : mesh.vertices) pos_.emplace_back(p.cast<double>());
@@ -128,7 +140,22 @@ class FastDecimator {
     std::iota(all.begin(), all.end(), 0);
     Scratch scratch(tolerance_);
     rounds(scratch, all);
+    // Slivers the collapses left (Marching Cubes' are mostly gone by now):
+    // flip or collapse them away, then collapse again around the changes,
+    // from here on making no new sliver.
+    guard_angles_ = min_angle_ > 0;
+    for (int pass = 0; pass < kSliverPasses && guard_angles_; ++pass) {
+      const long before = flips_ + sliver_collapses_;
+      for (std::size_t f = 0; f < tri_.size(); ++f)
+        if (tri_[f][0] >= 0) lift_sliver(scratch, std::int32_t(f));
+      for (auto& st : state_) st &= std::uint8_t(~kTouched);
+      if (flips_ + sliver_collapses_ == before) break;
+      rounds(scratch, all);
+    }
   }
+
+  [[nodiscard]] long flips() const { return flips_; }
+  [[nodiscard]] long sliver_collapses() const { return sliver_collapses_; }
 
   [[nodiscard]] TriMesh result() const {
     TriMesh out;
@@ -278,14 +305,18 @@ class FastDecimator {
         continue;
       }
       const auto& t = tri_[std::size_t(f)];
-      std::array<Vec3d, 3> c{pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]};
-      const Vec3d n_old = (c[1] - c[0]).cross(c[2] - c[0]);
+      const std::array<Vec3d, 3> o{pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]};
+      std::array<Vec3d, 3> c = o;
       for (std::size_t k = 0; k < 3; ++k)
         if (t[k] == v0) c[k] = p1;
-      const Vec3d n_new = (c[1] - c[0]).cross(c[2] - c[0]);
+      const Vec3d n_old = (o[1] - o[0]).cross(o[2] - o[0]), n_new = (c[1] - c[0]).cross(c[2] - c[0]);
       const double new2 = n_new.squaredNorm(), old2 = n_old.squaredNorm();
       if (!(new2 > 0)) return false;
       if (old2 > 0 && n_old.dot(n_new) < cos_max_ * std::sqrt(old2 * new2)) return false;
+      if (guard_angles_) {  // no new sliver; one already there may stay or improve
+        const double now = least_angle(c[0], c[1], c[2]);
+        if (now < min_angle_ && now < least_angle(o[0], o[1], o[2])) return false;
+      }
       s.own.push_back(std::int32_t(s.tris.size()));
       s.kept.push_back(f);
       s.tris.emplace_back(c[0], c[1], c[2]);
@@ -369,6 +400,101 @@ class FastDecimator {
     return true;
   }
 
+  // Face f below the least angle: flips the edge whose flip lifts the pair's
+  // least angle most, if that is legal (early returns below). The two faces'
+  // pieces must be covered by the two new ones, as for a collapse.
+  void lift_sliver(Scratch& s, std::int32_t f) {
+    const auto t = tri_[std::size_t(f)];
+    const double was = least_angle(pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
+    if (was >= min_angle_) return;
+    struct Flip {
+      std::int32_t g = -1, a = 0, b = 0, c = 0, d = 0;
+      double angle = 0;
+    } best;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::int32_t a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
+      const std::int32_t g = face_with_edge(b, a);
+      if (g < 0) continue;
+      const std::int32_t d = after(g, a);
+      if (!flip_legal(a, b, c, d)) continue;
+      const auto& q = tri_[std::size_t(g)];
+      const double old_pair =
+          std::min(was, least_angle(pos_[std::size_t(q[0])], pos_[std::size_t(q[1])], pos_[std::size_t(q[2])]));
+      const double new_pair = std::min(least_angle(pos_[std::size_t(c)], pos_[std::size_t(a)], pos_[std::size_t(d)]),
+                                       least_angle(pos_[std::size_t(d)], pos_[std::size_t(b)], pos_[std::size_t(c)]));
+      if (new_pair > old_pair && new_pair > best.angle) best = {g, a, b, c, d, new_pair};
+    }
+    if (best.g >= 0 && flip(s, f, best.g, best.a, best.b, best.c, best.d)) return;
+    // Else collapse one of its edges away, shortest first.
+    std::array<std::size_t, 3> order{0, 1, 2};
+    auto length2 = [&](std::size_t k) { return (pos_[std::size_t(t[k])] - pos_[std::size_t(t[(k + 1) % 3])]).squaredNorm(); };
+    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return length2(x) < length2(y); });
+    for (std::size_t k : order) {
+      const std::int32_t a = t[k], b = t[(k + 1) % 3];
+      if ((state_[std::size_t(a)] | state_[std::size_t(b)]) & (kDead | kTouched)) return;
+      if (collapse(s, a, b) || collapse(s, b, a)) {
+        ++sliver_collapses_;
+        return;
+      }
+    }
+  }
+
+  // The face holding the directed edge u->w, or -1.
+  [[nodiscard]] std::int32_t face_with_edge(std::int32_t u, std::int32_t w) const {
+    for (std::int32_t g : faces_of_[std::size_t(u)])
+      if (after(g, u) == w) return g;
+    return -1;
+  }
+
+  // Faces f = (a, b, c) and g = (b, a, d) may become (c, a, d) and (d, b, c):
+  // no moved or held vertex, no edge c-d already, a and b keep three faces,
+  // neither new face turns from the pair's normal by more than the limit.
+  [[nodiscard]] bool flip_legal(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d) const {
+    for (std::int32_t v : {a, b, c, d})
+      if (state_[std::size_t(v)] & (kFixed | kDead)) return false;
+    if (c == d || faces_of_[std::size_t(a)].size() <= 3 || faces_of_[std::size_t(b)].size() <= 3) return false;
+    if (face_with_edge(c, d) >= 0 || face_with_edge(d, c) >= 0) return false;
+    const Vec3d &pa = pos_[std::size_t(a)], &pb = pos_[std::size_t(b)], &pc = pos_[std::size_t(c)],
+                &pd = pos_[std::size_t(d)];
+    const Vec3d pair = (pb - pa).cross(pc - pa) + (pa - pb).cross(pd - pb);
+    for (const Vec3d& n : {Vec3d((pa - pc).cross(pd - pc)), Vec3d((pb - pd).cross(pc - pd))}) {
+      const double n2 = n.squaredNorm();
+      if (!(n2 > 0) || n.dot(pair) < cos_max_ * std::sqrt(n2 * pair.squaredNorm())) return false;
+    }
+    return true;
+  }
+
+  // Flips the edge a-b of f = (a, b, c), g = (b, a, d) if the new faces cover
+  // both faces' pieces; returns whether it did.
+  bool flip(Scratch& s, std::int32_t f, std::int32_t g, std::int32_t a, std::int32_t b, std::int32_t c,
+            std::int32_t d) {
+    s.tris.clear();
+    s.tris.emplace_back(pos_[std::size_t(c)], pos_[std::size_t(a)], pos_[std::size_t(d)]);
+    s.tris.emplace_back(pos_[std::size_t(d)], pos_[std::size_t(b)], pos_[std::size_t(c)]);
+    s.placed.clear();
+    auto record = [&](std::size_t k, const TrianglePiece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
+    for (std::int32_t h : {f, g})
+      for (const PieceKey& key : pieces_[std::size_t(h)]) {
+        const auto& t = original_[key.triangle];
+        const TrianglePiece q = expand(key, pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
+        if (!s.cover.cover(q, s.tris, -1, false, record)) return false;
+      }
+    std::array<std::vector<PieceKey>, 2> held;
+    for (const auto& [k, key] : s.placed) held[std::size_t(k)].push_back(key);
+    for (auto& h : held) coarsen(h);
+    pieces_[std::size_t(f)] = std::move(held[0]);
+    pieces_[std::size_t(g)] = std::move(held[1]);
+    tri_[std::size_t(f)] = {c, a, d};
+    tri_[std::size_t(g)] = {d, b, c};
+    erase(faces_of_[std::size_t(a)], g);
+    erase(faces_of_[std::size_t(b)], f);
+    faces_of_[std::size_t(c)].push_back(g);
+    faces_of_[std::size_t(d)].push_back(f);
+    for (std::int32_t v : {a, b, c, d}) state_[std::size_t(v)] |= kDirty;
+    ++flips_;
+    return true;
+  }
+
   std::vector<Vec3d> pos_;
   std::vector<std::array<std::int32_t, 3>> tri_;  // {-1, -1, -1}: collapsed away
   std::vector<std::vector<std::int32_t>> faces_of_;
@@ -377,7 +503,9 @@ class FastDecimator {
   std::vector<unsigned> mark_;  // == Scratch::stamp: marked in the current collapse
   std::vector<std::array<std::int32_t, 3>> original_;  // the input triangles: corners of the pieces
   std::vector<std::vector<PieceKey>> pieces_;  // held by each face
-  double tolerance_, cos_max_;
+  double tolerance_, cos_max_, min_angle_;
+  bool guard_angles_ = false;  // collapses make no new sliver (after the first rounds)
+  long flips_ = 0, sliver_collapses_ = 0;
 };
 
 }  // namespace
@@ -391,7 +519,7 @@ DecimateResult detail::decimate_in_slabs(TriMesh& mesh, const DecimateParams& pa
   mesh = {};  // d holds its own copy: free this one while decimating
   d.run(std::max<std::size_t>(slabs, 1));
   mesh = d.result();
-  return {before, long(mesh.triangles.size())};
+  return {before, long(mesh.triangles.size()), d.flips(), d.sliver_collapses()};
 }
 
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params) {

@@ -25,6 +25,7 @@ inline constexpr double kDecimateSurfaceSlack = 1e-3;
 struct DecimateParams {
   double max_error = 0.0;
   double max_normal_deviation_deg = 60.0;
+  double min_angle_deg = 0.0;
 };
 
 template <>
@@ -36,6 +37,10 @@ inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
           .cli("--decimate-error"),
       field("max_normal_deviation_deg", &DecimateParams::max_normal_deviation_deg, "deg",
             "largest turn of a face normal in one collapse (no fold-overs)", open_between(0, 90)),
+      field("min_angle_deg", &DecimateParams::min_angle_deg, "deg",
+            "no collapse leaves a face with a smaller least angle unless it had one; faces still below it are "
+            "flipped where the bound allows (slivers); 0 = off",
+            between(0, 30)),
   });
   return t;
 }
@@ -43,6 +48,8 @@ inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
 struct DecimateResult {
   long triangles_before = 0;
   long triangles_after = 0;
+  long flips = 0;             ///< edges flipped to lift slivers (min_angle_deg)
+  long sliver_collapses = 0;  ///< slivers collapsed away (min_angle_deg)
 };
 
 /// Decimates `mesh` in place (renumbered; unused vertices kept).
