@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "isoloft/core/error.h"
 
@@ -39,6 +40,45 @@ double hyman_clamp(double m, double dl, double dr, bool has_l, bool has_r) {
   const double bound = 3.0 * std::min(std::abs(dl), std::abs(dr));
   const double s = dl > 0 ? 1.0 : -1.0;
   return s * std::clamp(s * m, 0.0, bound);
+}
+
+// Both kinds' tangent at an interior knot (hl, hr: its intervals) where the
+// secants dl, dr beside it share a sign: Hyman's clamp of the parabolic
+// tangent (hyman_clamp(parabolic_tangent_at), the same expressions); 0 where
+// they do not (right where both are 0, e.g. a plateau of kNoSurfaceDistance;
+// the others are redone by the caller). Two pixels at a time in vector
+// registers: each lane the scalar arithmetic, so the same floats (GCC's
+// vectoriser leaves the scalar loop's selects as branches).
+void interior_tangents(const double* dl, const double* dr, float* out, std::size_t np, double hl, double hr) {
+  auto one = [&](double l, double r) {
+    const double m = (hr * l + hl * r) / (hl + hr);
+    const double bound = 3.0 * std::min(std::abs(l), std::abs(r));
+    const double s = l > 0 ? 1.0 : -1.0;
+    return l * r > 0.0 ? s * std::clamp(s * m, 0.0, bound) : 0.0;
+  };
+  std::size_t q = 0;
+#if defined(__GNUC__)
+  using V2d = double __attribute__((vector_size(16)));
+  using V2l = long long __attribute__((vector_size(16)));
+  using V2f = float __attribute__((vector_size(8)));
+  const V2d vhl = {hl, hl}, vhr = {hr, hr}, vhs = {hl + hr, hl + hr}, zero = {0.0, 0.0}, plus = {1.0, 1.0},
+            three = {3.0, 3.0};
+  const V2l magnitude = {0x7fffffffffffffffLL, 0x7fffffffffffffffLL};  // std::abs
+  for (; q + 2 <= np; q += 2) {
+    V2d l, r;
+    std::memcpy(&l, dl + q, sizeof l);
+    std::memcpy(&r, dr + q, sizeof r);
+    const V2d m = (vhr * l + vhl * r) / vhs;
+    const V2d al = V2d(V2l(l) & magnitude), ar = V2d(V2l(r) & magnitude);
+    const V2d bound = three * (ar < al ? ar : al);  // std::min(al, ar)
+    const V2d s = l > zero ? plus : -plus;
+    const V2d v = s * m, above = v < zero ? zero : v;  // std::clamp: min(max(v, 0), bound)
+    const V2d t = l * r > zero ? s * (bound < above ? bound : above) : zero;
+    const V2f f = __builtin_convertvector(t, V2f);
+    std::memcpy(out + q, &f, sizeof f);
+  }
+#endif
+  for (; q < np; ++q) out[q] = float(one(dl[q], dr[q]));
 }
 
 // The monotone (Hyman) tangent at knot i; slope as parabolic_tangent_at's.
@@ -229,11 +269,22 @@ ZInterpolator::ZInterpolator(std::vector<Grid2f> slices, std::vector<double> z, 
       }
       for (std::size_t k = lo; k <= hi; ++k) {
         float* out = tangents_[k].data.data();
-        for (std::size_t p = r.begin(); p != r.end(); ++p) {
+        auto exact = [&](std::size_t p) {
           const std::size_t q = p - r.begin();
           out[p] = float(tangent([&](std::size_t j) { return double(slices_[j].data[p]); },
                                  [&](std::size_t j) { return secant[(j - s0) * np + q]; }, k));
+        };
+        if (k == 0 || k + 1 == n) {
+          for (std::size_t p = r.begin(); p != r.end(); ++p) exact(p);
+          continue;
         }
+        // An interior knot: interior_tangents, then the whole rule where the
+        // secants differ in sign (an extremum) or one of them is 0.
+        const double* dl = secant.data() + (k - 1 - s0) * np;
+        const double* dr = secant.data() + (k - s0) * np;
+        interior_tangents(dl, dr, out + r.begin(), np, z_[k] - z_[k - 1], z_[k + 1] - z_[k]);
+        for (std::size_t q = 0; q < np; ++q)
+          if (!(dl[q] * dr[q] > 0.0) && (dl[q] != 0.0 || dr[q] != 0.0)) exact(r.begin() + q);
       }
     });
   };
