@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "isoloft/core/error.h"
 #include "isoloft/interp/spline.h"
@@ -265,6 +266,64 @@ TEST(ZInterpolator, KnotByKnotTangentsAreTheColumnsBitForBit) {
           EXPECT_EQ(out(x, y), want) << to_string(kind) << " " << n << " knots, pixel (" << x << ", " << y << ")";
         }
     }
+  }
+}
+
+// The tangent planes bit for bit those of spline_tangents on each column, on
+// columns that rise, fall, turn, flatten (plateaus, -0) and change sign: the
+// interior knots' two-pixels-at-a-time path, its odd last pixel and the
+// pixels it leaves to the whole rule; sides() the scalar rule on each pixel.
+TEST(ZInterpolator, TangentPlanesAreTheColumnsTangentsBitForBit) {
+  const int w = 9, h = 7;  // 63 pixels: an odd one after the pairs
+  const std::vector<double> z{-2, 0, 0.5, 3, 7, 8, 11.25};
+  const std::size_t n = z.size();
+  std::vector<Grid2f> slices;
+  for (std::size_t k = 0; k < n; ++k) {
+    Grid2f g(w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const int kind = (x + 3 * y) % 6;
+        const double t = double(k);
+        g(x, y) = kind == 0   ? 1e6f                                            // plateau
+                  : kind == 1 ? (k % 3 == 1 ? -0.0f : 0.0f)                     // signed zeros
+                  : kind == 2 ? float(0.5 * t * (x + 1) - y)                    // monotone
+                  : kind == 3 ? float(-(t - 3.0) * (t - 3.0) + x - y)           // one extremum
+                  : kind == 4 ? float(k >= 2 && k <= 3 ? 4.0 : 0.5 * t + y)     // a flat interval
+                              : float(std::sin(0.9 * t * (x + 1) + y) * (y + 1));  // turns, sign changes
+      }
+    slices.push_back(g);
+  }
+  for (const SplineKind kind : {SplineKind::Monotone, SplineKind::ExtremumPreserving}) {
+    ZInterpolator zi(slices, z, kind);
+    // sides(): four pixels at a time, and the last three, give the scalar rule.
+    constexpr float kMargin = 1e-2f, kIso = 0.3f;
+    Grid2<std::int8_t> side;
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+      zi.sides(k, kIso, kMargin, side);
+      const float reach = float((z[k + 1] - z[k]) * 4.0 / 27.0);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          std::vector<double> f, m(n);
+          for (const auto& s : slices) f.push_back(s(x, y));
+          spline_tangents(kind, z, f, m);
+          const float a = slices[k](x, y), b = slices[k + 1](x, y);
+          const float slack = kind == SplineKind::Monotone ? 0.0f : reach * (std::abs(float(m[k])) + std::abs(float(m[k + 1])));
+          const float lo = std::min(a, b) - slack, hi = std::max(a, b) + slack;
+          EXPECT_EQ(side(x, y), lo > kIso + kMargin ? 1 : hi < kIso - kMargin ? -1 : 0) << to_string(kind) << " interval " << k;
+        }
+    }
+    const std::vector<Grid2f> planes = zi.take_tangents(0, n - 1);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        std::vector<double> f, m(n);
+        for (const auto& s : slices) f.push_back(s(x, y));
+        spline_tangents(kind, z, f, m);
+        for (std::size_t k = 0; k < n; ++k) {
+          const float want = float(m[k]), got = planes[k](x, y);
+          EXPECT_EQ(std::memcmp(&want, &got, sizeof want), 0)
+              << to_string(kind) << " knot " << k << ", pixel (" << x << ", " << y << "): " << got << " vs " << want;
+        }
+      }
   }
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <queue>
 #include <string>
 #include <utility>
@@ -318,6 +319,7 @@ struct MarchCell {
   std::int32_t seg;    // nearest segment, -1 unknown
   std::uint8_t status; // kFar, kTrial, kKnown
   std::uint8_t required;
+  std::uint8_t inside; // band.inside: the output's sign
 };
 
 // Pixels ahead in the settle-and-offer pass whose 3x3 cells are prefetched:
@@ -326,40 +328,68 @@ constexpr std::size_t kPrefetchAhead = 8;
 
 // extend_marching_cc with ClosestPoint: marching_cc_generic's march, the same
 // offers in the same order, over a grid padded by one known pixel on every
-// side (no bounds checks) with each pixel's state in one MarchCell.
+// side (no bounds checks) with each pixel's state in one MarchCell. One pass
+// over the grid makes the cells and the output of band and far pixels; a
+// marched pixel's output is written when it is settled (its value is final
+// then), or at the end if it is still a trial one.
 Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required) {
   check_band(band);
   const int w = band.distance.width, h = band.distance.height;
   check_required(required, w, h);
   const std::vector<detail::SegmentGeom> geom = segment_geoms(band);
   const int pw = w + 2;
-  std::vector<MarchCell> cell(std::size_t(pw) * std::size_t(h + 2), MarchCell{kInf, -1, kKnown, 0});
+  // Not value-initialised: the pass below writes every cell once.
+  const std::unique_ptr<MarchCell[]> cells(new MarchCell[std::size_t(pw) * std::size_t(h + 2)]);
+  MarchCell* const cell = cells.get();
   auto at = [pw](int x, int y) { return (y + 1) * pw + x + 1; };
+  const MarchCell pad{kInf, -1, kKnown, 0, 0};
+  std::fill(cell, cell + pw, pad);
+  std::fill(cell + std::size_t(at(-1, h)), cell + std::size_t(at(-1, h)) + std::size_t(pw), pad);
   long left = 0;  // required pixels not known yet
-  bool any = false;
+  Grid2f out(w, h);
+  float* const o = out.data.data();
   // Raw pointers: the cells' byte stores may alias a vector's own pointer,
   // which would be loaded again on every pixel.
   const std::uint8_t* known = band.known.data.data();
   const std::uint8_t* needed = required ? required->data.data() : nullptr;
+  const std::uint8_t* inside = band.inside.data.data();
+  const float* given = band.distance.data.data();
   for (int y = 0; y < h; ++y) {
-    MarchCell* row = &cell[std::size_t(at(0, y))];
+    MarchCell* row = cell + std::size_t(at(0, y));
+    row[-1] = pad;
+    row[w] = pad;
     for (int x = 0; x < w; ++x) {
       const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
       MarchCell& c = row[x];
       c.required = needed && needed[i];
+      c.inside = inside[i];
       if (!known[i]) {
+        c.value = kInf;
+        c.seg = -1;
         c.status = kFar;
         left += c.required;
+        o[i] = (inside[i] ? 1.0f : -1.0f) * kNoSurfaceDistance;
         continue;
       }
       const std::int32_t k = band_segment(band, i);
       c.seg = k;
       c.value = detail::segment_distance2(geom[std::size_t(k)], x, y);
-      any = true;
+      c.status = kKnown;
+      o[i] = given[i];
     }
   }
+  // A marched pixel's output: its value is final (settled) or the march stopped.
+  auto output = [&](int p, int x, int y) {
+    const MarchCell& c = cell[std::size_t(p)];
+    o[std::size_t(y) * std::size_t(w) + std::size_t(x)] = (c.inside ? 1.0f : -1.0f) * float(std::sqrt(c.value));
+  };
   const int off[8] = {-1, 1, -pw, pw, -pw - 1, -pw + 1, pw - 1, pw + 1};  // kDx8 / kDy8's order
   std::vector<int> trial, newly;
+  // The least value written since `lowest` was reset: every pixel written is
+  // a trial one until the next round, and values only drop, so after a
+  // round's split and offers it is the least trial value (the round's min,
+  // without a pass over the trial list).
+  double lowest = kInf;
   auto offer_from = [&](int p, int x, int y) {
     const std::int32_t si = cell[std::size_t(p)].seg;
     const detail::SegmentGeom g = geom[std::size_t(si)];
@@ -370,6 +400,7 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
       if (c2 < c.value) {
         c.value = c2;
         c.seg = si;
+        lowest = std::min(lowest, c2);
         if (c.status == kFar) {
           c.status = kTrial;
           trial.push_back(p + off[k]);
@@ -381,9 +412,9 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
     for (int x = 0; x < w; ++x)
       if (known[std::size_t(y) * std::size_t(w) + std::size_t(x)]) offer_from(at(x, y), x, y);
   while (!trial.empty() && !(required && left == 0)) {
-    double m = kInf;
-    for (int p : trial) m = std::min(m, cell[std::size_t(p)].value);
+    const double m = lowest;
     const double threshold = (std::sqrt(m) + detail::kCorrectnessDelta) * (std::sqrt(m) + detail::kCorrectnessDelta);
+    lowest = kInf;
     newly.clear();
     std::size_t keep = 0;
     for (int p : trial) {
@@ -393,6 +424,7 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
         c.status = kKnown;
         left -= c.required;
       } else {
+        lowest = std::min(lowest, c.value);
         trial[keep++] = p;
       }
     }
@@ -412,25 +444,11 @@ Grid2f marching_cc_closest(const NarrowBandResult& band, const Grid2u8* required
       const int x = p % pw - 1, y = p / pw - 1;
       MarchCell& c = cell[std::size_t(p)];
       c.seg = detail::descend_along_curve(geom, band.links, x, y, c.seg, c.value);
+      output(p, x, y);
       offer_from(p, x, y);
     }
   }
-  Grid2f out(w, h);
-  const std::uint8_t* inside = band.inside.data.data();
-  for (int y = 0; y < h; ++y) {
-    const MarchCell* row = &cell[std::size_t(at(0, y))];
-    for (int x = 0; x < w; ++x) {
-      const std::size_t i = std::size_t(y) * std::size_t(w) + std::size_t(x);
-      const double v = row[x].value;
-      const float sign = inside[i] ? 1.0f : -1.0f;
-      if (known[i])
-        out.data[i] = band.distance.data[i];
-      else if (!any || !std::isfinite(v))
-        out.data[i] = sign * kNoSurfaceDistance;
-      else
-        out.data[i] = sign * float(std::sqrt(v));
-    }
-  }
+  for (int p : trial) output(p, p % pw - 1, p / pw - 1);
   return out;
 }
 
