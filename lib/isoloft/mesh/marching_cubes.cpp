@@ -220,6 +220,12 @@ void grow_mesh_array(std::vector<T>& v) {
 
 }  // namespace
 
+void MarchingCubes::reserve(std::size_t triangles) {
+  // A closed Marching Cubes mesh has about half as many vertices as triangles.
+  mesh_.vertices.reserve(triangles / 2 + kMeshMinGrowth);
+  mesh_.triangles.reserve(triangles);
+}
+
 namespace {
 
 // The first non-zero byte of [p, end), or end: the active cells are a thin

@@ -131,6 +131,7 @@ StreamMesher::StreamMesher(const PlaneSource& field, double x0, double y0, const
       y0_(y0) {
   if (!(options_.outside <= mc.iso)) throw ParamError("mesh_interpolated_field: the pad value must be outside (<= iso)");
   builder_.spill_into(options_.spill);
+  if (!options_.spill && options_.reserve_triangles > 0) builder_.reserve(options_.reserve_triangles);
 }
 
 StreamMesher::~StreamMesher() = default;

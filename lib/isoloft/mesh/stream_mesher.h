@@ -41,6 +41,10 @@ struct StreamMeshOptions {
   PlaneCallback on_plane;  ///< optional
   std::function<void(long done, long total)> progress;  ///< optional, once per plane
   MeshSpill* spill = nullptr;  ///< optional: the mesh goes there as it grows (finish() returns it empty)
+  /// Triangles to make room for at the start (MarchingCubes::reserve; 0:
+  /// none; unused with a spill): a large mesh grown by copies faults in
+  /// fresh pages for each, its room untouched beyond the mesh costs none.
+  std::size_t reserve_triangles = 0;
 };
 
 struct StreamMeshResult {
