@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <random>
 #include <string>
 #include <vector>
@@ -174,10 +175,64 @@ TEST(MeshCheck, CountsComponentsAndDegenerateTriangles) {
   EXPECT_EQ(check_mesh(d).degenerate_triangles, 2);
 }
 
+// The counts by brute force: edges from the half-edges of all triangles
+// grouped by their vertex pair; a vertex's fans from its triangles (one
+// entry per time it holds the vertex) joined when they share another vertex.
+MeshCheck brute_force_counts(const TriMesh& m) {
+  std::map<std::pair<std::int32_t, std::int32_t>, std::pair<int, int>> half;  // (min, max) -> (forward, backward)
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = t[k], b = t[(k + 1) % 3];
+      if (a == b) continue;
+      auto& h = half[{std::min(a, b), std::max(a, b)}];
+      (a < b ? h.first : h.second) += 1;
+    }
+  MeshCheck r;
+  for (const auto& [key, h] : half) {
+    const int n = h.first + h.second;
+    if (n == 1) ++r.boundary_edges;
+    else if (n > 2) ++r.nonmanifold_edges;
+    else if (h.first != 1) ++r.inconsistent_edges;
+  }
+  std::vector<std::vector<std::size_t>> star(m.vertices.size());
+  for (std::size_t f = 0; f < m.triangles.size(); ++f)
+    for (const std::int32_t v : m.triangles[f]) star[std::size_t(v)].push_back(f);
+  long n_used = 0;
+  for (std::size_t v = 0; v < star.size(); ++v) {
+    const auto& s = star[v];
+    if (s.empty()) continue;
+    ++n_used;
+    std::vector<std::size_t> fan(s.size());
+    std::iota(fan.begin(), fan.end(), std::size_t(0));
+    const auto root = [&](std::size_t i) {
+      while (fan[i] != i) i = fan[i];
+      return i;
+    };
+    for (std::size_t i = 0; i < s.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        for (const std::int32_t w : m.triangles[s[i]])
+          if (std::size_t(w) != v && std::count(m.triangles[s[j]].begin(), m.triangles[s[j]].end(), w) > 0)
+            fan[root(i)] = root(j);
+    std::size_t fans = 0;
+    for (std::size_t i = 0; i < s.size(); ++i) fans += root(i) == i;
+    r.nonmanifold_vertices += fans > 1;
+  }
+  r.euler = n_used - long(half.size()) + long(m.triangles.size());
+  return r;
+}
+
+void expect_brute_force_counts(const TriMesh& m, const std::string& what) {
+  const MeshCheck want = brute_force_counts(m), c = check_mesh(m);
+  EXPECT_EQ(c.boundary_edges, want.boundary_edges) << what;
+  EXPECT_EQ(c.nonmanifold_edges, want.nonmanifold_edges) << what;
+  EXPECT_EQ(c.inconsistent_edges, want.inconsistent_edges) << what;
+  EXPECT_EQ(c.nonmanifold_vertices, want.nonmanifold_vertices) << what;
+  EXPECT_EQ(c.euler, want.euler) << what;
+}
+
 TEST(MeshCheck, EdgeCountsEqualThoseOfEveryHalfEdgeGrouped) {
   // Triangle soups on few vertices (shared, repeated and degenerate
-  // triangles; every kind of edge): the star pass's edge counts against the
-  // half-edges of all triangles grouped by their vertex pair.
+  // triangles; every kind of edge and star).
   for (unsigned seed = 1; seed <= 20; ++seed) {
     std::mt19937 rng(seed);
     std::uniform_int_distribution<std::int32_t> vertex(0, 11);
@@ -186,31 +241,37 @@ TEST(MeshCheck, EdgeCountsEqualThoseOfEveryHalfEdgeGrouped) {
     for (int f = 0; f < 40; ++f) m.triangles.push_back({vertex(rng), vertex(rng), vertex(rng)});
     m.triangles.push_back(m.triangles[5]);  // a repeated triangle
     m.triangles.push_back({3, 3, 3});
-    std::map<std::pair<std::int32_t, std::int32_t>, std::pair<int, int>> half;  // (min, max) -> (forward, backward)
-    for (const auto& t : m.triangles)
-      for (int k = 0; k < 3; ++k) {
-        const std::int32_t a = t[k], b = t[(k + 1) % 3];
-        if (a == b) continue;
-        auto& h = half[{std::min(a, b), std::max(a, b)}];
-        (a < b ? h.first : h.second) += 1;
-      }
-    long boundary = 0, nonmanifold = 0, inconsistent = 0;
-    for (const auto& [key, h] : half) {
-      const int n = h.first + h.second;
-      if (n == 1) ++boundary;
-      else if (n > 2) ++nonmanifold;
-      else if (h.first != 1) ++inconsistent;
-    }
-    std::vector<bool> used(m.vertices.size(), false);
-    for (const auto& t : m.triangles)
-      for (const std::int32_t v : t) used[std::size_t(v)] = true;
-    const long n_used = long(std::count(used.begin(), used.end(), true));
-    const MeshCheck c = check_mesh(m);
-    EXPECT_EQ(c.boundary_edges, boundary) << "seed " << seed;
-    EXPECT_EQ(c.nonmanifold_edges, nonmanifold) << "seed " << seed;
-    EXPECT_EQ(c.inconsistent_edges, inconsistent) << "seed " << seed;
-    EXPECT_EQ(c.euler, n_used - long(half.size()) + long(m.triangles.size())) << "seed " << seed;
+    expect_brute_force_counts(m, "soup, seed " + std::to_string(seed));
   }
+}
+
+TEST(MeshCheck, StarsOfClosedMeshesGluedAndFlippedEqualTheBruteForce) {
+  // Mostly closed oriented stars (the star pass's fast path) among vertices
+  // glued together (pinched stars, fans of two cycles, repeated and
+  // degenerate triangles), flipped and dropped triangles (boundary and
+  // inconsistent edges): the counts of the general ones.
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    TriMesh m;
+    for (int i = 0; i < 12; ++i) m = merged(m, i % 2 ? unit_cube(Vec3f(float(2 * i), 0, 0)) : tetrahedron(Vec3f(float(2 * i), 0, 0)));
+    std::uniform_int_distribution<std::int32_t> vertex(0, std::int32_t(m.vertices.size()) - 1);
+    std::uniform_int_distribution<std::size_t> triangle(0, m.triangles.size() - 1);
+    for (int g = 0; g < 3; ++g) {  // vertex b glued onto a
+      const std::int32_t a = vertex(rng), b = vertex(rng);
+      for (auto& t : m.triangles)
+        for (auto& v : t) v = v == b ? a : v;
+    }
+    auto& flip = m.triangles[triangle(rng)];
+    std::swap(flip[1], flip[2]);
+    if (seed % 2) m.triangles.erase(m.triangles.begin() + std::ptrdiff_t(triangle(rng)));
+    expect_brute_force_counts(m, "glued, seed " + std::to_string(seed));
+  }
+  // Every star on the fast path: a tetrahedron and a cube touching at a vertex.
+  TriMesh t = merged(tetrahedron(), unit_cube(Vec3f(0, 0, -1)));
+  for (auto& f : t.triangles)
+    for (auto& v : f) v = v == 4 + 7 ? 0 : v;  // the cube's corner (1, 1, 0) onto the tetrahedron's (0, 0, 0)
+  expect_brute_force_counts(t, "touching");
+  EXPECT_EQ(check_mesh(t).nonmanifold_vertices, 1);
 }
 
 TEST(MeshCheck, EmptyMeshAndBadIndices) {

@@ -220,6 +220,12 @@ void grow_mesh_array(std::vector<T>& v) {
 
 }  // namespace
 
+void MarchingCubes::reserve(std::size_t triangles) {
+  // A closed Marching Cubes mesh has about half as many vertices as triangles.
+  mesh_.vertices.reserve(triangles / 2 + kMeshMinGrowth);
+  mesh_.triangles.reserve(triangles);
+}
+
 namespace {
 
 // The first non-zero byte of [p, end), or end: the active cells are a thin
@@ -288,15 +294,26 @@ void MarchingCubes::triangulate_layer(const Grid2f& top, double z_top, const std
   }
 }
 
+namespace {
+// glibc maps a block this large on its own (the largest dynamic mmap
+// threshold): its room beyond the mesh, never touched, is not resident, so
+// it is not copied to an exact size (a serial copy into fresh pages).
+constexpr std::size_t kMappedBytes = std::size_t(32) << 20;
+}  // namespace
+
 TriMesh MarchingCubes::finish() {
   if (spill_) {
     spill_->take(mesh_);
     spilled_vertices_ = 0;
   }
   TriMesh out = std::move(mesh_);
-  // Grown by quarters (grow_mesh_array): up to a fifth of each array unused, held with the mesh until it is written.
-  out.vertices.shrink_to_fit();
-  out.triangles.shrink_to_fit();
+  // Room beyond the mesh (reserve(), or up to a fifth grown by quarters: grow_mesh_array) is held with the
+  // mesh until it is written: a heap block's may be resident, so it is shrunk.
+  const auto shrink = [](auto& v) {
+    if (v.capacity() * sizeof(v[0]) < kMappedBytes) v.shrink_to_fit();
+  };
+  shrink(out.vertices);
+  shrink(out.triangles);
   mesh_ = TriMesh{};
   planes_ = 0;
   prev_ = Grid2f{};

@@ -72,6 +72,10 @@ class MarchingCubes {
     spill_piece_ = piece;
   }
 
+  /// Room for a mesh of about `triangles` (and half as many vertices), so
+  /// that it is not copied as it grows; beyond it the arrays grow as usual.
+  void reserve(std::size_t triangles);
+
   [[nodiscard]] int planes_added() const { return planes_; }
 
  private:

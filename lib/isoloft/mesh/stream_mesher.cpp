@@ -24,6 +24,17 @@ void pad_into(const Grid2<T>& g, T outside, Grid2<T>& out) {
   for (int y = 0; y < g.height; ++y) std::copy_n(&g(0, y), g.width, &out(1, y + 1));
 }
 
+// pad_into(), but only the pixels `runs` of g copied (the others of `out`
+// are left as they are).
+void pad_runs_into(const Grid2f& g, float outside, const PixelRuns& runs, Grid2f& out) {
+  if (out.width != g.width + 2 || out.height != g.height + 2) out = Grid2f(g.width + 2, g.height + 2, outside);
+  for (int y = 0; y < g.height; ++y)
+    for (std::int32_t r = runs.first[std::size_t(y)]; r < runs.first[std::size_t(y) + 1]; ++r) {
+      const auto [x0, x1] = runs.runs[std::size_t(r)];
+      std::copy_n(&g(x0, y), x1 - x0, &out(x0 + 1, y + 1));
+    }
+}
+
 template <class T>
 Grid2<T> pad(const Grid2<T>& g, T outside) {
   Grid2<T> out;
@@ -131,6 +142,7 @@ StreamMesher::StreamMesher(const PlaneSource& field, double x0, double y0, const
       y0_(y0) {
   if (!(options_.outside <= mc.iso)) throw ParamError("mesh_interpolated_field: the pad value must be outside (<= iso)");
   builder_.spill_into(options_.spill);
+  if (!options_.spill && options_.reserve_triangles > 0) builder_.reserve(options_.reserve_triangles);
 }
 
 StreamMesher::~StreamMesher() = default;
@@ -148,6 +160,11 @@ bool StreamMesher::layer_visit(std::size_t k) {
 }
 
 const PixelRuns* StreamMesher::needed(std::size_t k, bool next_in_interval) {
+  next_needed_ = needed_runs(k, next_in_interval);
+  return next_needed_;
+}
+
+const PixelRuns* StreamMesher::needed_runs(std::size_t k, bool next_in_interval) {
   // The layer above reads only cells visited in (k, k), a subset of those
   // visited in (k_prev, k): no cell keeps one side over k_prev and k but
   // not over k alone. A next plane in another interval: all pixels.
@@ -178,7 +195,9 @@ const PixelRuns* StreamMesher::needed(std::size_t k, bool next_in_interval) {
 void StreamMesher::add(const Grid2f& plane, double z, std::size_t k, long count) {
   const auto t0 = Clock::now();
   Grid2f padded = std::move(spare_);
-  pad_into(plane, options_.outside, padded);
+  if (next_needed_) pad_runs_into(plane, options_.outside, *next_needed_, padded);
+  else pad_into(plane, options_.outside, padded);
+  next_needed_ = nullptr;
   const std::size_t j = std::size_t(builder_.planes_added());
   if (options_.on_plane) options_.on_plane(padded, x0_ - 1.0, y0_ - 1.0, z, int(j), int(count));
   const bool skip = layer_visit(k);

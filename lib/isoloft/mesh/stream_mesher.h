@@ -41,6 +41,10 @@ struct StreamMeshOptions {
   PlaneCallback on_plane;  ///< optional
   std::function<void(long done, long total)> progress;  ///< optional, once per plane
   MeshSpill* spill = nullptr;  ///< optional: the mesh goes there as it grows (finish() returns it empty)
+  /// Triangles to make room for at the start (MarchingCubes::reserve; 0:
+  /// none; unused with a spill): a large mesh grown by copies faults in
+  /// fresh pages for each, its room untouched beyond the mesh costs none.
+  std::size_t reserve_triangles = 0;
 };
 
 struct StreamMeshResult {
@@ -70,6 +74,7 @@ class StreamMesher {
   /// Before add(): the pixels of the next plane (interval k) Marching Cubes
   /// may read, given whether the plane after it is in interval k too; nullptr:
   /// all of them (the first plane, a layer visiting every cell, on_plane set).
+  /// add() then takes only these pixels of its plane (the others unread).
   const PixelRuns* needed(std::size_t k, bool next_in_interval);
   /// The mesh and counts; interp_seconds is the caller's.
   StreamMeshResult finish();
@@ -77,6 +82,7 @@ class StreamMesher {
  private:
   class SideCache;
   bool layer_visit(std::size_t k);  // visit_ for the layer below the next plane; false: visit every cell
+  const PixelRuns* needed_runs(std::size_t k, bool next_in_interval);
   const PlaneSource& field_;
   StreamMeshOptions options_;
   std::unique_ptr<SideCache> sides_;
@@ -90,6 +96,7 @@ class StreamMesher {
   std::size_t k_prev_ = std::size_t(-1);
   PixelRuns needed_;
   std::array<std::size_t, 2> needed_for_{std::size_t(-1), std::size_t(-1)};  // the interval pair needed_ was made for
+  const PixelRuns* next_needed_ = nullptr;  // what needed() gave for the next plane: all Marching Cubes reads of it
 };
 
 /// Marching Cubes of `field` on the planes z = `planes` (increasing, within
