@@ -265,31 +265,42 @@ TEST(Field3d, SparseFieldGrowsWithTheSurfaceAndMatchesTheDenseZeroSet) {
   Field3dParams p;
   p.levels = 2;
   p.reweight_passes = 0;
-  p.resolution = 24;
-  p.base_resolution = 12;
-  const Field3dResult small = reconstruct_sections(sections, 1, p);
-  p.resolution = 48;
-  p.base_resolution = 24;
+  p.refine_width = 1;
+  p.resolution = 32;
+  p.base_resolution = 16;
   const Field3dResult sparse = reconstruct_sections(sections, 1, p);
-  ASSERT_GT(small.band_nodes, 0u);
-  const double h_fine = sparse.spacing / 2;  // the base at 24 cells, the band at 48
-  ASSERT_EQ(sparse.nx, small.nx * 2 - 1);    // the field is the base grid's
-  /// A band a fixed number of base cells wide around a surface: nodes
-  /// ~ area, 4x per doubling; the dilation's ends and the rounding of the
-  /// cells per axis add to it (measured TBD). A box would grow 8x.
-  constexpr double kSurfaceGrowth = 5.5;
-  EXPECT_LT(double(sparse.band_nodes), kSurfaceGrowth * double(small.band_nodes));
-  EXPECT_GT(double(sparse.band_nodes), 3.0 * double(small.band_nodes));
+  ASSERT_GT(sparse.band_nodes, 0u);
+  const double h_fine = sparse.spacing / 2;  // the base at 16 cells, the band at 32
   Field3dParams d = p;
   d.base_resolution = 0;
   const Field3dResult dense = reconstruct_sections(sections, 1, d);
   ASSERT_NEAR(dense.spacing, h_fine, 1e-9 * h_fine);
+  ASSERT_EQ(dense.nx, 2 * sparse.nx - 1);  // the field is the base grid's
   /// The sparse field solves the base's energy (band and weights in base
-  /// cells) on the fine grid near the surface; on this sphere the two zero
-  /// sets differ by TBD of a fine cell; half a fine cell bounds it.
+  /// cells) on the fine grid near the surface, the dense one the fine cells'
+  /// (docs/decisions.md: the sparse field): measured 0.15 of a fine cell
+  /// apart here; half a fine cell bounds it.
   const double kSparseVsDense = 0.5 * h_fine;
-  EXPECT_LE(std::max(one_sided_max(sparse.mesh, dense.mesh), one_sided_max(dense.mesh, sparse.mesh)), kSparseVsDense);
-  EXPECT_LT(estimate_sections(sections, 1, p).solve_bytes, estimate_sections(sections, 1, d).solve_bytes);
+  const double apart = std::max(one_sided_max(sparse.mesh, dense.mesh), one_sided_max(dense.mesh, sparse.mesh));
+  EXPECT_LE(apart, kSparseVsDense);
+  RecordProperty("sparse_vs_dense_fine_cells", std::to_string(apart / h_fine));
+  p.resolution = 64;
+  p.base_resolution = 32;
+  const Field3dResult twice = reconstruct_sections(sections, 1, p);
+  /// A band a fixed number of base cells wide around a surface: nodes ~
+  /// area, 4x per doubling (measured 3.9 on a sphere at these grids); a box
+  /// would grow 8x.
+  constexpr double kSurfaceGrowth = 5;
+  const double growth = double(twice.band_nodes) / double(sparse.band_nodes);
+  RecordProperty("band_growth", std::to_string(growth));
+  EXPECT_LT(growth, kSurfaceGrowth);
+  EXPECT_GT(growth, 3.0);
+  // The estimate counts the band and the base, not a dense grid at the
+  // resolution asked (at 32 cells the band is most of the box; at 384 not).
+  p.resolution = 384;
+  p.base_resolution = 96;
+  d.resolution = 384;
+  EXPECT_LT(4 * estimate_sections(sections, 1, p).solve_bytes, estimate_sections(sections, 1, d).solve_bytes);
 }
 
 /// Components no inside sample supports are dropped; cavities are kept.

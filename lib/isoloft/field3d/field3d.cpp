@@ -2267,9 +2267,13 @@ constexpr double kMeshBytesPerTriangle = 100;
 /// three work vectors (117), and its coarser levels (1/8 the nodes per level;
 /// two more work vectors there).
 constexpr double kBytesPerBandNode = 117 + (117 + 16) / 7.0;
-/// The band's thickness in base cells around the surface, beyond 2 refine_width:
-/// the cells holding the zero set (~1.5 thick) and the fixed ring on either side.
-constexpr double kBandExtraCells = 3;
+/// The band's thickness in base cells around the surface: kBandThickness x
+/// (2 refine_width + kBandExtraCells), the cells holding the zero set and the
+/// fixed ring on either side, the box dilation thicker than its width across
+/// oblique surfaces; fitted on spheres of 16-48 base cells (stored band nodes
+/// 7.6 cells thick at width 1, 10.8 at width 2).
+constexpr double kBandThickness = 1.6;
+constexpr double kBandExtraCells = 2.75;
 /// Per band sample: the Sample (48) and, per band multigrid level, the band
 /// operator's 8 node indices, 8 weights, weight, value, index and transposed entries (172).
 constexpr double kBytesPerBandSample = 48;
@@ -2383,7 +2387,7 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
   // the band multigrid (r, r / 2, ..., 1).
   double band_samples = 0;
   if (r > 1) {
-    const double thick = 2 * std::ceil(params.refine_width) + kBandExtraCells;
+    const double thick = kBandThickness * (2 * std::ceil(params.refine_width) + kBandExtraCells);
     w.band_nodes = area * thick * r * r * r;
     for (const auto& polys : g.polys)
       for (const Polyline& poly : polys)

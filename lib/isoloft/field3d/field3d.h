@@ -30,7 +30,10 @@
 // cubic, C2) back to one cell per pixel along that axis before Marching Cubes.
 // Optional stages: a narrow band around the zero set re-solved on a grid
 // `refinement` times finer (sparse: r^3 nodes per band cell, the coarse field
-// fixed on a ring around it; Marching Cubes on the fine grid); re-weighting
+// fixed on a ring around it; conjugate gradients preconditioned by a V-cycle
+// over the band at r, r/2, ..., 1; Marching Cubes on the fine grid, streamed
+// by planes); `base_resolution` chooses it for a resolution above it (the
+// dense solve at resolution / r: memory grows with the surface); re-weighting
 // passes that make samples the field misses heavier and re-solve warm; and
 // pruning of closed components that enclose no sample drawn inside.
 // Units: world millimetres in and out; band, tolerances and spacings in grid cells.
@@ -169,7 +172,7 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "solve by SimplicialLDLT on the assembled system (the twin; small grids only)"),
       field("refinement", &Field3dParams::refinement, "",
             "the narrow band near the surface re-solved on a grid this many times finer (1: none; 2 or 4); 2 moved "
-            "Chamfer by < 2 % on the OReX tuning sets at 5x the time, so off",
+            "Chamfer by < 2 % on the OReX tuning sets, so off (base_resolution sets it for a resolution above a cap)",
             between(1, 4)),
       field("base_resolution", &Field3dParams::base_resolution, "cells",
             "sparse field: when resolution is above this (and refinement 1), the dense solve runs at resolution / r "
