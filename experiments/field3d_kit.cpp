@@ -15,6 +15,7 @@
 // usage: field3d_kit [--out FILE.csv] [--threads N] [--resolution R] [--smoothness S] [--contour-weight W]
 //                    [--band B] [--margin M] [--boundary-weight W] [--plane-weight P] [--refinement R] [--refine-width W] [--reweight-passes P] [--reweight-factor F]
 //                    [--reweight-tolerance T] [--no-prune] [--plane-signs 0|1] [--plane-sign-distance D]
+//                    [--base-resolution B] [--shape sphere|ellipsoid|torus] [--set random10|orthogonal|...]
 //                    [--csl FILE --ref MESH --name NAME [--allow-self-intersections] [--write MESH]]
 #include <tbb/global_control.h>
 
@@ -82,11 +83,11 @@ Score score(const std::vector<double>& ab, const std::vector<double>& ba, double
 
 void header(std::ostream& os) {
   os << "shape,set,planes,chamfer,hausdorff,plane_max,components,genus,closed,iterations,residual,grid,seconds,"
-        "conflicts,band_unknowns,band_iterations,reweighted,pruned,mesh_to_drawn,drawn_to_mesh\n";
+        "conflicts,band_unknowns,band_iterations,reweighted,pruned,mesh_to_drawn,drawn_to_mesh,band_nodes,field_nodes,estimate_mib,estimate_band_nodes\n";
 }
 
 void row(std::ostream& os, const std::string& shape, const std::string& set, std::size_t planes, const Score& s,
-         const Field3dResult& r, double diag) {
+         const Field3dResult& r, double diag, const Field3dWork& w) {
   double pm = 0, md = 0, dm = 0;
   for (const auto& p : r.planes) {
     pm = std::max(pm, p.max());
@@ -97,7 +98,9 @@ void row(std::ostream& os, const std::string& shape, const std::string& set, std
      << pm / diag << ',' << r.check.components << ',' << (2 - r.check.euler) / 2 << ',' << r.check.closed << ','
      << r.iterations << ',' << r.residual << ',' << r.nx << 'x' << r.ny << 'x' << r.nz << ',' << r.seconds << ','
      << r.conflicts.size() << ',' << r.band_unknowns << ',' << r.band_iterations << ',' << r.reweighted << ','
-     << r.pruned_components << ',' << md / diag << ',' << dm / diag << '\n';
+     << r.pruned_components << ',' << md / diag << ',' << dm / diag << ',' << r.band_nodes << ','
+     << std::size_t(r.solve_nodes[0]) * std::size_t(r.solve_nodes[1]) * std::size_t(r.solve_nodes[2]) << ','
+     << (w.solve_bytes + w.field_bytes + w.mesh_bytes) / (1 << 20) << ',' << w.band_nodes << '\n';
   os.flush();
 }
 
@@ -105,7 +108,7 @@ void row(std::ostream& os, const std::string& shape, const std::string& set, std
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string out = "field3d_kit.csv", csl, ref, name, mesh_out;
+  std::string out = "field3d_kit.csv", csl, ref, name, mesh_out, only_shape, only_set;
   int threads = 2;
   Field3dParams params;
   CslParams csl_params;
@@ -125,6 +128,7 @@ int main(int argc, char** argv) {
     else if (a == "--boundary-weight") params.boundary_weight = std::stod(next());
     else if (a == "--plane-weight") params.plane_weight = std::stod(next());
     else if (a == "--refinement") params.refinement = std::stoi(next());
+    else if (a == "--base-resolution") params.base_resolution = std::stoi(next());
     else if (a == "--refine-width") params.refine_width = std::stod(next());
     else if (a == "--reweight-passes") params.reweight_passes = std::stoi(next());
     else if (a == "--reweight-factor") params.reweight_factor = std::stod(next());
@@ -133,6 +137,8 @@ int main(int argc, char** argv) {
     else if (a == "--plane-signs") params.plane_signs = std::stoi(next()) != 0;
     else if (a == "--plane-sign-distance") params.plane_sign_distance = std::stod(next());
     else if (a == "--write") mesh_out = next();
+    else if (a == "--shape") only_shape = next();
+    else if (a == "--set") only_set = next();
     else if (a == "--csl") csl = next();
     else if (a == "--ref") ref = next();
     else if (a == "--name") name = next();
@@ -160,7 +166,7 @@ int main(int argc, char** argv) {
                                 : score(point_mesh_distances(reference, mesh_samples(r.mesh, kSamples, 1)),
                                         point_mesh_distances(r.mesh, mesh_samples(reference, kSamples, 2)), diag);
     for (std::ostream* o : {static_cast<std::ostream*>(&os), static_cast<std::ostream*>(&std::cout)})
-      row(*o, name.empty() ? csl : name, "csl", sections.size(), s, r, diag);
+      row(*o, name.empty() ? csl : name, "csl", sections.size(), s, r, diag, estimate_sections(sections, 1, params));
     for (const auto& w : r.warnings) std::cerr << "warning: " << w << "\n";
     return 0;
   }
@@ -170,6 +176,7 @@ int main(int argc, char** argv) {
       {"torus", {{"type", "torus"}, {"center", {0, 0, 0}}, {"major_radius", 30}, {"minor_radius", 12}, {"tilt_deg", 30}}},
   };
   for (const auto& [sname, js] : shapes) {
+    if (!only_shape.empty() && sname != only_shape) continue;
     const auto shape = shape_from_json(js);
     const auto [lo, hi] = shape->bounds();
     const double diag = (hi - lo).norm();
@@ -182,13 +189,14 @@ int main(int argc, char** argv) {
     std::vector<Vec3d> truth;
     for (int i = 0; i < kSamples; ++i) truth.push_back(shape->closest_point(lo + (hi - lo).cwiseProduct(Vec3d(u(rng), u(rng), u(rng)))));
     for (const auto& [set, poses] : sets) {
+      if (!only_set.empty() && set != only_set) continue;
       const std::vector<Section> sections = analytic_sections(*shape, poses, 0.1);
       const Field3dResult r = reconstruct_sections(sections, 1, params);
       std::vector<double> ab;
       for (const Vec3d& p : mesh_samples(r.mesh, kSamples, 1)) ab.push_back(shape->distance(p));
       const Score s = score(ab, point_mesh_distances(r.mesh, truth), diag);
       for (std::ostream* o : {static_cast<std::ostream*>(&os), static_cast<std::ostream*>(&std::cout)})
-        row(*o, sname, set, poses.size(), s, r, diag);
+        row(*o, sname, set, poses.size(), s, r, diag, estimate_sections(sections, 1, params));
     }
   }
   return 0;

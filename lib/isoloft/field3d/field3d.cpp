@@ -501,18 +501,6 @@ int preconditioned_cg(const Op& A, const Prec& M, Eigen::VectorXd& x, double tol
   return it;
 }
 
-/// The diagonal (Jacobi) preconditioner.
-struct JacobiPreconditioner {
-  Eigen::VectorXd inv;
-  void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const { z = inv.cwiseProduct(r); }
-};
-
-/// Jacobi-preconditioned conjugate gradients from x (the narrow band's solver).
-template <class Op>
-int conjugate_gradients(const Op& A, Eigen::VectorXd& x, double tol, int max_it, double& rel) {
-  return preconditioned_cg(A, JacobiPreconditioner{A.diagonal().cwiseInverse()}, x, tol, max_it, rel);
-}
-
 /// Per axis, whether `coarse` halves `fine` there (1) or keeps its nodes (0):
 /// nested grids, each axis coarsened by 2 or not at all.
 std::array<int, 3> halved(const Level& coarse, const Level& fine) {
@@ -613,6 +601,53 @@ constexpr double kLmaxSafety = 1.2;
 /// (an active-set pass: the operator changed by a few penalty samples, so
 /// the top eigenvector barely moved).
 constexpr int kWarmPowerSteps = 5;
+
+/// lmax of D^-1 A (apply(x, y): y = A x; n unknowns) by power iteration;
+/// v: the start when `warm` (kWarmPowerSteps), left holding the last iterate.
+template <class Apply>
+double largest_eigenvalue(const Apply& apply, const Eigen::VectorXd& D, std::size_t n, Eigen::VectorXd& v, bool warm) {
+  Eigen::VectorXd Av;
+  if (!warm) {
+    // A pseudo-random start: every mode present (a smooth start holds almost
+    // none of the top modes, and the estimate stays far below lmax).
+    v.resize(Eigen::Index(n));
+    for (Eigen::Index i = 0; i < v.size(); ++i) {
+      const double q = std::sin(double(i) * 12.9898 + 78.233) * 43758.5453;
+      v[i] = q - std::floor(q) - 0.5;
+    }
+  }
+  double lmax = 0;
+  for (int s = 0; s < (warm ? kWarmPowerSteps : kPowerSteps); ++s) {
+    v /= v.norm();
+    apply(v, Av);
+    Av = Av.cwiseQuotient(D);
+    lmax = Av.norm();
+    v.swap(Av);
+  }
+  return lmax;
+}
+
+/// `steps` of Chebyshev iteration on D^-1 A x = D^-1 b from x, damping the
+/// eigenvalues of D^-1 A in [lmax / ratio, lmax]; ax, r, d: work vectors.
+template <class Apply>
+void chebyshev(const Apply& apply, const Eigen::VectorXd& D, double lmax, double ratio, int steps, const Eigen::VectorXd& b,
+               Eigen::VectorXd& x, Eigen::VectorXd& ax, Eigen::VectorXd& r, Eigen::VectorXd& d) {
+  const double lmin = lmax / ratio;
+  const double theta = (lmax + lmin) / 2, delta = (lmax - lmin) / 2, sigma = theta / delta;
+  double rho = 1 / sigma;
+  apply(x, ax);
+  r = (b - ax).cwiseQuotient(D);
+  d = r / theta;
+  for (int k = 0; k < steps; ++k) {
+    x += d;
+    if (k + 1 == steps) break;
+    apply(d, ax);
+    r -= ax.cwiseQuotient(D);
+    const double rho_new = 1 / (2 * sigma - rho);
+    d = (rho_new * rho) * d + (2 * rho_new / delta) * r;
+    rho = rho_new;
+  }
+}
 
 /// The top eigenvectors of D^-1 A per multigrid level from one solve, for
 /// the next solve on the same grids to start its power iterations from.
@@ -717,49 +752,17 @@ class Multigrid {
     return l == 0 ? top_->diagonal() : coarse_[l - 1]->diagonal();
   }
 
-  /// lmax of D^-1 A on level l by power iteration; v: the start when `warm`
-  /// (kWarmPowerSteps), left holding the last iterate.
+  /// lmax of D^-1 A on level l (largest_eigenvalue()).
   [[nodiscard]] double largest_eigenvalue(std::size_t l, Eigen::VectorXd& v, bool warm) const {
-    Eigen::VectorXd Av;
-    if (!warm) {
-      // A pseudo-random start: every mode present (a smooth start holds almost
-      // none of the top modes, and the estimate stays far below lmax).
-      v.resize(Eigen::Index(lv_[l].size()));
-      for (Eigen::Index n = 0; n < v.size(); ++n) {
-        const double q = std::sin(double(n) * 12.9898 + 78.233) * 43758.5453;
-        v[n] = q - std::floor(q) - 0.5;
-      }
-    }
-    double lmax = 0;
-    for (int s = 0; s < (warm ? kWarmPowerSteps : kPowerSteps); ++s) {
-      v /= v.norm();
-      apply(l, v, Av);
-      Av = Av.cwiseQuotient(diagonal(l));
-      lmax = Av.norm();
-      v.swap(Av);
-    }
-    return lmax;
+    return detail::largest_eigenvalue([&](const Eigen::VectorXd& a, Eigen::VectorXd& y) { apply(l, a, y); }, diagonal(l),
+                                      lv_[l].size(), v, warm);
   }
 
   /// kSmoothingSteps of Chebyshev iteration on D^-1 A x = D^-1 b from x.
   void smooth(std::size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
     Work& w = work_[l];
-    const Eigen::VectorXd& D = diagonal(l);
-    const double lmax = lmax_[l], lmin = lmax / kChebyshevRatio;
-    const double theta = (lmax + lmin) / 2, delta = (lmax - lmin) / 2, sigma = theta / delta;
-    double rho = 1 / sigma;
-    apply(l, x, w.ax);
-    w.r = (b - w.ax).cwiseQuotient(D);
-    w.d = w.r / theta;
-    for (int k = 0; k < kSmoothingSteps; ++k) {
-      x += w.d;
-      if (k + 1 == kSmoothingSteps) break;
-      apply(l, w.d, w.ax);
-      w.r -= w.ax.cwiseQuotient(D);
-      const double rho_new = 1 / (2 * sigma - rho);
-      w.d = (rho_new * rho) * w.d + (2 * rho_new / delta) * w.r;
-      rho = rho_new;
-    }
+    chebyshev([&](const Eigen::VectorXd& a, Eigen::VectorXd& y) { apply(l, a, y); }, diagonal(l), lmax_[l],
+              kChebyshevRatio, kSmoothingSteps, b, x, w.ax, w.r, w.d);
   }
 
   void vcycle(std::size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
@@ -936,6 +939,7 @@ struct Band {
   int cx = 0, cy = 0, cz = 0;             ///< base cells per axis
   std::vector<std::int32_t> block;        ///< per base cell: its block of r^3 nodes, or -1
   std::vector<std::array<int, 3>> cells;  ///< base cell of each block
+  std::vector<std::uint8_t> inner;        ///< per block: its nodes are unknowns (else the fixed ring)
   std::vector<std::uint8_t> unknown;      ///< per stored node
   std::vector<std::int32_t> nbr;          ///< per stored node, its 6 neighbours (or -1)
 
@@ -966,6 +970,8 @@ struct Band {
 /// The band around the base field's zero set and every drawn contour (the
 /// cells holding a contour sample: a thin part the base grid lost is re-solved
 /// too), dilated by `width` cells; cells touching the box's faces stay fixed.
+void build_band_nodes(Band& b);
+
 Band make_band(const Level& lv, const Eigen::VectorXd& x, const std::vector<Sample>& samples, int r, int width) {
   Band b;
   b.r = r;
@@ -1010,19 +1016,33 @@ Band make_band(const Level& lv, const Eigen::VectorXd& x, const std::vector<Samp
           b.block[cell(a, bb, c)] = std::int32_t(b.cells.size());
           b.cells.push_back({a, bb, c});
         }
+  for (const auto& ce : b.cells) b.inner.push_back(inner[cell(ce[0], ce[1], ce[2])]);
+  build_band_nodes(b);
+  return b;
+}
+
+/// The band's per-node flags and neighbours from its blocks (Band::inner).
+void build_band_nodes(Band& b) {
   const std::size_t n = b.size();
   b.unknown.resize(n);
   b.nbr.resize(6 * n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& rg) {
     for (std::size_t m = rg.begin(); m < rg.end(); ++m) {
       const auto [I, J, K] = b.coords(m);
-      const auto& ce = b.cells[m / b.per_block()];
-      b.unknown[m] = inner[cell(ce[0], ce[1], ce[2])];
-      const std::array<std::array<int, 3>, 6> o{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
-      for (int q = 0; q < 6; ++q) b.nbr[6 * m + std::size_t(q)] = std::int32_t(b.node(I + o[q][0], J + o[q][1], K + o[q][2]));
+      b.unknown[m] = b.inner[m / b.per_block()];
+      for (int q = 0; q < 6; ++q)
+        b.nbr[6 * m + std::size_t(q)] =
+            std::int32_t(b.node(I + kNeighbours[std::size_t(q)][0], J + kNeighbours[std::size_t(q)][1], K + kNeighbours[std::size_t(q)][2]));
     }
   });
-  return b;
+}
+
+/// The band on the same base cells at half its refinement (the band
+/// multigrid's next level): nested nodes, fine node 2 I on coarse node I.
+Band coarser_band(const Band& f) {
+  Band c{f.r / 2, f.shift - 1, f.cx, f.cy, f.cz, f.block, f.cells, f.inner, {}, {}};
+  build_band_nodes(c);
+  return c;
 }
 
 /// The base field prolonged to the band's nodes (the warm start and the fixed values).
@@ -1192,6 +1212,144 @@ double band_direct(const BandOperator& A, const Band& b, Eigen::VectorXd& z) {
   A.apply(z, Az);
   return (A.rhs() - Az).norm() / std::max(A.rhs().norm(), std::numeric_limits<double>::min());
 }
+
+/// The band multigrid's coarsest level (the band at refinement 1, ~1/r^3 of
+/// the nodes) is not factorised (a shell's thousands of unknowns): Chebyshev
+/// steps over [lmax / kBandCoarsestRatio, lmax] instead, one fixed polynomial,
+/// so the V-cycle stays linear and symmetric. Across a band a few base cells
+/// wide the fixed rings bound the smallest eigenvalue; 16 steps over a ratio
+/// of 300 took eight_15's band iterations from 917 (Jacobi) to 42 at
+/// refinement 4, 462 to 23 at 2 (docs/decisions.md: the sparse field).
+constexpr int kBandCoarsestSteps = 16;
+constexpr double kBandCoarsestRatio = 300;
+
+/// Per axis, the coarse nodes under fine coordinate I and their trilinear
+/// weights (even: one node; odd: the two neighbours, half each).
+inline int parents(int I, std::array<int, 2>& at, std::array<double, 2>& w) {
+  if ((I & 1) == 0) {
+    at[0] = I / 2;
+    w[0] = 1;
+    return 1;
+  }
+  at = {(I - 1) / 2, (I + 1) / 2};
+  w = {0.5, 0.5};
+  return 2;
+}
+
+/// y = P xc on the fine band's unknowns (0 on its fixed nodes): the coarse
+/// band's correction prolonged trilinearly (its fixed entries are 0).
+void band_prolong_into(const Band& coarse, const Eigen::VectorXd& xc, const Band& fine, Eigen::VectorXd& y) {
+  y.resize(Eigen::Index(fine.size()));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fine.size(), 4096), [&](const auto& rg) {
+    for (std::size_t n = rg.begin(); n < rg.end(); ++n) {
+      double v = 0;
+      if (fine.unknown[n]) {
+        const auto I = fine.coords(n);
+        std::array<std::array<int, 2>, 3> at{};
+        std::array<std::array<double, 2>, 3> w{};
+        std::array<int, 3> cnt{};
+        for (int a = 0; a < 3; ++a) cnt[std::size_t(a)] = parents(I[std::size_t(a)], at[std::size_t(a)], w[std::size_t(a)]);
+        for (int c = 0; c < cnt[2]; ++c)
+          for (int b = 0; b < cnt[1]; ++b)
+            for (int a = 0; a < cnt[0]; ++a) {
+              const std::int64_t m = coarse.node(at[0][std::size_t(a)], at[1][std::size_t(b)], at[2][std::size_t(c)]);
+              if (m >= 0) v += w[0][std::size_t(a)] * w[1][std::size_t(b)] * w[2][std::size_t(c)] * xc[Eigen::Index(m)];
+            }
+      }
+      y[Eigen::Index(n)] = v;
+    }
+  });
+}
+
+/// rc = P^T rf on the coarse band's unknowns (0 on its fixed nodes): each
+/// coarse node gathers the fine unknowns it is a parent of.
+void band_restrict(const Band& coarse, const Eigen::VectorXd& rf, const Band& fine, Eigen::VectorXd& rc) {
+  rc.resize(Eigen::Index(coarse.size()));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, coarse.size(), 4096), [&](const auto& rg) {
+    for (std::size_t m = rg.begin(); m < rg.end(); ++m) {
+      double v = 0;
+      if (coarse.unknown[m]) {
+        const auto [i, j, k] = coarse.coords(m);
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const std::int64_t n = fine.node(2 * i + dx, 2 * j + dy, 2 * k + dz);
+              if (n >= 0 && fine.unknown[std::size_t(n)])
+                v += (dx ? 0.5 : 1.0) * (dy ? 0.5 : 1.0) * (dz ? 0.5 : 1.0) * rf[Eigen::Index(n)];
+            }
+      }
+      rc[Eigen::Index(m)] = v;
+    }
+  });
+}
+
+/// The band's V-cycle, the preconditioner of its conjugate gradients: the
+/// band at refinement r, r / 2, ..., 1 on the same base cells (nested nodes;
+/// each coarse operator rediscretised from the same fine samples, lambda =
+/// smoothness x its refinement, so it approximates P^T A P as the dense
+/// multigrid's levels do); Chebyshev smoothing on D^-1 A, restriction P^T,
+/// the fixed rings' corrections 0; the coarsest level smoothed by
+/// kBandCoarsestSteps. Symmetric, positive definite and linear.
+class BandMultigrid {
+ public:
+  BandMultigrid(const Band& top, const BandOperator& A, const std::vector<Sample>& samples, const Field3dParams& p) {
+    bands_.push_back(&top);
+    ops_.push_back(&A);
+    while (bands_.back()->r > 1) {
+      own_bands_.push_back(std::make_unique<Band>(coarser_band(*bands_.back())));
+      bands_.push_back(own_bands_.back().get());
+      own_ops_.push_back(std::make_unique<BandOperator>(*bands_.back(), samples, p));
+      ops_.push_back(own_ops_.back().get());
+    }
+    work_.resize(bands_.size());
+    for (std::size_t l = 0; l < bands_.size(); ++l) {
+      Eigen::VectorXd v;
+      lmax_.push_back(kLmaxSafety * largest_eigenvalue([&](const Eigen::VectorXd& a, Eigen::VectorXd& y) { ops_[l]->apply(a, y); },
+                                                       ops_[l]->diagonal(), bands_[l]->size(), v, false));
+    }
+  }
+
+  [[nodiscard]] int levels() const { return int(bands_.size()); }
+
+  /// z = M^-1 r: one V-cycle from zero.
+  void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const { vcycle(0, r, z); }
+
+ private:
+  struct Work {
+    Eigen::VectorXd b, x, ax, r, d;
+  };
+
+  void smooth(std::size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& x, double ratio, int steps) const {
+    Work& w = work_[l];
+    chebyshev([&](const Eigen::VectorXd& a, Eigen::VectorXd& y) { ops_[l]->apply(a, y); }, ops_[l]->diagonal(), lmax_[l],
+              ratio, steps, b, x, w.ax, w.r, w.d);
+  }
+
+  void vcycle(std::size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
+    x.setZero(b.size());
+    if (l + 1 == bands_.size()) {
+      smooth(l, b, x, kBandCoarsestRatio, kBandCoarsestSteps);
+      return;
+    }
+    Work& w = work_[l];
+    Work& c = work_[l + 1];
+    smooth(l, b, x, kChebyshevRatio, kSmoothingSteps);
+    ops_[l]->apply(x, w.ax);
+    w.r = b - w.ax;
+    band_restrict(*bands_[l + 1], w.r, *bands_[l], c.b);
+    vcycle(l + 1, c.b, c.x);
+    band_prolong_into(*bands_[l + 1], c.x, *bands_[l], w.ax);
+    x += w.ax;
+    smooth(l, b, x, kChebyshevRatio, kSmoothingSteps);
+  }
+
+  std::vector<const Band*> bands_;
+  std::vector<const BandOperator*> ops_;
+  std::vector<std::unique_ptr<Band>> own_bands_;
+  std::vector<std::unique_ptr<BandOperator>> own_ops_;
+  std::vector<double> lmax_;
+  mutable std::vector<Work> work_;
+};
 
 /// Multiplies by `factor` the weight of every sample the field `at` misses:
 /// a contour sample where |f| > tol (cells), a plane sample on the wrong side
@@ -1750,11 +1908,20 @@ Field3dStats solve_stats(const Field3dResult& r, const std::vector<Field3dPlaneR
   return s;
 }
 
+Field3dParams sparse_base(const Field3dParams& p) {
+  if (p.base_resolution <= 0 || p.refinement > 1 || p.resolution <= p.base_resolution) return p;
+  Field3dParams q = p;
+  q.refinement = (p.resolution + 1) / 2 <= p.base_resolution ? 2 : 4;
+  q.resolution = (p.resolution + q.refinement - 1) / q.refinement;
+  return q;
+}
+
 Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::uint32_t label,
-                                   const Field3dParams& params_in) {
+                                   const Field3dParams& params_given) {
   using namespace detail;
   const auto start = std::chrono::steady_clock::now();
-  params_table<Field3dParams>().validate(params_in);
+  params_table<Field3dParams>().validate(params_given);
+  const Field3dParams params_in = sparse_base(params_given);
   Field3dResult res;
 
   const SectionGrid grid = section_grid(sections, label, params_in);
@@ -1947,7 +2114,8 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
       if (params.direct) {
         res.residual = band_direct(A, bd, z);
       } else {
-        const int it = conjugate_gradients(A, z, params.tolerance, params.max_iterations, res.residual);
+        const int it = preconditioned_cg(A, BandMultigrid(bd, A, fine, params), z, params.tolerance,
+                                         params.max_iterations, res.residual);
         res.band_iterations += it;
       }
       if (pass == params.reweight_passes) break;
@@ -2093,10 +2261,23 @@ constexpr double kTrianglesPerCellArea = 3;
 /// Per triangle: the mesh (vertices and triangles), the mesh check's edge
 /// map and the pruning's components.
 constexpr double kMeshBytesPerTriangle = 100;
-/// Per stored node of the refined band (refinement > 1, off by default):
-/// neighbours and flag, the band operator's vectors and CG's; counted, not
-/// measured against RSS.
-constexpr double kBytesPerBandNode = 128;
+/// Per stored node of the refined band (refinement > 1): its neighbours and
+/// flag, the field, CG's four vectors, the band operator's right-hand side,
+/// diagonal, Laplacian and transposed-gather offset, the band multigrid's
+/// three work vectors (117), and its coarser levels (1/8 the nodes per level;
+/// two more work vectors there).
+constexpr double kBytesPerBandNode = 117 + (117 + 16) / 7.0;
+/// The band's thickness in base cells around the surface: kBandThickness x
+/// (2 refine_width + kBandExtraCells), the cells holding the zero set and the
+/// fixed ring on either side, the box dilation thicker than its width across
+/// oblique surfaces; fitted on spheres of 16-48 base cells (stored band nodes
+/// 7.6 cells thick at width 1, 10.8 at width 2).
+constexpr double kBandThickness = 1.6;
+constexpr double kBandExtraCells = 2.75;
+/// Per band sample: the Sample (48) and, per band multigrid level, the band
+/// operator's 8 node indices, 8 weights, weight, value, index and transposed entries (172).
+constexpr double kBytesPerBandSample = 48;
+constexpr double kBytesPerBandSampleLevel = 172;
 /// The estimate is this much above the counted bytes: what the count leaves
 /// out (the process's own ~20-30 MiB, allocator rounding, TBB's per-thread
 /// state, the samples' per-section vectors before they are joined). Peak RSS
@@ -2144,9 +2325,10 @@ double raster_points_inside(const PlanePose& pose, const detail::PlaneRaster& r,
 
 }  // namespace
 
-Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& params) {
+Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_t label, const Field3dParams& given) {
   using namespace detail;
-  params_table<Field3dParams>().validate(params);
+  params_table<Field3dParams>().validate(given);
+  const Field3dParams params = sparse_base(given);
   const SectionGrid g = section_grid(sections, label, params);
   Field3dWork w;
   w.nx = g.out_nodes[0];
@@ -2199,10 +2381,26 @@ Field3dWork estimate_sections(const std::vector<Section>& sections, std::uint32_
                       std::pow((pw(semi.x() * semi.y()) + pw(semi.x() * semi.z()) + pw(semi.y() * semi.z())) / 3, 1 / kThomsen);
   const int r = params.refinement;
   w.triangles = kTrianglesPerCellArea * area * r * r;
-  const double band_nodes = r > 1 ? area * (2 * params.refine_width + 1) * r * r * r : 0.0;
+  // The band (refinement > 1): its cells around the surface, r^3 nodes each;
+  // its samples: each section's plane within the band's thickness of its
+  // contours at spacing 1 / r, and its contours at 1 / r, on every level of
+  // the band multigrid (r, r / 2, ..., 1).
+  double band_samples = 0;
+  if (r > 1) {
+    const double thick = kBandThickness * (2 * std::ceil(params.refine_width) + kBandExtraCells);
+    w.band_nodes = area * thick * r * r * r;
+    for (const auto& polys : g.polys)
+      for (const Polyline& poly : polys)
+        for (std::size_t e = 0; e < poly.size(); ++e) {
+          const double len = (poly[(e + 1) % poly.size()] - poly[e]).norm() / g.h;
+          band_samples += len * thick * r * r / (params.sample_spacing * params.sample_spacing) + len * r / params.sample_spacing;
+        }
+  }
+  const double band_levels = r > 1 ? std::log2(double(r)) + 1 : 0;
   w.solve_bytes = kEstimateSafety * (w.solve_nodes * kBytesPerNode + coarse_nodes * kBytesPerCoarseNode +
                                      blocks * kBytesPerBlock + solve_samples * kBytesPerSample +
-                                     w.sign_points * kBytesPerSignPoint + band_nodes * kBytesPerBandNode);
+                                     w.sign_points * kBytesPerSignPoint + w.band_nodes * kBytesPerBandNode +
+                                     band_samples * (kBytesPerBandSample + band_levels * kBytesPerBandSampleLevel));
   w.field_bytes = w.nodes() * sizeof(double);
   w.mesh_bytes = kEstimateSafety * w.triangles * kMeshBytesPerTriangle;
   return w;

@@ -30,7 +30,10 @@
 // cubic, C2) back to one cell per pixel along that axis before Marching Cubes.
 // Optional stages: a narrow band around the zero set re-solved on a grid
 // `refinement` times finer (sparse: r^3 nodes per band cell, the coarse field
-// fixed on a ring around it; Marching Cubes on the fine grid); re-weighting
+// fixed on a ring around it; conjugate gradients preconditioned by a V-cycle
+// over the band at r, r/2, ..., 1; Marching Cubes on the fine grid, streamed
+// by planes); `base_resolution` chooses it for a resolution above it (the
+// dense solve at resolution / r: memory grows with the surface); re-weighting
 // passes that make samples the field misses heavier and re-solve warm; and
 // pruning of closed components that enclose no sample drawn inside.
 // Units: world millimetres in and out; band, tolerances and spacings in grid cells.
@@ -87,6 +90,7 @@ struct Field3dParams {
   bool direct = false;
   int refinement = 1;
   double refine_width = 2.0;
+  int base_resolution = 0;
   int reweight_passes = 0;
   double reweight_factor = 4.0;
   double reweight_tolerance = 5e-4;
@@ -113,6 +117,12 @@ struct Field3dParams {
   /// get one grid (field3d/partition3d.h). Not a parameter row (no flag).
   std::optional<std::array<Vec3d, 2>> box{};
 };
+
+/// `p` with the sparse field's choice made (Field3dParams::base_resolution):
+/// resolution divided by the refinement r that brings it to base_resolution
+/// or below (r = 2 or 4; rounded up), refinement set to r. Unchanged when
+/// base_resolution is 0, resolution is at most it, or refinement is above 1.
+Field3dParams sparse_base(const Field3dParams& p);
 
 /// Largest grid (nodes) the direct twin accepts: its LDLT fill grows as n^(5/3).
 inline constexpr std::size_t kMaxDirectNodes = 40000;
@@ -162,8 +172,14 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "solve by SimplicialLDLT on the assembled system (the twin; small grids only)"),
       field("refinement", &Field3dParams::refinement, "",
             "the narrow band near the surface re-solved on a grid this many times finer (1: none; 2 or 4); 2 moved "
-            "Chamfer by < 2 % on the OReX tuning sets at 5x the time, so off",
+            "Chamfer by < 2 % on the OReX tuning sets, so off (base_resolution sets it for a resolution above a cap)",
             between(1, 4)),
+      field("base_resolution", &Field3dParams::base_resolution, "cells",
+            "sparse field: when resolution is above this (and refinement 1), the dense solve runs at resolution / r "
+            "(r = 2 or 4, the smallest that brings it to this or below; 4 when none does) and the narrow band around "
+            "its surface is re-solved r times finer, reaching resolution: memory grows with the surface, not the box "
+            "(0: the dense grid at resolution)",
+            between(0, kMaxGridCells)),
       field("refine_width", &Field3dParams::refine_width, "cells",
             "the band: grid cells holding the coarse surface or a drawn contour, dilated by this many cells",
             between(1, 8)),
@@ -339,6 +355,7 @@ struct Field3dWork {
   double samples = 0;          ///< plane and contour samples
   double sign_points = 0;      ///< label-image pixel centres inside the box and polyline plane samples (plane_signs; Field3dResult::sign_points)
   double triangles = 0;        ///< Marching Cubes triangles (the contours' box as an ellipsoid)
+  double band_nodes = 0;       ///< stored nodes of the refined band (Field3dResult::band_nodes; 0 without)
   double solve_bytes = 0;      ///< held at the finest solve: grid vectors, samples, operators, multigrid
   double field_bytes = 0;      ///< the finished field (Field3dResult::field)
   double mesh_bytes = 0;       ///< the mesh, its checks and per-plane residuals
