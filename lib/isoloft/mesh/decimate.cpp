@@ -53,8 +53,8 @@ constexpr std::uint8_t kBorder = 16;  // has a neighbour in another slab: fixed 
 constexpr std::size_t kTrianglesPerSlab = 100000;
 constexpr std::size_t kMaxSlabs = 8;
 
-// Flip-then-collapse passes for slivers (min_angle_deg): each pass that flips
-// nothing ends them; measured, a second pass rarely flips (docs/decisions.md).
+// Flip-then-collapse passes for slivers (min_angle_deg): a pass that changes
+// nothing ends them; 3 only bounds the time (not tuned).
 constexpr int kSliverPasses = 3;
 
 // Least interior angle of the triangle (a, b, c), radians; 0 if degenerate.
