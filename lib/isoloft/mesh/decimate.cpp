@@ -401,8 +401,8 @@ class FastDecimator {
   }
 
   // Face f below the least angle: flips the edge whose flip lifts the pair's
-  // least angle most, if that is legal (early returns below). The two faces'
-  // pieces must be covered by the two new ones, as for a collapse.
+  // least angle most (the two faces' pieces covered by the two new ones, as
+  // for a collapse); failing that, collapses one of its edges, shortest first.
   void lift_sliver(Scratch& s, std::int32_t f) {
     const auto t = tri_[std::size_t(f)];
     const double was = least_angle(pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
@@ -431,7 +431,7 @@ class FastDecimator {
     std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return length2(x) < length2(y); });
     for (std::size_t k : order) {
       const std::int32_t a = t[k], b = t[(k + 1) % 3];
-      if ((state_[std::size_t(a)] | state_[std::size_t(b)]) & (kDead | kTouched)) return;
+      if ((state_[std::size_t(a)] | state_[std::size_t(b)]) & (kDead | kTouched)) continue;
       if (collapse(s, a, b) || collapse(s, b, a)) {
         ++sliver_collapses_;
         return;

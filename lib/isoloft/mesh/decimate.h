@@ -4,7 +4,9 @@
 // no face normal turns by more than max_normal_deviation_deg, and every point
 // of the original surface stays within max_error of the result (each original
 // triangle or piece of it held by a covering face: mesh/decimate_bound.h;
-// docs/decisions.md: decimation bound). Large meshes run first in z slabs
+// docs/decisions.md: decimation bound). With min_angle_deg, faces left below
+// it are then flipped or collapsed away under the same bound, and later
+// collapses make no new one (no guarantee: some stay). Large meshes run first in z slabs
 // concurrently; the output is the same for any thread count; no vertex moves.
 // Reference: validation/decimate_openmesh.h. Units: pixels.
 // @warning Boundary vertices, and vertices whose faces form several fans, are
