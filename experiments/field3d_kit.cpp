@@ -15,7 +15,7 @@
 // usage: field3d_kit [--out FILE.csv] [--threads N] [--resolution R] [--smoothness S] [--contour-weight W]
 //                    [--band B] [--margin M] [--boundary-weight W] [--plane-weight P] [--refinement R] [--refine-width W] [--reweight-passes P] [--reweight-factor F]
 //                    [--reweight-tolerance T] [--no-prune] [--plane-signs 0|1] [--plane-sign-distance D]
-//                    [--plane-slope 0|1] [--band-per-gap G] [--plane-weight-per-gap W]
+//                    [--plane-slope 0|1] [--band-per-gap G] [--plane-weight-per-gap W] [--model-resolution M]
 //                    [--base-resolution B] [--shape sphere|ellipsoid|torus] [--set random10|orthogonal|...]
 //                    [--csl FILE --ref MESH --name NAME [--allow-self-intersections] [--write MESH]]
 #include <tbb/global_control.h>
@@ -137,6 +137,7 @@ int main(int argc, char** argv) {
     else if (a == "--no-prune") params.prune = false;
     else if (a == "--plane-signs") params.plane_signs = std::stoi(next()) != 0;
     else if (a == "--plane-slope") params.plane_slope = std::stoi(next()) != 0;
+    else if (a == "--model-resolution") params.model_resolution = std::stoi(next());
     else if (a == "--band-per-gap") params.band_per_gap = std::stod(next());
     else if (a == "--plane-weight-per-gap") params.plane_weight_per_gap = std::stod(next());
     else if (a == "--plane-sign-distance") params.plane_sign_distance = std::stod(next());

@@ -1908,6 +1908,22 @@ Field3dStats solve_stats(const Field3dResult& r, const std::vector<Field3dPlaneR
   return s;
 }
 
+Field3dParams model_scaled(const Field3dParams& p, const std::vector<Section>& sections) {
+  if (p.model_resolution <= 0 || std::any_of(sections.begin(), sections.end(), [](const Section& s) { return s.is_image(); }))
+    return p;
+  // With f in cells, the smoothness term goes as 1/h, the plane, sign and box terms as 1/h^4 and the contour term
+  // as 1/h^3 of the continuous integrals: rho^3 on the smoothness and rho on the contour weight keep their ratios.
+  const double rho = double(p.resolution) / p.model_resolution;
+  Field3dParams q = p;
+  q.smoothness *= rho * rho * rho;
+  q.contour_weight *= rho;
+  q.band *= rho;
+  q.sign_margin *= rho;
+  q.plane_sign_distance *= rho;
+  q.conflict_tolerance *= rho;
+  return q;
+}
+
 Field3dParams sparse_base(const Field3dParams& p) {
   if (p.base_resolution <= 0 || p.refinement > 1 || p.resolution <= p.base_resolution) return p;
   Field3dParams q = p;
@@ -1925,7 +1941,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   Field3dResult res;
 
   const SectionGrid grid = section_grid(sections, label, params_in);
-  Field3dParams params = params_in;
+  Field3dParams params = model_scaled(params_in, sections);
   const double gap = median_gap(sections) / grid.h;  // cells
   if (params.band_per_gap > 0) params.band = std::max(params.band, params.band_per_gap * gap);
   // The planes' data per unit volume falls as 1 / gap against the bi-Laplacian's: plane_weight_per_gap keeps it.

@@ -91,6 +91,7 @@ struct Field3dParams {
   int refinement = 1;
   double refine_width = 2.0;
   int base_resolution = 0;
+  int model_resolution = 0;
   int reweight_passes = 0;
   double reweight_factor = 4.0;
   double reweight_tolerance = 5e-4;
@@ -123,6 +124,11 @@ struct Field3dParams {
 /// or below (r = 2 or 4; rounded up), refinement set to r. Unchanged when
 /// base_resolution is 0, resolution is at most it, or refinement is above 1.
 Field3dParams sparse_base(const Field3dParams& p);
+
+/// `p` with its cell-unit rows (band, smoothness against the data, contour weight, sign margin and distances,
+/// conflict tolerance) converted from a grid of model_resolution cells to one of p.resolution, so the grid
+/// resolves the same continuous energy. Unchanged when model_resolution is 0 or a section is a label image.
+Field3dParams model_scaled(const Field3dParams& p, const std::vector<Section>& sections);
 
 /// Largest grid (nodes) the direct twin accepts: its LDLT fill grows as n^(5/3).
 inline constexpr std::size_t kMaxDirectNodes = 40000;
@@ -264,6 +270,11 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             "polyline input: plane samples nearer the drawn contours than this are not sign constrained (the contour "
             "samples place the surface there)",
             Range{0, kMaxGridCells, false, false}),
+      field("model_resolution", &Field3dParams::model_resolution, "cells",
+            "polyline input: the grid resolution the cell-unit rows are given for (0: the grid's own); at another "
+            "resolution they are converted so the grid discretises the same energy (a finer grid then resolves "
+            "the same model instead of weighting the data more)",
+            between(0, kMaxGridCells)),
   });
   return t;
 }
