@@ -52,6 +52,7 @@ struct DecimateResult {
   long triangles_after = 0;
   long flips = 0;             ///< edges flipped to lift slivers (min_angle_deg)
   long sliver_collapses = 0;  ///< slivers collapsed away (min_angle_deg)
+  long sliver_moves = 0;      ///< slivers lifted by moving a vertex (min_angle_deg)
 };
 
 /// Decimates `mesh` in place (renumbered; unused vertices kept).
