@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -57,9 +58,12 @@ constexpr std::size_t kMaxSlabs = 8;
 
 // Flip-then-collapse passes for slivers (min_angle_deg): a pass that changes
 // nothing ends them; 3 only bounds the time (not tuned).
-constexpr int kSliverPasses = 3;
+constexpr int kSliverPasses = 16;
 constexpr double kCapSteps[] = {1.0, 0.5, 0.25};
 constexpr double kRelaxSteps[] = {1.0, 0.5, 0.25, 0.125};
+constexpr int kRelaxDirections = 8;
+constexpr double kRelaxReach = 0.5;
+constexpr std::size_t kRelaxTries = 8;
 
 // Least interior angle of the triangle (a, b, c), radians; 0 if degenerate.
 double least_angle(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
@@ -540,24 +544,45 @@ class FastDecimator {
     return reshape(s, c, representable(0.5 * (pa + pb)), -1);
   }
 
-  // Moves a corner of t towards its ring's centroid in its tangent plane
-  // (a whole step, else a half, else a quarter).
+  // Moves a corner of t within its tangent plane: towards its ring's
+  // centroid, or along one of kRelaxDirections at a fraction of its nearest
+  // neighbour's distance; the candidates that lift the angles most are
+  // tried first, at most kRelaxTries per corner.
   bool relax(Scratch& s, const std::array<std::int32_t, 3>& t) {
+    std::vector<std::pair<Gain, Vec3d>> tries;
     for (std::int32_t v : t) {
       if (state_[std::size_t(v)] & (kFixed | kDead | kTouched)) continue;
       const auto& fan = faces_of_[std::size_t(v)];
       const Vec3d p = pos_[std::size_t(v)];
       Vec3d centroid = Vec3d::Zero(), n = Vec3d::Zero();
+      double nearest = std::numeric_limits<double>::infinity();
       s.changes.clear();
       for (std::int32_t h : fan) {
-        centroid += pos_[std::size_t(after(h, v))];
+        const Vec3d& w = pos_[std::size_t(after(h, v))];
+        centroid += w;
+        nearest = std::min(nearest, (w - p).norm());
         n += normal_of(h);
         s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
       }
+      if (!(n.squaredNorm() > 0)) continue;
+      n.normalize();
       Vec3d step = centroid / double(fan.size()) - p;
-      if (n.squaredNorm() > 0) step -= n * (n.dot(step) / n.squaredNorm());
-      for (double u : kRelaxSteps)
-        if (reshape(s, v, representable(p + u * step), -1)) return true;
+      step -= n * n.dot(step);
+      const Vec3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+      tries.clear();
+      auto consider = [&](const Vec3d& to) {
+        const Vec3d at = representable(to);
+        if (const auto g = judge(s, v, at)) tries.emplace_back(*g, at);
+      };
+      for (double u : kRelaxSteps) consider(p + u * step);
+      for (int k = 0; k < kRelaxDirections; ++k) {
+        const double phi = 2 * std::numbers::pi * k / kRelaxDirections;
+        const Vec3d dir = std::cos(phi) * e1 + std::sin(phi) * e2;
+        for (double u : kRelaxSteps) consider(p + u * kRelaxReach * nearest * dir);
+      }
+      std::stable_sort(tries.begin(), tries.end(), [](const auto& x, const auto& y) { return x.first.better(y.first); });
+      for (std::size_t i = 0; i < tries.size() && i < kRelaxTries; ++i)
+        if (reshape(s, v, tries[i].second, -1)) return true;
     }
     return false;
   }
@@ -569,23 +594,28 @@ class FastDecimator {
     return (pos_[std::size_t(t[1])] - a).cross(pos_[std::size_t(t[2])] - a);
   }
 
-  // Applies s.changes (every face whose corners change or move) with vertex
-  // `moved` at `to` and `gone` (if >= 0) removed, if no face degenerates or
-  // turns from its reference normal by more than the limit, fewer faces stay
-  // below the least angle (or as many, the least larger), and the new faces
-  // cover every piece of the old (as for a collapse). Returns whether it did.
-  bool reshape(Scratch& s, std::int32_t moved, const Vec3d& to, std::int32_t gone) {
-    if (to == pos_[std::size_t(moved)]) return false;
+  // Faces below the least angle and the least angle among s.changes' faces.
+  struct Gain {
+    long below = 0;
+    double least = std::numeric_limits<double>::infinity();
+    [[nodiscard]] bool better(const Gain& o) const { return below != o.below ? below < o.below : least > o.least; }
+  };
+
+  // s.changes with `moved` at `to`, if no face degenerates or turns from its
+  // reference normal by more than the limit and the angles improve (fewer
+  // faces below the least angle, or as many with the least larger): the new
+  // angles, and the new faces in s.tris (s.own: index per change, -1 gone).
+  std::optional<Gain> judge(Scratch& s, std::int32_t moved, const Vec3d& to) {
+    if (to == pos_[std::size_t(moved)]) return std::nullopt;
     auto at = [&](std::int32_t v) -> const Vec3d& { return v == moved ? to : pos_[std::size_t(v)]; };
-    long below_was = 0, below_now = 0;
-    double least_was = std::numeric_limits<double>::infinity(), least_now = least_was;
+    Gain was, now;
     s.tris.clear();
     s.own.clear();
     for (const Change& c : s.changes) {
       const auto& o = tri_[std::size_t(c.face)];
-      const double was = least_angle(pos_[std::size_t(o[0])], pos_[std::size_t(o[1])], pos_[std::size_t(o[2])]);
-      below_was += was < min_angle_;
-      least_was = std::min(least_was, was);
+      const double before = least_angle(pos_[std::size_t(o[0])], pos_[std::size_t(o[1])], pos_[std::size_t(o[2])]);
+      was.below += before < min_angle_;
+      was.least = std::min(was.least, before);
       if (c.now[0] < 0) {
         s.own.push_back(-1);
         continue;
@@ -593,14 +623,23 @@ class FastDecimator {
       const Vec3d &p0 = at(c.now[0]), &p1 = at(c.now[1]), &p2 = at(c.now[2]);
       const Vec3d n = (p1 - p0).cross(p2 - p0);
       const double n2 = n.squaredNorm(), r2 = c.normal.squaredNorm();
-      if (!(n2 > 0) || (r2 > 0 && n.dot(c.normal) < cos_max_ * std::sqrt(n2 * r2))) return false;
-      const double now = least_angle(p0, p1, p2);
-      below_now += now < min_angle_;
-      least_now = std::min(least_now, now);
+      if (!(n2 > 0) || (r2 > 0 && n.dot(c.normal) < cos_max_ * std::sqrt(n2 * r2))) return std::nullopt;
+      const double shaped = least_angle(p0, p1, p2);
+      now.below += shaped < min_angle_;
+      now.least = std::min(now.least, shaped);
       s.own.push_back(std::int32_t(s.tris.size()));
       s.tris.emplace_back(p0, p1, p2);
     }
-    if (below_now > below_was || (below_now == below_was && !(least_now > least_was))) return false;
+    if (!now.better(was)) return std::nullopt;
+    return now;
+  }
+
+  // Applies s.changes (every face whose corners change or move) with vertex
+  // `moved` at `to` and `gone` (if >= 0) removed, if judge() allows it and
+  // the new faces cover every piece of the old (as for a collapse). Returns
+  // whether it did.
+  bool reshape(Scratch& s, std::int32_t moved, const Vec3d& to, std::int32_t gone) {
+    if (!judge(s, moved, to)) return false;
     s.placed.clear();
     auto record = [&](std::size_t k, const TrianglePiece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
     for (std::size_t i = 0; i < s.changes.size(); ++i)
