@@ -56,14 +56,21 @@ constexpr std::uint8_t kBorder = 16;  // has a neighbour in another slab: fixed 
 constexpr std::size_t kTrianglesPerSlab = 100000;
 constexpr std::size_t kMaxSlabs = 8;
 
-// Flip-then-collapse passes for slivers (min_angle_deg): a pass that changes
-// nothing ends them; 3 only bounds the time (not tuned).
+// Passes over the slivers (min_angle_deg): a pass that changes nothing ends
+// them; 16 only bounds the time (frog 0.5 px at 10 deg: faces below it 22
+// after 8 passes, 19 after 30).
 constexpr int kSliverPasses = 16;
+// Where a moved vertex is tried (min_angle_deg). A cap's apex: these
+// fractions of the way to its foot on the long edge.
 constexpr double kCapSteps[] = {1.0, 0.5, 0.25};
-constexpr double kRelaxSteps[] = {1.0, 0.5, 0.25, 0.125};
-constexpr int kRelaxDirections = 8;
+// A relaxed corner: these fractions of the way to its ring's centroid, and of
+// kRelaxReach times its nearest neighbour's distance in kRelaxDirections
+// tangent directions (an edge collapsed inside: of kRelaxReach times its
+// length around its midpoint). Frog 0.5 px at 10 deg, faces below it: 8
+// directions, 4 steps 4; 16 directions, 5 steps 2 (jawbone 20 -> 10).
+constexpr double kRelaxSteps[] = {1.0, 0.5, 0.25, 0.125, 0.0625};
+constexpr int kRelaxDirections = 16;
 constexpr double kRelaxReach = 0.5;
-constexpr std::size_t kRelaxTries = 8;
 
 // Least interior angle of the triangle (a, b, c), radians; 0 if degenerate.
 double least_angle(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
@@ -473,8 +480,9 @@ class FastDecimator {
   // A position rounded to float (the output's precision) before it is certified.
   static Vec3d representable(const Vec3d& p) { return p.cast<float>().cast<double>(); }
 
-  // Collapses an edge of t (in `order`, k: t[k]-t[k+1]) into a point inside
-  // it: the merged quadric's least point on it, else its midpoint.
+  // Collapses an edge of t (in `order`, k: t[k]-t[k+1]) into a point near
+  // it: on it (the merged quadric's least point there, the midpoint), the
+  // quadric's least point anywhere if near, or around the midpoint.
   bool collapse_inside(Scratch& s, const std::array<std::int32_t, 3>& t, const std::array<std::size_t, 3>& order) {
     for (std::size_t k : order) {
       const std::int32_t a = t[k], b = t[(k + 1) % 3];
@@ -483,11 +491,8 @@ class FastDecimator {
       if (!collapsible(s, a, b, fl, fr, vl, vr)) continue;
       Quadric q = quad_[std::size_t(a)];
       q += quad_[std::size_t(b)];
-      const Vec3d pa = pos_[std::size_t(a)], pb = pos_[std::size_t(b)];
-      // q along the edge is the parabola through its values at 0, 1/2, 1.
-      const double q0 = q(pa), qm = q(0.5 * (pa + pb)), q1 = q(pb);
-      const double curve = 2 * (q0 + q1) - 4 * qm, slope = 4 * qm - 3 * q0 - q1;
-      const double least = curve > 0 ? std::clamp(-slope / (2 * curve), 0.0, 1.0) : 0.5;
+      const Vec3d pa = pos_[std::size_t(a)], pb = pos_[std::size_t(b)], mid = 0.5 * (pa + pb);
+      Vec3d n = Vec3d::Zero();
       s.changes.clear();
       for (std::int32_t h : faces_of_[std::size_t(a)]) {
         auto now = tri_[std::size_t(h)];
@@ -496,27 +501,33 @@ class FastDecimator {
         else
           for (auto& w : now) w = w == a ? b : w;
         s.changes.push_back({h, now, normal_of(h)});
+        n += normal_of(h);
       }
       for (std::int32_t h : faces_of_[std::size_t(b)])
-        if (h != fl && h != fr) s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
-      for (double u : {least, 0.5}) {
-        if (u > 0 && u < 1 && reshape(s, b, representable(pa + u * (pb - pa)), a)) return true;
-        if (u == 0.5) break;
-      }
-      // The merged quadric's least point anywhere, if it has one near the edge.
+        if (h != fl && h != fr) {
+          s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
+          n += normal_of(h);
+        }
+      // q along the edge is the parabola through its values at 0, 1/2, 1.
+      const double q0 = q(pa), qm = q(mid), q1 = q(pb);
+      const double curve = 2 * (q0 + q1) - 4 * qm, slope = 4 * qm - 3 * q0 - q1;
+      const double least = curve > 0 ? std::clamp(-slope / (2 * curve), 0.0, 1.0) : 0.5;
+      std::vector<Vec3d> seeds{mid};
+      if (least > 0 && least < 1) seeds.push_back(pa + least * (pb - pa));
       Eigen::Matrix3d m;
       m << q.a11, q.a12, q.a13, q.a12, q.a22, q.a23, q.a13, q.a23, q.a33;
       const auto lu = m.fullPivLu();
       if (lu.isInvertible()) {
         const Vec3d best = lu.solve(-Vec3d(q.a14, q.a24, q.a34));
-        if ((best - 0.5 * (pa + pb)).norm() <= (pb - pa).norm() && reshape(s, b, representable(best), a)) return true;
+        if ((best - mid).norm() <= (pb - pa).norm()) seeds.push_back(best);
       }
+      if (move_best(s, b, a, q, n, kRelaxReach * (pb - pa).norm(), seeds, &mid)) return true;
     }
     return false;
   }
 
   // Cap f = (a, b, c) with a-b its longest edge: flips a-b to c-d and moves c
-  // onto a-b (its foot, else the midpoint), splitting the face beyond in two.
+  // towards a-b (its foot or the midpoint), splitting the face beyond in two.
   bool drop_cap(Scratch& s, std::int32_t f) {
     const auto t = tri_[std::size_t(f)];
     std::size_t k = 0;
@@ -532,24 +543,25 @@ class FastDecimator {
     const Vec3d &pa = pos_[std::size_t(a)], &pb = pos_[std::size_t(b)], &pc = pos_[std::size_t(c)],
                 &pd = pos_[std::size_t(d)];
     const Vec3d pair = (pb - pa).cross(pc - pa) + (pa - pb).cross(pd - pb);
+    Vec3d n = pair;
     s.changes.clear();
     s.changes.push_back({f, {c, a, d}, pair});
     s.changes.push_back({g, {d, b, c}, pair});
     for (std::int32_t h : faces_of_[std::size_t(c)])
-      if (h != f) s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
+      if (h != f) {
+        s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
+        n += normal_of(h);
+      }
     const Vec3d foot = pa + std::clamp((pc - pa).dot(pb - pa) / (pb - pa).squaredNorm(), 0.0, 1.0) * (pb - pa);
-    const Vec3d c0 = pc;
-    for (double u : kCapSteps)
-      if (reshape(s, c, representable(c0 + u * (foot - c0)), -1)) return true;
-    return reshape(s, c, representable(0.5 * (pa + pb)), -1);
+    std::vector<Vec3d> seeds;
+    for (double u : kCapSteps) seeds.push_back(pc + u * (foot - pc));
+    seeds.push_back(0.5 * (pa + pb));
+    return move_best(s, c, -1, quad_[std::size_t(c)], n, (foot - pc).norm(), seeds, nullptr);
   }
 
   // Moves a corner of t within its tangent plane: towards its ring's
-  // centroid, or along one of kRelaxDirections at a fraction of its nearest
-  // neighbour's distance; the candidates that lift the angles most are
-  // tried first, at most kRelaxTries per corner.
+  // centroid, or around where it is (move_best).
   bool relax(Scratch& s, const std::array<std::int32_t, 3>& t) {
-    std::vector<std::pair<Gain, Vec3d>> tries;
     for (std::int32_t v : t) {
       if (state_[std::size_t(v)] & (kFixed | kDead | kTouched)) continue;
       const auto& fan = faces_of_[std::size_t(v)];
@@ -565,26 +577,48 @@ class FastDecimator {
         s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
       }
       if (!(n.squaredNorm() > 0)) continue;
-      n.normalize();
       Vec3d step = centroid / double(fan.size()) - p;
-      step -= n * n.dot(step);
-      const Vec3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
-      tries.clear();
-      auto consider = [&](const Vec3d& to) {
-        const Vec3d at = representable(to);
-        if (const auto g = judge(s, v, at)) tries.emplace_back(*g, at);
-      };
-      for (double u : kRelaxSteps) consider(p + u * step);
-      for (int k = 0; k < kRelaxDirections; ++k) {
-        const double phi = 2 * std::numbers::pi * k / kRelaxDirections;
-        const Vec3d dir = std::cos(phi) * e1 + std::sin(phi) * e2;
-        for (double u : kRelaxSteps) consider(p + u * kRelaxReach * nearest * dir);
-      }
-      std::stable_sort(tries.begin(), tries.end(), [](const auto& x, const auto& y) { return x.first.better(y.first); });
-      for (std::size_t i = 0; i < tries.size() && i < kRelaxTries; ++i)
-        if (reshape(s, v, tries[i].second, -1)) return true;
+      step -= n * (n.dot(step) / n.squaredNorm());
+      std::vector<Vec3d> seeds;
+      for (double u : kRelaxSteps) seeds.push_back(p + u * step);
+      if (move_best(s, v, -1, quad_[std::size_t(v)], n, kRelaxReach * nearest, seeds, &p)) return true;
     }
     return false;
+  }
+
+  // Moves `moved` (merging `gone` into it if >= 0; s.changes: the faces that
+  // change) to the best of: each seed, the points kRelaxSteps of `reach`
+  // from `around` (if given) in kRelaxDirections tangent directions, and
+  // each of these lifted along n (the fan's normal) to the least of q; those
+  // judge() allows are tried against the bound, the largest gain first.
+  bool move_best(Scratch& s, std::int32_t moved, std::int32_t gone, const Quadric& q, Vec3d n, double reach,
+                 std::vector<Vec3d> seeds, const Vec3d* around) {
+    if (!(n.squaredNorm() > 0)) return false;
+    n.normalize();
+    if (around) {
+      const Vec3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+      for (int k = 0; k < kRelaxDirections; ++k) {
+        const double phi = 2 * std::numbers::pi * k / kRelaxDirections;
+        for (double u : kRelaxSteps) seeds.push_back(*around + u * reach * (std::cos(phi) * e1 + std::sin(phi) * e2));
+      }
+    }
+    std::vector<std::pair<Gain, Vec3d>> tries;
+    for (const Vec3d& seed : seeds)
+      for (const Vec3d& x : {seed, lifted(q, seed, n, reach)}) {
+        const Vec3d at = representable(x);
+        if (const auto g = judge(s, moved, at)) tries.emplace_back(*g, at);
+      }
+    std::stable_sort(tries.begin(), tries.end(), [](const auto& x, const auto& y) { return x.first.better(y.first); });
+    for (const auto& tried : tries)
+      if (reshape(s, moved, tried.second, gone)) return true;
+    return false;
+  }
+
+  // x moved along the unit n, by at most `reach`, to the least of q on that line.
+  static Vec3d lifted(const Quadric& q, const Vec3d& x, const Vec3d& n, double reach) {
+    const double q0 = q(x), up = q(x + n), down = q(x - n);
+    const double curve = up + down - 2 * q0;
+    return curve > 0 ? Vec3d(x + std::clamp((down - up) / (2 * curve), -reach, reach) * n) : x;
   }
 
   // Twice the area times the unit normal of face h.
