@@ -72,10 +72,13 @@ constexpr double kRelaxSteps[] = {1.0, 0.5, 0.25, 0.125, 0.0625};
 constexpr int kRelaxDirections = 16;
 constexpr double kRelaxReach = 0.5;
 
-// Least interior angle of the triangle (a, b, c), radians; 0 if degenerate.
+// Least interior angle of the triangle (a, b, c), radians (the one facing
+// its shortest side); 0 if degenerate.
 double least_angle(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  auto angle = [](const Vec3d& u, const Vec3d& v) { return std::atan2(u.cross(v).norm(), u.dot(v)); };
-  return std::min({angle(b - a, c - a), angle(c - b, a - b), angle(a - c, b - c)});
+  const double ab = (b - a).squaredNorm(), bc = (c - b).squaredNorm(), ca = (a - c).squaredNorm();
+  const Vec3d &p = ab <= bc && ab <= ca ? c : bc <= ca ? a : b;  // the corner facing the shortest side
+  const Vec3d &u = &p == &a ? b : &p == &b ? c : a, &v = &p == &a ? c : &p == &b ? a : b;
+  return std::atan2((u - p).cross(v - p).norm(), (u - p).dot(v - p));
 }
 
 // Candidates are ordered by the top 16 bits of their float cost (sign 0,
@@ -165,10 +168,14 @@ class FastDecimator {
     Scratch scratch(tolerance_);
     rounds(scratch, all);
     // Slivers the collapses left (Marching Cubes' are mostly gone by now):
-    // flip or collapse them away, then collapse again around the changes,
-    // from here on making no new sliver.
+    // flip, collapse or move them away, then collapse again around the
+    // changes, from here on making no new sliver.
     guard_angles_ = min_angle_ > 0;
-    if (guard_angles_) input_ = pos_;  // vertices may move from here on
+    if (guard_angles_) {
+      input_ = pos_;  // vertices may move from here on
+      version_.assign(pos_.size(), 0);
+      stuck_.assign(tri_.size(), 0);
+    }
     for (int pass = 0; pass < kSliverPasses && guard_angles_; ++pass) {
       const long before = flips_ + sliver_collapses_ + sliver_moves_;
       for (std::size_t f = 0; f < tri_.size(); ++f)
@@ -431,17 +438,20 @@ class FastDecimator {
     state_[std::size_t(v0)] |= kDead;
     state_[std::size_t(v1)] |= kTouched;
     for (std::int32_t f : faces1)
-      for (std::int32_t w : tri_[std::size_t(f)]) state_[std::size_t(w)] |= kDirty;
+      for (std::int32_t w : tri_[std::size_t(f)]) changed(w);
     return true;
   }
 
   // Face f below the least angle: flips the edge whose flip lifts the pair's
   // least angle most (the two faces' pieces covered by the two new ones, as
-  // for a collapse); failing that, collapses one of its edges, shortest first.
+  // for a collapse); failing that, collapses one of its edges, shortest
+  // first; failing that, moves a vertex (collapse_inside, drop_cap, relax).
   void lift_sliver(Scratch& s, std::int32_t f) {
     const auto t = tri_[std::size_t(f)];
     const double was = least_angle(pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
     if (was >= min_angle_) return;
+    const std::uint64_t around = neighbourhood(t);
+    if (stuck_[std::size_t(f)] == around) return;  // failed before, and nothing near it changed since
     struct Flip {
       std::int32_t g = -1, a = 0, b = 0, c = 0, d = 0;
       double angle = 0;
@@ -474,7 +484,27 @@ class FastDecimator {
     }
     // Else move a vertex: an edge into a point inside it, the apex onto the
     // long edge, a corner towards its ring's centroid.
-    if (collapse_inside(s, t, order) || drop_cap(s, f) || relax(s, t)) ++sliver_moves_;
+    if (collapse_inside(s, t, order) || drop_cap(s, f) || relax(s, t))
+      ++sliver_moves_;
+    else
+      stuck_[std::size_t(f)] = around;
+  }
+
+  // Vertex w's neighbourhood changed: its edges are candidates again, and
+  // its version (min_angle_deg) moves on.
+  void changed(std::int32_t w) {
+    state_[std::size_t(w)] |= kDirty;
+    if (!version_.empty()) ++version_[std::size_t(w)];
+  }
+
+  // A hash of the versions of the corners of the faces around t's corners:
+  // what a sliver's lifting looks at.
+  [[nodiscard]] std::uint64_t neighbourhood(const std::array<std::int32_t, 3>& t) const {
+    std::uint64_t h = 14695981039346656037ull;  // FNV-1a
+    for (std::int32_t v : t)
+      for (std::int32_t g : faces_of_[std::size_t(v)])
+        for (std::int32_t w : tri_[std::size_t(g)]) h = (h ^ (std::uint64_t(w) << 32 | version_[std::size_t(w)])) * 1099511628211ull;
+    return h;
   }
 
   // A position rounded to float (the output's precision) before it is certified.
@@ -691,7 +721,7 @@ class FastDecimator {
         if (!has(c.now, w)) erase(faces_of_[std::size_t(w)], c.face);
       for (std::int32_t w : c.now)
         if (w >= 0 && !has(was, w)) faces_of_[std::size_t(w)].push_back(c.face);
-      for (std::int32_t w : was) state_[std::size_t(w)] |= kDirty;
+      for (std::int32_t w : was) changed(w);
       tri_[std::size_t(c.face)] = c.now;
       if (s.own[i] >= 0)
         pieces_[std::size_t(c.face)] = std::move(held[std::size_t(s.own[i])]);
@@ -705,7 +735,7 @@ class FastDecimator {
     pos_[std::size_t(moved)] = to;
     state_[std::size_t(moved)] |= kTouched | kDirty;
     for (std::int32_t h : faces_of_[std::size_t(moved)])
-      for (std::int32_t w : tri_[std::size_t(h)]) state_[std::size_t(w)] |= kDirty;
+      for (std::int32_t w : tri_[std::size_t(h)]) changed(w);
     return true;
   }
 
@@ -769,7 +799,7 @@ class FastDecimator {
     erase(faces_of_[std::size_t(b)], f);
     faces_of_[std::size_t(c)].push_back(g);
     faces_of_[std::size_t(d)].push_back(f);
-    for (std::int32_t v : {a, b, c, d}) state_[std::size_t(v)] |= kDirty;
+    for (std::int32_t v : {a, b, c, d}) changed(v);
     ++flips_;
     return true;
   }
@@ -783,6 +813,8 @@ class FastDecimator {
   std::vector<std::array<std::int32_t, 3>> original_;  // the input triangles: corners of the pieces
   std::vector<std::vector<PieceKey>> pieces_;  // held by each face
   std::vector<Vec3d> input_;  // the input positions, kept once vertices may move (min_angle_deg); else pos_
+  std::vector<std::uint32_t> version_;  // per vertex: changes of its neighbourhood (min_angle_deg)
+  std::vector<std::uint64_t> stuck_;    // per face: neighbourhood() when its lifting last failed, else 0
   double tolerance_, cos_max_, min_angle_;
   bool guard_angles_ = false;  // collapses make no new sliver (after the first rounds)
   long flips_ = 0, sliver_collapses_ = 0, sliver_moves_ = 0;
