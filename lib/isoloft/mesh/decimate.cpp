@@ -57,9 +57,9 @@ constexpr std::size_t kTrianglesPerSlab = 100000;
 constexpr std::size_t kMaxSlabs = 8;
 
 // Passes over the slivers (min_angle_deg): a pass that changes nothing ends
-// them; 16 only bounds the time (frog 0.5 px at 10 deg: faces below it 22
-// after 8 passes, 19 after 30).
-constexpr int kSliverPasses = 16;
+// them; 48 only bounds the time (at 10 deg the frog at 0.5 px ends after 24
+// passes, the jawbone stack at 1 px after 38).
+constexpr int kSliverPasses = 48;
 // Where a moved vertex is tried (min_angle_deg). A cap's apex: these
 // fractions of the way to its foot on the long edge.
 constexpr double kCapSteps[] = {1.0, 0.5, 0.25};
@@ -451,7 +451,7 @@ class FastDecimator {
     const double was = least_angle(pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
     if (was >= min_angle_) return;
     const std::uint64_t around = neighbourhood(t);
-    if (stuck_[std::size_t(f)] == around) return;  // failed before, and nothing near it changed since
+    if (around != 0 && stuck_[std::size_t(f)] == around) return;  // failed before, nothing near it changed since
     struct Flip {
       std::int32_t g = -1, a = 0, b = 0, c = 0, d = 0;
       double angle = 0;
@@ -498,12 +498,15 @@ class FastDecimator {
   }
 
   // A hash of the versions of the corners of the faces around t's corners:
-  // what a sliver's lifting looks at.
+  // what a sliver's lifting looks at; 0 if one is kTouched (held this pass only).
   [[nodiscard]] std::uint64_t neighbourhood(const std::array<std::int32_t, 3>& t) const {
     std::uint64_t h = 14695981039346656037ull;  // FNV-1a
     for (std::int32_t v : t)
       for (std::int32_t g : faces_of_[std::size_t(v)])
-        for (std::int32_t w : tri_[std::size_t(g)]) h = (h ^ (std::uint64_t(w) << 32 | version_[std::size_t(w)])) * 1099511628211ull;
+        for (std::int32_t w : tri_[std::size_t(g)]) {
+          if (state_[std::size_t(w)] & kTouched) return 0;
+          h = (h ^ (std::uint64_t(w) << 32 | version_[std::size_t(w)])) * 1099511628211ull;
+        }
     return h;
   }
 
