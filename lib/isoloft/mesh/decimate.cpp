@@ -75,10 +75,11 @@ constexpr double kRelaxReach = 0.5;
 // Least interior angle of the triangle (a, b, c), radians (the one facing
 // its shortest side); 0 if degenerate.
 double least_angle(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const std::array<const Vec3d*, 3> corner{&a, &b, &c};
   const double ab = (b - a).squaredNorm(), bc = (c - b).squaredNorm(), ca = (a - c).squaredNorm();
-  const Vec3d &p = ab <= bc && ab <= ca ? c : bc <= ca ? a : b;  // the corner facing the shortest side
-  const Vec3d &u = &p == &a ? b : &p == &b ? c : a, &v = &p == &a ? c : &p == &b ? a : b;
-  return std::atan2((u - p).cross(v - p).norm(), (u - p).dot(v - p));
+  const std::size_t k = ab <= bc && ab <= ca ? 2 : bc <= ca ? 0 : 1;  // the corner facing the shortest side
+  const Vec3d u = *corner[(k + 1) % 3] - *corner[k], v = *corner[(k + 2) % 3] - *corner[k];
+  return std::atan2(u.cross(v).norm(), u.dot(v));
 }
 
 // Candidates are ordered by the top 16 bits of their float cost (sign 0,
