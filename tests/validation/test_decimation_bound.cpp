@@ -1,7 +1,7 @@
 // Decimation against the Hausdorff oracle (validation issue, item 5): the
 // decimated mesh stays closed and no part of the original surface lies
 // farther from it than the requested error, as decided by CGAL's
-// bounded-error Hausdorff distance.
+// bounded-error Hausdorff distance, also with min_angle_deg (vertices moved).
 #if defined(ISOLOFT_HAVE_VALIDATION)
 #include <gtest/gtest.h>
 
@@ -20,6 +20,7 @@ namespace {
 // triangle: well under 0.05 px for the curvatures of these shapes.
 constexpr double kFaceInteriorSlack = 0.05;  // px
 constexpr double kHausdorffErrorBound = 0.01;  // px, accuracy asked of CGAL
+constexpr double kMinAngleDeg = 10;            // decimate.min_angle_deg: vertices moved, the same bound
 }  // namespace
 
 TEST(DecimationOracle, OriginalSurfaceStaysWithinTheErrorBound) {
@@ -31,19 +32,22 @@ TEST(DecimationOracle, OriginalSurfaceStaysWithinTheErrorBound) {
     const ReconstructResult r = reconstruct(syn.stack, ReconstructParams{});
     ASSERT_EQ(r.objects.size(), 1u) << shape;
     const TriMesh original = r.objects[0].mesh;
-    for (double e : {0.25, 0.75}) {
-      TriMesh mesh = original;
-      DecimateParams dp;
-      dp.max_error = e;
-      const DecimateResult d = decimate(mesh, dp);
-      EXPECT_LT(d.triangles_after, d.triangles_before) << shape << " e=" << e;
-      const MeshCheck c = check_mesh(mesh);
-      EXPECT_TRUE(c.closed && c.manifold && c.oriented) << shape << " e=" << e;
-      EXPECT_EQ(c.euler, r.objects[0].check.euler) << shape << " e=" << e;
-      const MeshDistanceReport h = mesh_distance(original, mesh, kHausdorffErrorBound);
-      EXPECT_NE(hausdorff_verdict(h.a_to_b, e + kFaceInteriorSlack), Verdict::Fail)
-          << shape << " e=" << e << ": original->decimated Hausdorff in [" << h.a_to_b.lower << ", " << h.a_to_b.upper << "]";
-    }
+    for (double e : {0.25, 0.75})
+      for (double min_angle : {0.0, kMinAngleDeg}) {
+        TriMesh mesh = original;
+        DecimateParams dp;
+        dp.max_error = e;
+        dp.min_angle_deg = min_angle;
+        const DecimateResult d = decimate(mesh, dp);
+        SCOPED_TRACE(testing::Message() << shape << " e=" << e << " min angle " << min_angle);
+        EXPECT_LT(d.triangles_after, d.triangles_before);
+        const MeshCheck c = check_mesh(mesh);
+        EXPECT_TRUE(c.closed && c.manifold && c.oriented);
+        EXPECT_EQ(c.euler, r.objects[0].check.euler);
+        const MeshDistanceReport h = mesh_distance(original, mesh, kHausdorffErrorBound);
+        EXPECT_NE(hausdorff_verdict(h.a_to_b, e + kFaceInteriorSlack), Verdict::Fail)
+            << "original->decimated Hausdorff in [" << h.a_to_b.lower << ", " << h.a_to_b.upper << "]";
+      }
   }
 }
 #endif

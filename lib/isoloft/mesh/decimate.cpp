@@ -8,12 +8,15 @@
 #include <limits>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include <Eigen/LU>
 
 #include "isoloft/core/error.h"
 #include "isoloft/mesh/decimate_bound.h"
@@ -53,14 +56,30 @@ constexpr std::uint8_t kBorder = 16;  // has a neighbour in another slab: fixed 
 constexpr std::size_t kTrianglesPerSlab = 100000;
 constexpr std::size_t kMaxSlabs = 8;
 
-// Flip-then-collapse passes for slivers (min_angle_deg): a pass that changes
-// nothing ends them; 3 only bounds the time (not tuned).
-constexpr int kSliverPasses = 3;
+// Passes over the slivers (min_angle_deg): a pass that changes nothing ends
+// them; 48 only bounds the time (at 10 deg the frog at 0.5 px ends after 24
+// passes, the jawbone stack at 1 px after 38).
+constexpr int kSliverPasses = 48;
+// Where a moved vertex is tried (min_angle_deg). A cap's apex: these
+// fractions of the way to its foot on the long edge.
+constexpr double kCapSteps[] = {1.0, 0.5, 0.25};
+// A relaxed corner: these fractions of the way to its ring's centroid, and of
+// kRelaxReach times its nearest neighbour's distance in kRelaxDirections
+// tangent directions (an edge collapsed inside: of kRelaxReach times its
+// length around its midpoint). Frog 0.5 px at 10 deg, faces below it: 8
+// directions, 4 steps 4; 16 directions, 5 steps 2 (jawbone 20 -> 10).
+constexpr double kRelaxSteps[] = {1.0, 0.5, 0.25, 0.125, 0.0625};
+constexpr int kRelaxDirections = 16;
+constexpr double kRelaxReach = 0.5;
 
-// Least interior angle of the triangle (a, b, c), radians; 0 if degenerate.
+// Least interior angle of the triangle (a, b, c), radians (the one facing
+// its shortest side); 0 if degenerate.
 double least_angle(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  auto angle = [](const Vec3d& u, const Vec3d& v) { return std::atan2(u.cross(v).norm(), u.dot(v)); };
-  return std::min({angle(b - a, c - a), angle(c - b, a - b), angle(a - c, b - c)});
+  const std::array<const Vec3d*, 3> corner{&a, &b, &c};
+  const double ab = (b - a).squaredNorm(), bc = (c - b).squaredNorm(), ca = (a - c).squaredNorm();
+  const std::size_t k = ab <= bc && ab <= ca ? 2 : bc <= ca ? 0 : 1;  // the corner facing the shortest side
+  const Vec3d u = *corner[(k + 1) % 3] - *corner[k], v = *corner[(k + 2) % 3] - *corner[k];
+  return std::atan2(u.cross(v).norm(), u.dot(v));
 }
 
 // Candidates are ordered by the top 16 bits of their float cost (sign 0,
@@ -70,6 +89,14 @@ constexpr int kCostKeyShift = 16;
 struct Candidate {
   float cost;
   std::int32_t from, to;  // collapse `from` into `to`; the reverse is tried if this one is illegal
+};
+
+// A face's new corners in a vertex move ({-1, -1, -1}: removed) and the
+// normal its new shape may turn from by at most the limit.
+struct Change {
+  std::int32_t face;
+  std::array<std::int32_t, 3> now;
+  Vec3d normal;
 };
 
 // Working memory of one decimation loop (one per slab running concurrently).
@@ -83,6 +110,7 @@ struct Scratch {
   std::vector<std::int32_t> kept, own;
   std::vector<std::pair<std::int32_t, PieceKey>> placed;          // (index in kept, part)
   std::vector<std::pair<std::int32_t, std::uint32_t>> leaving;    // (index in kept, index in its pieces)
+  std::vector<Change> changes;                                    // of a vertex move (reshape)
 };
 
 class FastDecimator {
@@ -141,21 +169,27 @@ class FastDecimator {
     Scratch scratch(tolerance_);
     rounds(scratch, all);
     // Slivers the collapses left (Marching Cubes' are mostly gone by now):
-    // flip or collapse them away, then collapse again around the changes,
-    // from here on making no new sliver.
+    // flip, collapse or move them away, then collapse again around the
+    // changes, from here on making no new sliver.
     guard_angles_ = min_angle_ > 0;
+    if (guard_angles_) {
+      input_ = pos_;  // vertices may move from here on
+      version_.assign(pos_.size(), 0);
+      stuck_.assign(tri_.size(), 0);
+    }
     for (int pass = 0; pass < kSliverPasses && guard_angles_; ++pass) {
-      const long before = flips_ + sliver_collapses_;
+      const long before = flips_ + sliver_collapses_ + sliver_moves_;
       for (std::size_t f = 0; f < tri_.size(); ++f)
         if (tri_[f][0] >= 0) lift_sliver(scratch, std::int32_t(f));
       for (auto& st : state_) st &= std::uint8_t(~kTouched);
-      if (flips_ + sliver_collapses_ == before) break;
+      if (flips_ + sliver_collapses_ + sliver_moves_ == before) break;
       rounds(scratch, all);
     }
   }
 
   [[nodiscard]] long flips() const { return flips_; }
   [[nodiscard]] long sliver_collapses() const { return sliver_collapses_; }
+  [[nodiscard]] long sliver_moves() const { return sliver_moves_; }
 
   [[nodiscard]] TriMesh result() const {
     TriMesh out;
@@ -163,7 +197,7 @@ class FastDecimator {
     for (std::size_t v = 0; v < pos_.size(); ++v)
       if (!(state_[v] & kDead)) {
         index[v] = std::int32_t(out.vertices.size());
-        out.vertices.push_back(pos_[v].cast<float>());  // an input float: exact
+        out.vertices.push_back(pos_[v].cast<float>());  // an input or representable() float: exact
       }
     for (const auto& t : tri_)
       if (t[0] >= 0) out.triangles.push_back({index[std::size_t(t[0])], index[std::size_t(t[1])], index[std::size_t(t[2])]});
@@ -269,11 +303,12 @@ class FastDecimator {
     }
   }
 
-  // Collapses v0 into v1 if that is legal (decimate.h); returns whether it did.
-  bool collapse(Scratch& s, std::int32_t v0, std::int32_t v1) {
-    if (state_[std::size_t(v0)] & (kFixed | kBorder)) return false;
+  // Whether the edge v0-v1 may collapse (two faces on it, fl = (v0, v1, vl)
+  // and fr = (v1, v0, vr), and the link condition); sets them.
+  bool collapsible(Scratch& s, std::int32_t v0, std::int32_t v1, std::int32_t& fl, std::int32_t& fr, std::int32_t& vl,
+                   std::int32_t& vr) {
     const auto& around = faces_of_[std::size_t(v0)];
-    std::int32_t fl = -1, fr = -1, vl = -1, vr = -1;
+    fl = -1, fr = -1, vl = -1, vr = -1;
     for (std::int32_t f : around) {
       const auto& t = tri_[std::size_t(f)];
       if (t[0] != v1 && t[1] != v1 && t[2] != v1) continue;
@@ -292,6 +327,15 @@ class FastDecimator {
     for (std::int32_t f : around)
       for (std::int32_t w : tri_[std::size_t(f)])
         if (w != v0 && w != v1 && w != vl && w != vr && mark_[std::size_t(w)] == s.stamp) return false;
+    return true;
+  }
+
+  // Collapses v0 into v1 if that is legal (decimate.h); returns whether it did.
+  bool collapse(Scratch& s, std::int32_t v0, std::int32_t v1) {
+    if (state_[std::size_t(v0)] & (kFixed | kBorder)) return false;
+    const auto& around = faces_of_[std::size_t(v0)];
+    std::int32_t fl, fr, vl, vr;
+    if (!collapsible(s, v0, v1, fl, fr, vl, vr)) return false;
 
     // The surviving faces around v0 with v0 moved to v1: no normal turns by
     // more than the limit, none loses its area.
@@ -332,8 +376,7 @@ class FastDecimator {
       const auto& held = pieces_[std::size_t(around[i])];
       const int own = s.own[i];
       for (std::size_t j = 0; j < held.size(); ++j) {
-        const auto& t = original_[held[j].triangle];
-        const TrianglePiece q = expand(held[j], pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
+        const TrianglePiece q = expand_piece(held[j]);
         if (own >= 0 && s.cover.covered_by(s.tris[std::size_t(own)], q)) continue;
         if (!s.cover.cover(q, s.tris, own, false, record)) return false;
         if (own >= 0) s.leaving.emplace_back(own, std::uint32_t(j));
@@ -396,17 +439,20 @@ class FastDecimator {
     state_[std::size_t(v0)] |= kDead;
     state_[std::size_t(v1)] |= kTouched;
     for (std::int32_t f : faces1)
-      for (std::int32_t w : tri_[std::size_t(f)]) state_[std::size_t(w)] |= kDirty;
+      for (std::int32_t w : tri_[std::size_t(f)]) changed(w);
     return true;
   }
 
   // Face f below the least angle: flips the edge whose flip lifts the pair's
   // least angle most (the two faces' pieces covered by the two new ones, as
-  // for a collapse); failing that, collapses one of its edges, shortest first.
+  // for a collapse); failing that, collapses one of its edges, shortest
+  // first; failing that, moves a vertex (collapse_inside, drop_cap, relax).
   void lift_sliver(Scratch& s, std::int32_t f) {
     const auto t = tri_[std::size_t(f)];
     const double was = least_angle(pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
     if (was >= min_angle_) return;
+    const std::uint64_t around = neighbourhood(t);
+    if (around != 0 && stuck_[std::size_t(f)] == around) return;  // failed before, nothing near it changed since
     struct Flip {
       std::int32_t g = -1, a = 0, b = 0, c = 0, d = 0;
       double angle = 0;
@@ -437,6 +483,271 @@ class FastDecimator {
         return;
       }
     }
+    // Else move a vertex: an edge into a point inside it, the apex onto the
+    // long edge, a corner towards its ring's centroid.
+    if (collapse_inside(s, t, order) || drop_cap(s, f) || relax(s, t))
+      ++sliver_moves_;
+    else
+      stuck_[std::size_t(f)] = around;
+  }
+
+  // Vertex w's neighbourhood changed: its edges are candidates again, and
+  // its version (min_angle_deg) moves on.
+  void changed(std::int32_t w) {
+    state_[std::size_t(w)] |= kDirty;
+    if (!version_.empty()) ++version_[std::size_t(w)];
+  }
+
+  // A hash of the versions of the corners of the faces around t's corners:
+  // what a sliver's lifting looks at; 0 if one is kTouched (held this pass only).
+  [[nodiscard]] std::uint64_t neighbourhood(const std::array<std::int32_t, 3>& t) const {
+    std::uint64_t h = 14695981039346656037ull;  // FNV-1a
+    for (std::int32_t v : t)
+      for (std::int32_t g : faces_of_[std::size_t(v)])
+        for (std::int32_t w : tri_[std::size_t(g)]) {
+          if (state_[std::size_t(w)] & kTouched) return 0;
+          h = (h ^ (std::uint64_t(w) << 32 | version_[std::size_t(w)])) * 1099511628211ull;
+        }
+    return h;
+  }
+
+  // A position rounded to float (the output's precision) before it is certified.
+  static Vec3d representable(const Vec3d& p) { return p.cast<float>().cast<double>(); }
+
+  // Collapses an edge of t (in `order`, k: t[k]-t[k+1]) into a point near
+  // it: on it (the merged quadric's least point there, the midpoint), the
+  // quadric's least point anywhere if near, or around the midpoint.
+  bool collapse_inside(Scratch& s, const std::array<std::int32_t, 3>& t, const std::array<std::size_t, 3>& order) {
+    for (std::size_t k : order) {
+      const std::int32_t a = t[k], b = t[(k + 1) % 3];
+      if ((state_[std::size_t(a)] | state_[std::size_t(b)]) & (kFixed | kDead | kTouched)) continue;
+      std::int32_t fl, fr, vl, vr;
+      if (!collapsible(s, a, b, fl, fr, vl, vr)) continue;
+      Quadric q = quad_[std::size_t(a)];
+      q += quad_[std::size_t(b)];
+      const Vec3d pa = pos_[std::size_t(a)], pb = pos_[std::size_t(b)], mid = 0.5 * (pa + pb);
+      Vec3d n = Vec3d::Zero();
+      s.changes.clear();
+      for (std::int32_t h : faces_of_[std::size_t(a)]) {
+        auto now = tri_[std::size_t(h)];
+        if (h == fl || h == fr)
+          now = {-1, -1, -1};
+        else
+          for (auto& w : now) w = w == a ? b : w;
+        s.changes.push_back({h, now, normal_of(h)});
+        n += normal_of(h);
+      }
+      for (std::int32_t h : faces_of_[std::size_t(b)])
+        if (h != fl && h != fr) {
+          s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
+          n += normal_of(h);
+        }
+      // q along the edge is the parabola through its values at 0, 1/2, 1.
+      const double q0 = q(pa), qm = q(mid), q1 = q(pb);
+      const double curve = 2 * (q0 + q1) - 4 * qm, slope = 4 * qm - 3 * q0 - q1;
+      const double least = curve > 0 ? std::clamp(-slope / (2 * curve), 0.0, 1.0) : 0.5;
+      std::vector<Vec3d> seeds{mid};
+      if (least > 0 && least < 1) seeds.push_back(pa + least * (pb - pa));
+      Eigen::Matrix3d m;
+      m << q.a11, q.a12, q.a13, q.a12, q.a22, q.a23, q.a13, q.a23, q.a33;
+      const auto lu = m.fullPivLu();
+      if (lu.isInvertible()) {
+        const Vec3d best = lu.solve(-Vec3d(q.a14, q.a24, q.a34));
+        if ((best - mid).norm() <= (pb - pa).norm()) seeds.push_back(best);
+      }
+      if (move_best(s, b, a, q, n, kRelaxReach * (pb - pa).norm(), seeds, &mid)) return true;
+    }
+    return false;
+  }
+
+  // Cap f = (a, b, c) with a-b its longest edge: flips a-b to c-d and moves c
+  // towards a-b (its foot or the midpoint), splitting the face beyond in two.
+  bool drop_cap(Scratch& s, std::int32_t f) {
+    const auto t = tri_[std::size_t(f)];
+    std::size_t k = 0;
+    for (std::size_t j = 1; j < 3; ++j)
+      if ((pos_[std::size_t(t[(j + 1) % 3])] - pos_[std::size_t(t[j])]).squaredNorm() >
+          (pos_[std::size_t(t[(k + 1) % 3])] - pos_[std::size_t(t[k])]).squaredNorm())
+        k = j;
+    const std::int32_t a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
+    const std::int32_t g = face_with_edge(b, a);
+    if (g < 0 || (state_[std::size_t(c)] & kTouched)) return false;
+    const std::int32_t d = after(g, a);
+    if (!flippable(a, b, c, d)) return false;
+    const Vec3d &pa = pos_[std::size_t(a)], &pb = pos_[std::size_t(b)], &pc = pos_[std::size_t(c)],
+                &pd = pos_[std::size_t(d)];
+    const Vec3d pair = (pb - pa).cross(pc - pa) + (pa - pb).cross(pd - pb);
+    Vec3d n = pair;
+    s.changes.clear();
+    s.changes.push_back({f, {c, a, d}, pair});
+    s.changes.push_back({g, {d, b, c}, pair});
+    for (std::int32_t h : faces_of_[std::size_t(c)])
+      if (h != f) {
+        s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
+        n += normal_of(h);
+      }
+    const Vec3d foot = pa + std::clamp((pc - pa).dot(pb - pa) / (pb - pa).squaredNorm(), 0.0, 1.0) * (pb - pa);
+    std::vector<Vec3d> seeds;
+    for (double u : kCapSteps) seeds.push_back(pc + u * (foot - pc));
+    seeds.push_back(0.5 * (pa + pb));
+    return move_best(s, c, -1, quad_[std::size_t(c)], n, (foot - pc).norm(), seeds, nullptr);
+  }
+
+  // Moves a corner of t within its tangent plane: towards its ring's
+  // centroid, or around where it is (move_best).
+  bool relax(Scratch& s, const std::array<std::int32_t, 3>& t) {
+    for (std::int32_t v : t) {
+      if (state_[std::size_t(v)] & (kFixed | kDead | kTouched)) continue;
+      const auto& fan = faces_of_[std::size_t(v)];
+      const Vec3d p = pos_[std::size_t(v)];
+      Vec3d centroid = Vec3d::Zero(), n = Vec3d::Zero();
+      double nearest = std::numeric_limits<double>::infinity();
+      s.changes.clear();
+      for (std::int32_t h : fan) {
+        const Vec3d& w = pos_[std::size_t(after(h, v))];
+        centroid += w;
+        nearest = std::min(nearest, (w - p).norm());
+        n += normal_of(h);
+        s.changes.push_back({h, tri_[std::size_t(h)], normal_of(h)});
+      }
+      if (!(n.squaredNorm() > 0)) continue;
+      Vec3d step = centroid / double(fan.size()) - p;
+      step -= n * (n.dot(step) / n.squaredNorm());
+      std::vector<Vec3d> seeds;
+      for (double u : kRelaxSteps) seeds.push_back(p + u * step);
+      if (move_best(s, v, -1, quad_[std::size_t(v)], n, kRelaxReach * nearest, seeds, &p)) return true;
+    }
+    return false;
+  }
+
+  // Moves `moved` (merging `gone` into it if >= 0; s.changes: the faces that
+  // change) to the best of: each seed, the points kRelaxSteps of `reach`
+  // from `around` (if given) in kRelaxDirections tangent directions, and
+  // each of these lifted along n (the fan's normal) to the least of q; those
+  // judge() allows are tried against the bound, the largest gain first.
+  bool move_best(Scratch& s, std::int32_t moved, std::int32_t gone, const Quadric& q, Vec3d n, double reach,
+                 std::vector<Vec3d> seeds, const Vec3d* around) {
+    if (!(n.squaredNorm() > 0)) return false;
+    n.normalize();
+    if (around) {
+      const Vec3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+      for (int k = 0; k < kRelaxDirections; ++k) {
+        const double phi = 2 * std::numbers::pi * k / kRelaxDirections;
+        for (double u : kRelaxSteps) seeds.push_back(*around + u * reach * (std::cos(phi) * e1 + std::sin(phi) * e2));
+      }
+    }
+    std::vector<std::pair<Gain, Vec3d>> tries;
+    for (const Vec3d& seed : seeds)
+      for (const Vec3d& x : {seed, lifted(q, seed, n, reach)}) {
+        const Vec3d at = representable(x);
+        if (const auto g = judge(s, moved, at)) tries.emplace_back(*g, at);
+      }
+    std::stable_sort(tries.begin(), tries.end(), [](const auto& x, const auto& y) { return x.first.better(y.first); });
+    for (const auto& tried : tries)
+      if (reshape(s, moved, tried.second, gone)) return true;
+    return false;
+  }
+
+  // x moved along the unit n, by at most `reach`, to the least of q on that line.
+  static Vec3d lifted(const Quadric& q, const Vec3d& x, const Vec3d& n, double reach) {
+    const double q0 = q(x), up = q(x + n), down = q(x - n);
+    const double curve = up + down - 2 * q0;
+    return curve > 0 ? Vec3d(x + std::clamp((down - up) / (2 * curve), -reach, reach) * n) : x;
+  }
+
+  // Twice the area times the unit normal of face h.
+  [[nodiscard]] Vec3d normal_of(std::int32_t h) const {
+    const auto& t = tri_[std::size_t(h)];
+    const Vec3d& a = pos_[std::size_t(t[0])];
+    return (pos_[std::size_t(t[1])] - a).cross(pos_[std::size_t(t[2])] - a);
+  }
+
+  // Faces below the least angle and the least angle among s.changes' faces.
+  struct Gain {
+    long below = 0;
+    double least = std::numeric_limits<double>::infinity();
+    [[nodiscard]] bool better(const Gain& o) const { return below != o.below ? below < o.below : least > o.least; }
+  };
+
+  // s.changes with `moved` at `to`, if no face degenerates or turns from its
+  // reference normal by more than the limit and the angles improve (fewer
+  // faces below the least angle, or as many with the least larger): the new
+  // angles, and the new faces in s.tris (s.own: index per change, -1 gone).
+  std::optional<Gain> judge(Scratch& s, std::int32_t moved, const Vec3d& to) {
+    if (to == pos_[std::size_t(moved)]) return std::nullopt;
+    auto at = [&](std::int32_t v) -> const Vec3d& { return v == moved ? to : pos_[std::size_t(v)]; };
+    Gain was, now;
+    s.tris.clear();
+    s.own.clear();
+    for (const Change& c : s.changes) {
+      const auto& o = tri_[std::size_t(c.face)];
+      const double before = least_angle(pos_[std::size_t(o[0])], pos_[std::size_t(o[1])], pos_[std::size_t(o[2])]);
+      was.below += before < min_angle_;
+      was.least = std::min(was.least, before);
+      if (c.now[0] < 0) {
+        s.own.push_back(-1);
+        continue;
+      }
+      const Vec3d &p0 = at(c.now[0]), &p1 = at(c.now[1]), &p2 = at(c.now[2]);
+      const Vec3d n = (p1 - p0).cross(p2 - p0);
+      const double n2 = n.squaredNorm(), r2 = c.normal.squaredNorm();
+      if (!(n2 > 0) || (r2 > 0 && n.dot(c.normal) < cos_max_ * std::sqrt(n2 * r2))) return std::nullopt;
+      const double shaped = least_angle(p0, p1, p2);
+      now.below += shaped < min_angle_;
+      now.least = std::min(now.least, shaped);
+      s.own.push_back(std::int32_t(s.tris.size()));
+      s.tris.emplace_back(p0, p1, p2);
+    }
+    if (!now.better(was)) return std::nullopt;
+    return now;
+  }
+
+  // Applies s.changes (every face whose corners change or move) with vertex
+  // `moved` at `to` and `gone` (if >= 0) removed, if judge() allows it and
+  // the new faces cover every piece of the old (as for a collapse). Returns
+  // whether it did.
+  bool reshape(Scratch& s, std::int32_t moved, const Vec3d& to, std::int32_t gone) {
+    if (!judge(s, moved, to)) return false;
+    s.placed.clear();
+    auto record = [&](std::size_t k, const TrianglePiece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
+    for (std::size_t i = 0; i < s.changes.size(); ++i)
+      for (const PieceKey& key : pieces_[std::size_t(s.changes[i].face)])
+        if (!s.cover.cover(expand_piece(key), s.tris, s.own[i], false, record)) return false;
+
+    std::vector<std::vector<PieceKey>> held(s.tris.size());
+    for (const auto& [k, key] : s.placed) held[std::size_t(k)].push_back(key);
+    for (auto& h : held) coarsen(h);
+    auto has = [](const std::array<std::int32_t, 3>& t, std::int32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
+    for (std::size_t i = 0; i < s.changes.size(); ++i) {
+      const Change& c = s.changes[i];
+      const auto was = tri_[std::size_t(c.face)];
+      for (std::int32_t w : was)
+        if (!has(c.now, w)) erase(faces_of_[std::size_t(w)], c.face);
+      for (std::int32_t w : c.now)
+        if (w >= 0 && !has(was, w)) faces_of_[std::size_t(w)].push_back(c.face);
+      for (std::int32_t w : was) changed(w);
+      tri_[std::size_t(c.face)] = c.now;
+      if (s.own[i] >= 0)
+        pieces_[std::size_t(c.face)] = std::move(held[std::size_t(s.own[i])]);
+      else
+        std::vector<PieceKey>().swap(pieces_[std::size_t(c.face)]);
+    }
+    if (gone >= 0) {
+      quad_[std::size_t(moved)] += quad_[std::size_t(gone)];
+      state_[std::size_t(gone)] |= kDead;
+    }
+    pos_[std::size_t(moved)] = to;
+    state_[std::size_t(moved)] |= kTouched | kDirty;
+    for (std::int32_t h : faces_of_[std::size_t(moved)])
+      for (std::int32_t w : tri_[std::size_t(h)]) changed(w);
+    return true;
+  }
+
+  // A piece with its corners on its input triangle (input_ once vertices move).
+  [[nodiscard]] TrianglePiece expand_piece(const PieceKey& key) const {
+    const auto& t = original_[key.triangle];
+    const std::vector<Vec3d>& at = input_.empty() ? pos_ : input_;
+    return expand(key, at[std::size_t(t[0])], at[std::size_t(t[1])], at[std::size_t(t[2])]);
   }
 
   // The face holding the directed edge u->w, or -1.
@@ -446,14 +757,19 @@ class FastDecimator {
     return -1;
   }
 
+  // The connectivity part of flip_legal().
+  [[nodiscard]] bool flippable(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d) const {
+    for (std::int32_t v : {a, b, c, d})
+      if (state_[std::size_t(v)] & (kFixed | kDead)) return false;
+    if (c == d || faces_of_[std::size_t(a)].size() <= 3 || faces_of_[std::size_t(b)].size() <= 3) return false;
+    return face_with_edge(c, d) < 0 && face_with_edge(d, c) < 0;
+  }
+
   // Faces f = (a, b, c) and g = (b, a, d) may become (c, a, d) and (d, b, c):
   // no moved or held vertex, no edge c-d already, a and b keep three faces,
   // neither new face turns from the pair's normal by more than the limit.
   [[nodiscard]] bool flip_legal(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d) const {
-    for (std::int32_t v : {a, b, c, d})
-      if (state_[std::size_t(v)] & (kFixed | kDead)) return false;
-    if (c == d || faces_of_[std::size_t(a)].size() <= 3 || faces_of_[std::size_t(b)].size() <= 3) return false;
-    if (face_with_edge(c, d) >= 0 || face_with_edge(d, c) >= 0) return false;
+    if (!flippable(a, b, c, d)) return false;
     const Vec3d &pa = pos_[std::size_t(a)], &pb = pos_[std::size_t(b)], &pc = pos_[std::size_t(c)],
                 &pd = pos_[std::size_t(d)];
     const Vec3d pair = (pb - pa).cross(pc - pa) + (pa - pb).cross(pd - pb);
@@ -474,11 +790,8 @@ class FastDecimator {
     s.placed.clear();
     auto record = [&](std::size_t k, const TrianglePiece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
     for (std::int32_t h : {f, g})
-      for (const PieceKey& key : pieces_[std::size_t(h)]) {
-        const auto& t = original_[key.triangle];
-        const TrianglePiece q = expand(key, pos_[std::size_t(t[0])], pos_[std::size_t(t[1])], pos_[std::size_t(t[2])]);
-        if (!s.cover.cover(q, s.tris, -1, false, record)) return false;
-      }
+      for (const PieceKey& key : pieces_[std::size_t(h)])
+        if (!s.cover.cover(expand_piece(key), s.tris, -1, false, record)) return false;
     std::array<std::vector<PieceKey>, 2> held;
     for (const auto& [k, key] : s.placed) held[std::size_t(k)].push_back(key);
     for (auto& h : held) coarsen(h);
@@ -490,7 +803,7 @@ class FastDecimator {
     erase(faces_of_[std::size_t(b)], f);
     faces_of_[std::size_t(c)].push_back(g);
     faces_of_[std::size_t(d)].push_back(f);
-    for (std::int32_t v : {a, b, c, d}) state_[std::size_t(v)] |= kDirty;
+    for (std::int32_t v : {a, b, c, d}) changed(v);
     ++flips_;
     return true;
   }
@@ -503,9 +816,12 @@ class FastDecimator {
   std::vector<unsigned> mark_;  // == Scratch::stamp: marked in the current collapse
   std::vector<std::array<std::int32_t, 3>> original_;  // the input triangles: corners of the pieces
   std::vector<std::vector<PieceKey>> pieces_;  // held by each face
+  std::vector<Vec3d> input_;  // the input positions, kept once vertices may move (min_angle_deg); else pos_
+  std::vector<std::uint32_t> version_;  // per vertex: changes of its neighbourhood (min_angle_deg)
+  std::vector<std::uint64_t> stuck_;    // per face: neighbourhood() when its lifting last failed, else 0
   double tolerance_, cos_max_, min_angle_;
   bool guard_angles_ = false;  // collapses make no new sliver (after the first rounds)
-  long flips_ = 0, sliver_collapses_ = 0;
+  long flips_ = 0, sliver_collapses_ = 0, sliver_moves_ = 0;
 };
 
 }  // namespace
@@ -519,7 +835,7 @@ DecimateResult detail::decimate_in_slabs(TriMesh& mesh, const DecimateParams& pa
   mesh = {};  // d holds its own copy: free this one while decimating
   d.run(std::max<std::size_t>(slabs, 1));
   mesh = d.result();
-  return {before, long(mesh.triangles.size()), d.flips(), d.sliver_collapses()};
+  return {before, long(mesh.triangles.size()), d.flips(), d.sliver_collapses(), d.sliver_moves()};
 }
 
 DecimateResult decimate(TriMesh& mesh, const DecimateParams& params) {

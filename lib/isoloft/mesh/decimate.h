@@ -5,9 +5,13 @@
 // of the original surface stays within max_error of the result (each original
 // triangle or piece of it held by a covering face: mesh/decimate_bound.h;
 // docs/decisions.md: decimation bound). With min_angle_deg, faces left below
-// it are then flipped or collapsed away under the same bound, and later
-// collapses make no new one (no guarantee: some stay). Large meshes run first in z slabs
-// concurrently; the output is the same for any thread count; no vertex moves.
+// it are then flipped, collapsed, or lifted by moving a vertex (an edge
+// collapsed into a point near it, a cap's apex moved towards its long edge, a
+// corner relaxed), each under the same bound, and later collapses make no new
+// one (no guarantee: a few stay). Large meshes run first in z slabs
+// concurrently; the output is the same for any thread count. Output vertices
+// are input vertices, unless min_angle_deg moved them (rounded to float
+// before they are measured against the bound).
 // Reference: validation/decimate_openmesh.h. Units: pixels.
 // @warning Boundary vertices, and vertices whose faces form several fans, are
 // never moved nor collapsed into.
@@ -41,7 +45,7 @@ inline const ParamTable<DecimateParams>& params_table<DecimateParams>() {
             "largest turn of a face normal in one collapse (no fold-overs)", open_between(0, 90)),
       field("min_angle_deg", &DecimateParams::min_angle_deg, "deg",
             "no collapse leaves a face with a smaller least angle unless it had one; faces still below it are "
-            "flipped where the bound allows (slivers); 0 = off",
+            "flipped, collapsed or have a vertex moved where the bound allows (slivers); 0 = off",
             between(0, 30)),
   });
   return t;
@@ -52,6 +56,7 @@ struct DecimateResult {
   long triangles_after = 0;
   long flips = 0;             ///< edges flipped to lift slivers (min_angle_deg)
   long sliver_collapses = 0;  ///< slivers collapsed away (min_angle_deg)
+  long sliver_moves = 0;      ///< slivers lifted by moving a vertex (min_angle_deg)
 };
 
 /// Decimates `mesh` in place (renumbered; unused vertices kept).
