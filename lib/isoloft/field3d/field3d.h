@@ -227,7 +227,7 @@ inline const ParamTable<Field3dParams>& params_table<Field3dParams>() {
             at_least(0)),
       field("sign_margin", &Field3dParams::sign_margin, "cells",
             "pixel input: a pixel centre is violated when f is on its drawn side by less than this; its penalty "
-            "sample pulls f to twice this",
+            "sample pulls f to twice this (sign_guard: to this while the centre is still on its drawn side)",
             above(0)),
       field("sign_weight", &Field3dParams::sign_weight, "",
             "pixel input: weight of a violated pixel centre's penalty sample (raised by reweight_factor per pass "
