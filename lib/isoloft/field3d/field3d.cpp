@@ -1480,7 +1480,8 @@ constexpr double kGuardSlack = 0.2;
 std::vector<std::size_t> guard_signs(const SignPoints& sp, const Level& lv, const Eigen::VectorXd& x, const Field3dParams& p,
                                      std::vector<Sample>& samples, std::vector<std::int64_t>& sample_of, bool apply) {
   const std::size_t n = sp.g.size();
-  std::vector<std::int8_t> state(n, 0);  // 1 violated, 2 violated and inactive (a new target), -1 to release
+  // 1: active and short; inactive and short: 2 on its drawn side (a guard), 3 on the wrong side; -1: to release
+  std::vector<std::int8_t> state(n, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& rg) {
     for (std::size_t k = rg.begin(); k < rg.end(); ++k) {
       const double f = sp.sign[k] * base_value(lv, x, sp.g[k]);
@@ -1490,7 +1491,7 @@ std::vector<std::size_t> guard_signs(const SignPoints& sp, const Level& lv, cons
         if (f < std::min(p.sign_margin, (1 - kGuardSlack) * t)) state[k] = 1;
         else if (f > t) state[k] = -1;
       } else if (f < p.sign_margin) {
-        state[k] = f >= 0 ? 2 : 3;  // 2: a guard, 3: the wrong side
+        state[k] = f >= 0 ? 2 : 3;
       }
     }
   });
