@@ -6,6 +6,7 @@
 // method reads mask and label stacks.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -237,6 +238,40 @@ struct MaskKitCase {
     }
     return n > 0 ? sum / n : 0.0;
   }
+  /// Area-weighted normal angle against the truth of the faces whose centroid
+  /// lies within 1/8 of the slice gap of an input slice, deg.
+  [[nodiscard]] double slice_angle() const {
+    const double z0 = syn.stack.slices.front().z, z1 = syn.stack.slices.back().z;
+    const double gap = syn.stack.slices[1].z - z0;
+    double angle = 0, area = 0;
+    for (const auto& t : mesh.triangles) {
+      const Vec3d a = mesh.vertices[std::size_t(t[0])].cast<double>(), b = mesh.vertices[std::size_t(t[1])].cast<double>(),
+                  c = mesh.vertices[std::size_t(t[2])].cast<double>();
+      const Vec3d m = (a + b + c) / 3, cr = (b - a).cross(c - a);
+      const double phase = std::fmod((m.z() - z0) / gap, 1.0);
+      if (m.z() < z0 || m.z() > z1 || cr.norm() == 0 || std::min(phase, 1 - phase) > 0.125) continue;
+      const double cosang = std::clamp(cr.normalized().dot(syn.shape->normal(syn.shape->closest_point(m))), -1.0, 1.0);
+      angle += 0.5 * cr.norm() * std::acos(cosang) * 180 / M_PI;
+      area += 0.5 * cr.norm();
+    }
+    return area > 0 ? angle / area : 0.0;
+  }
+  /// Whether every pixel centre of every input slice lies on its drawn side of the mesh.
+  [[nodiscard]] bool keeps_every_pixel(std::string& where) const {
+    for (std::size_t k = 0; k < syn.stack.slices.size(); ++k) {
+      const Slice& s = syn.stack.slices[k];
+      PlanePose pose;
+      pose.origin = Vec3d(0, 0, s.z);
+      const Grid2u8 got = section_pixels(mesh, pose, 1.0, s.image.width, s.image.height);
+      for (int y = 0; y < s.image.height; ++y)
+        for (int x = 0; x < s.image.width; ++x)
+          if ((got(x, y) != 0) != (s.image(x, y) > syn.stack.max_value / 2)) {
+            where = "slice " + std::to_string(k) + ", pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")";
+            return false;
+          }
+    }
+    return true;
+  }
 };
 
 // Property over the kit's shapes: with the default pixel input (smoothed
@@ -248,17 +283,29 @@ TEST(ImageSections, SignConstraintsKeepEveryInputPixel) {
   for (const std::string shape : {"sphere", "torus", "branching-cylinders", "two-blobs"}) {
     const MaskKitCase c(shape, [](Field3dParams&) {});
     ASSERT_FALSE(c.mesh.empty()) << shape;
-    for (std::size_t k = 0; k < c.syn.stack.slices.size(); ++k) {
-      const Slice& s = c.syn.stack.slices[k];
-      PlanePose pose;
-      pose.origin = Vec3d(0, 0, s.z);
-      const Grid2u8 got = section_pixels(c.mesh, pose, 1.0, s.image.width, s.image.height);
-      for (int y = 0; y < s.image.height; ++y)
-        for (int x = 0; x < s.image.width; ++x)
-          ASSERT_EQ(got(x, y) != 0, s.image(x, y) > c.syn.stack.max_value / 2)
-              << shape << ", slice " << k << " (z = " << s.z << "), pixel (" << x << ", " << y << ")";
-    }
+    std::string where;
+    EXPECT_TRUE(c.keeps_every_pixel(where)) << shape << ": " << where;
   }
+}
+
+// The sign guard (pixel_sign_guard, the default): a violated pixel centre
+// still on its drawn side pulls only to the margin and a penalty past its
+// target is released, so the penalties bend the surface at the input slices
+// less while every drawn pixel stays on its side.
+TEST(ImageSections, SignGuardBendsTheSlicesLessAndKeepsEveryPixel) {
+  // Measured on this case (64 px sphere, 4:1): the faces within 1/8 gap of a
+  // slice 1.89 deg from the truth's normal without the guard, 1.71 with it
+  // (ratio 0.91; at 8:1 2.20 -> 2.00, 0.91; the 128 px kit's sphere 4:1 1.20 ->
+  // 1.0). 0.95 asks for half of that gain, room for the grid's placement.
+  constexpr double kMaxSliceAngleRatio = 0.95;
+  const MaskKitCase guard("sphere", [](Field3dParams&) {});
+  const MaskKitCase plain("sphere", [](Field3dParams& p) { p.pixel_sign_guard = false; });
+  ASSERT_FALSE(guard.mesh.empty());
+  ASSERT_FALSE(plain.mesh.empty());
+  std::string where;
+  EXPECT_TRUE(guard.keeps_every_pixel(where)) << where;
+  EXPECT_LT(guard.slice_angle(), kMaxSliceAngleRatio * plain.slice_angle())
+      << "with the guard " << guard.slice_angle() << " deg, without " << plain.slice_angle() << " deg";
 }
 
 // The smoothness gain, on the sphere: the default pixel input's normal angle

@@ -144,6 +144,7 @@ Field3dParams pixel_rows(Field3dParams params) {
   params.plane_slope = params.pixel_slope;
   params.band_per_gap = params.pixel_band_per_gap;
   params.plane_weight_per_gap = params.pixel_plane_weight_per_gap;
+  params.sign_guard = params.pixel_sign_guard;
   return params;
 }
 

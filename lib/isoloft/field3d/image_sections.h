@@ -85,8 +85,8 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
 /// `params` with the pixel input's rows in place of the general ones: band
 /// from pixel_band, contour_weight from pixel_contour_weight, plane_slope
 /// from pixel_slope, band_per_gap from pixel_band_per_gap,
-/// plane_weight_per_gap from pixel_plane_weight_per_gap (the grid's
-/// resolution is pixel_resolution()'s).
+/// plane_weight_per_gap from pixel_plane_weight_per_gap, sign_guard from
+/// pixel_sign_guard (the grid's resolution is pixel_resolution()'s).
 Field3dParams pixel_rows(Field3dParams params);
 
 /// pixel_params()'s resolution for a grid over `box` (world mm, low and high
