@@ -239,7 +239,9 @@ struct MaskKitCase {
     return n > 0 ? sum / n : 0.0;
   }
   /// Area-weighted normal angle against the truth of the faces whose centroid
-  /// lies within 1/8 of the slice gap of an input slice, deg.
+  /// lies within kNearSlice of the slice gap of an input slice, deg (the
+  /// phases where the sign penalties act: the first of the kit's 4 bins).
+  static constexpr double kNearSlice = 0.125;
   [[nodiscard]] double slice_angle() const {
     const double z0 = syn.stack.slices.front().z, z1 = syn.stack.slices.back().z;
     const double gap = syn.stack.slices[1].z - z0;
@@ -249,7 +251,7 @@ struct MaskKitCase {
                   c = mesh.vertices[std::size_t(t[2])].cast<double>();
       const Vec3d m = (a + b + c) / 3, cr = (b - a).cross(c - a);
       const double phase = std::fmod((m.z() - z0) / gap, 1.0);
-      if (m.z() < z0 || m.z() > z1 || cr.norm() == 0 || std::min(phase, 1 - phase) > 0.125) continue;
+      if (m.z() < z0 || m.z() > z1 || cr.norm() == 0 || std::min(phase, 1 - phase) > kNearSlice) continue;
       const double cosang = std::clamp(cr.normalized().dot(syn.shape->normal(syn.shape->closest_point(m))), -1.0, 1.0);
       angle += 0.5 * cr.norm() * std::acos(cosang) * 180 / M_PI;
       area += 0.5 * cr.norm();

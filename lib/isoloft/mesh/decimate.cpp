@@ -636,15 +636,16 @@ class FastDecimator {
         for (double u : kRelaxSteps) seeds.push_back(*around + u * reach * (std::cos(phi) * e1 + std::sin(phi) * e2));
       }
     }
+    const Gain was = gain_now(s);  // the same for every candidate
     std::vector<std::pair<Gain, Vec3d>> tries;
     for (const Vec3d& seed : seeds)
       for (const Vec3d& x : {seed, lifted(q, seed, n, reach)}) {
         const Vec3d at = representable(x);
-        if (const auto g = judge(s, moved, at)) tries.emplace_back(*g, at);
+        if (const auto g = judge(s, was, moved, at)) tries.emplace_back(*g, at);
       }
     std::stable_sort(tries.begin(), tries.end(), [](const auto& x, const auto& y) { return x.first.better(y.first); });
     for (const auto& tried : tries)
-      if (reshape(s, moved, tried.second, gone)) return true;
+      if (reshape(s, was, moved, tried.second, gone)) return true;
     return false;
   }
 
@@ -669,21 +670,30 @@ class FastDecimator {
     [[nodiscard]] bool better(const Gain& o) const { return below != o.below ? below < o.below : least > o.least; }
   };
 
+  // The angles of s.changes' faces as they are.
+  [[nodiscard]] Gain gain_now(const Scratch& s) const {
+    Gain g;
+    for (const Change& c : s.changes) {
+      const auto& o = tri_[std::size_t(c.face)];
+      const double a = least_angle(pos_[std::size_t(o[0])], pos_[std::size_t(o[1])], pos_[std::size_t(o[2])]);
+      g.below += a < min_angle_;
+      g.least = std::min(g.least, a);
+    }
+    return g;
+  }
+
   // s.changes with `moved` at `to`, if no face degenerates or turns from its
-  // reference normal by more than the limit and the angles improve (fewer
-  // faces below the least angle, or as many with the least larger): the new
-  // angles, and the new faces in s.tris (s.own: index per change, -1 gone).
-  std::optional<Gain> judge(Scratch& s, std::int32_t moved, const Vec3d& to) {
+  // reference normal by more than the limit and the angles improve on `was`
+  // (gain_now(): fewer faces below the least angle, or as many with the
+  // least larger): the new angles, and the new faces in s.tris (s.own: index
+  // per change, -1 gone).
+  std::optional<Gain> judge(Scratch& s, const Gain& was, std::int32_t moved, const Vec3d& to) {
     if (to == pos_[std::size_t(moved)]) return std::nullopt;
     auto at = [&](std::int32_t v) -> const Vec3d& { return v == moved ? to : pos_[std::size_t(v)]; };
-    Gain was, now;
+    Gain now;
     s.tris.clear();
     s.own.clear();
     for (const Change& c : s.changes) {
-      const auto& o = tri_[std::size_t(c.face)];
-      const double before = least_angle(pos_[std::size_t(o[0])], pos_[std::size_t(o[1])], pos_[std::size_t(o[2])]);
-      was.below += before < min_angle_;
-      was.least = std::min(was.least, before);
       if (c.now[0] < 0) {
         s.own.push_back(-1);
         continue;
@@ -706,8 +716,8 @@ class FastDecimator {
   // `moved` at `to` and `gone` (if >= 0) removed, if judge() allows it and
   // the new faces cover every piece of the old (as for a collapse). Returns
   // whether it did.
-  bool reshape(Scratch& s, std::int32_t moved, const Vec3d& to, std::int32_t gone) {
-    if (!judge(s, moved, to)) return false;
+  bool reshape(Scratch& s, const Gain& was, std::int32_t moved, const Vec3d& to, std::int32_t gone) {
+    if (!judge(s, was, moved, to)) return false;
     s.placed.clear();
     auto record = [&](std::size_t k, const TrianglePiece& q) { s.placed.emplace_back(std::int32_t(k), key_of(q)); };
     for (std::size_t i = 0; i < s.changes.size(); ++i)
