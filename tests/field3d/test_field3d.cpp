@@ -338,6 +338,43 @@ TEST(Field3d, ModelResolutionKeepsTheEnergyOnAFinerGrid) {
 }
 
 /// Components no inside sample supports are dropped; cavities are kept.
+// The band margin (box_margins): the margin everywhere without it; with it at
+// least band_margin x the band in the planes' directions and beyond an open end
+// of a parallel stack, the margin alone beyond a closed one (an empty outermost
+// plane); the grid's box then reaches that far (the cell's fixed point).
+TEST(Field3d, BandMarginWidensTheBoxExceptAtClosedEnds) {
+  constexpr double kTol = 1e-9;  // mm: the margins are sums and products of exact inputs
+  std::vector<Section> secs;
+  for (const double z : {0.0, 10.0, 20.0}) {
+    PlanePose pose = axis_pose(Vec3d::UnitX(), Vec3d::UnitY());
+    pose.origin = Vec3d(0, 0, z);
+    secs.push_back(z > 0 ? circle_section(pose, 20) : Section{pose, {}});
+  }
+  const std::array<Vec3d, 2> box{Vec3d(-20, -20, 10), Vec3d(20, 20, 20)};
+  Field3dParams p;
+  p.band = 16;
+  const double m0 = p.margin * (box[1] - box[0]).norm();
+  for (const auto& m : box_margins(p, secs, box, 1.0))
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(m[a], m0, kTol) << "without the band margin, axis " << a;
+  p.band_margin = 1.5;
+  const double band = 1.5 * 16;  // band x 1 mm cells; band_per_gap (0) adds nothing
+  const auto [below, above] = box_margins(p, secs, box, 1.0);
+  for (int a = 0; a < 2; ++a) {
+    EXPECT_NEAR(below[a], band, kTol) << "in-plane axis " << a;
+    EXPECT_NEAR(above[a], band, kTol) << "in-plane axis " << a;
+  }
+  EXPECT_NEAR(below.z(), m0, kTol) << "the empty plane at z = 0 closes the low end";
+  EXPECT_NEAR(above.z(), band, kTol) << "the high end is open";
+  // The grid: the box reaches band_margin x band cells beyond the open end.
+  p.resolution = 96;
+  p.levels = 2;
+  const Field3dResult r = reconstruct_sections(secs, 1, p);
+  const double top = r.origin.z() + r.spacing * (r.nz - 1);
+  EXPECT_GE(top - 20, 1.5 * p.band * r.spacing - kTol) << "cell " << r.spacing << " mm";
+  p.resolution = 48;  // 2 x 1.5 x 16 = 48 cells of margin: none left for the contours
+  EXPECT_THROW(reconstruct_sections(secs, 1, p), ParamError);
+}
+
 TEST(Field3d, PruneUnsupportedComponents) {
   const auto s = sphere();
   Field3dParams p;

@@ -18,6 +18,7 @@
 #include <numeric>
 #include <optional>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include "isoloft/core/error.h"
@@ -1756,6 +1757,9 @@ struct SectionGrid {
 
 /// Section planes closer than this share a height (cells; far below a pixel).
 constexpr double kSameHeight = 1e-6;
+/// Fixed-point steps for the cell size under a band margin: each shrinks the error by 2 band_margin band /
+/// resolution (< 1), so 100 reach double precision unless the margin takes nearly every cell.
+constexpr int kMarginIterations = 100;
 /// A stack's plane gaps are multiples of the smallest gap within this share
 /// of it (readers place slices at k times a spacing; 1e-3 absorbs rounding in
 /// the positions, not a missing slice's half-step).
@@ -1829,16 +1833,32 @@ SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t lab
   }
   g.diag = (hi - lo).norm();
   if (!(g.diag > 0)) throw InputError("", "the contours of label " + std::to_string(label) + " span no extent");
-  const Vec3d ext = (hi - lo).array() + 2 * params.margin * g.diag;
+  // Cells of the margined box's longest side / resolution, the band margin in those cells: the fixed point
+  // h = f(h) (a contraction: the band margins on two sides take 2 band_margin band of the resolution's cells).
+  if (params.band_margin > 0 && params.resolution <= 2 * params.band_margin * params.band)
+    throw ParamError("field3d.band_margin: " + std::to_string(params.resolution) + " cells leave none inside a margin of " +
+                     std::to_string(params.band_margin * params.band) + " cells on each side (raise resolution or lower band_margin)");
+  const auto margined = [&](double cell) {
+    const std::array<Vec3d, 2> m = box_margins(params, sections, {lo, hi}, cell);
+    return std::pair<Vec3d, Vec3d>{(hi - lo) + m[0] + m[1], (m[1] - m[0]) / 2};
+  };
+  auto [ext, shift] = margined(0);
   g.h = ext.maxCoeff() / params.resolution;
+  for (int it = 0; it < kMarginIterations && params.band_margin > 0; ++it) {
+    std::tie(ext, shift) = margined(g.h);
+    const double next = ext.maxCoeff() / params.resolution;
+    const bool done = std::abs(next - g.h) <= 1e-12 * next;
+    g.h = next;
+    if (done) break;
+  }
   const int unit = 1 << (params.levels - 1);
   for (int a = 0; a < 3; ++a) g.cells[a] = std::max(2, int(std::ceil(ext[a] / g.h / unit))) * unit;
-  g.origin = (lo + hi) / 2 - g.h / 2 * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
+  g.origin = (lo + hi) / 2 + shift - g.h / 2 * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
   g.box_hi = g.origin + g.h * Vec3d(g.cells[0], g.cells[1], g.cells[2]);
   g.out_nodes = g.nodes();
   const auto [axis, step] = stack_step(sections, g.h, params);
   if (axis >= 0) {  // the stack's planes on nodes, the box as wide as before along its normal
-    const double z0 = sections[0].pose.origin[axis], lo_a = (lo[axis] + hi[axis] - ext[axis]) / 2;
+    const double z0 = sections[0].pose.origin[axis], lo_a = (lo[axis] + hi[axis] - ext[axis]) / 2 + shift[axis];
     g.stack_axis = axis;
     g.step[axis] = step / g.h;
     g.origin[axis] = z0 - step * std::ceil((z0 - lo_a) / step - kSameHeight);
@@ -1847,6 +1867,23 @@ SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t lab
     g.out_nodes[axis] = int(std::floor(g.cells[axis] * g.step[axis] + kSameHeight)) + 1;
   }
   return g;
+}
+
+double median_gap(const std::vector<Section>& sections) {
+  std::vector<double> gaps;
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    const PlanePose& pose = sections[i].pose;
+    double g = kInf;
+    for (std::size_t j = 0; j < sections.size(); ++j)
+      if (j != i && parallel_planes(sections[j].pose, pose)) {
+        const double o = std::abs(pose.height(sections[j].pose.origin));
+        if (o > 0) g = std::min(g, o);
+      }
+    if (g < kInf) gaps.push_back(g);
+  }
+  if (gaps.empty()) return 0;
+  std::nth_element(gaps.begin(), gaps.begin() + std::ptrdiff_t(gaps.size() / 2), gaps.end());
+  return gaps[gaps.size() / 2];
 }
 
 /// A plane's sample raster over the box [lo, hi]: the points pmin + sp (k, j),
@@ -1864,24 +1901,6 @@ PlaneRaster plane_raster(const PlanePose& pose, const Vec3d& lo, const Vec3d& hi
     pmax = pmax.cwiseMax(q);
   }
   return {pmin, int(std::floor((pmax.x() - pmin.x()) / sp)) + 1, int(std::floor((pmax.y() - pmin.y()) / sp)) + 1};
-}
-
-/// The median over the sections of the distance to the nearest parallel section (mm; 0 without one).
-double median_gap(const std::vector<Section>& sections) {
-  std::vector<double> gaps;
-  for (std::size_t i = 0; i < sections.size(); ++i) {
-    const PlanePose& pose = sections[i].pose;
-    double g = kInf;
-    for (std::size_t j = 0; j < sections.size(); ++j)
-      if (j != i && parallel_planes(sections[j].pose, pose)) {
-        const double o = std::abs(pose.height(sections[j].pose.origin));
-        if (o > 0) g = std::min(g, o);
-      }
-    if (g < kInf) gaps.push_back(g);
-  }
-  if (gaps.empty()) return 0;
-  std::nth_element(gaps.begin(), gaps.begin() + std::ptrdiff_t(gaps.size() / 2), gaps.end());
-  return gaps[gaps.size() / 2];
 }
 
 /// Least factor 1/sqrt(1 + s^2) of plane_slope: a slope of 4 (the surface within 14 deg of the plane), so that
@@ -1974,6 +1993,34 @@ Field3dParams model_scaled(const Field3dParams& p, const std::vector<Section>& s
   q.plane_sign_distance *= rho;
   q.conflict_tolerance *= rho;
   return q;
+}
+
+double band_margin_mm(const Field3dParams& p, double cell, double gap) {
+  return p.band_margin * std::max(p.band * cell, p.band_per_gap * gap);
+}
+
+std::array<Vec3d, 2> box_margins(const Field3dParams& p, const std::vector<Section>& sections,
+                                 const std::array<Vec3d, 2>& box, double cell) {
+  const auto& [lo, hi] = box;
+  const double m0 = p.margin * (hi - lo).norm();
+  std::array<Vec3d, 2> m{Vec3d::Constant(m0), Vec3d::Constant(m0)};
+  if (p.band_margin <= 0 || sections.empty()) return m;
+  const double band = std::max(m0, band_margin_mm(p, cell, detail::median_gap(sections)));
+  m = {Vec3d::Constant(band), Vec3d::Constant(band)};
+  // A parallel stack normal to a world axis: an outermost plane beyond the contours (an empty slice) closes
+  // that end, and the box keeps its margin there.
+  int axis = -1;
+  sections[0].pose.normal().cwiseAbs().maxCoeff(&axis);
+  double below = std::numeric_limits<double>::infinity(), above = -below;
+  for (const Section& s : sections) {
+    if (std::abs(s.pose.normal()[axis]) < 1 - 1e-12) return m;
+    below = std::min(below, s.pose.origin[axis]);
+    above = std::max(above, s.pose.origin[axis]);
+  }
+  const double tol = 1e-9 * (hi - lo).norm();
+  if (below < lo[axis] - tol) m[0][axis] = m0;
+  if (above > hi[axis] + tol) m[1][axis] = m0;
+  return m;
 }
 
 Field3dParams sparse_base(const Field3dParams& p) {

@@ -134,7 +134,7 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
           hi = hi.cwiseMax(w);
         }
   params = pixel_rows(params);
-  params.resolution = pixel_resolution({lo, hi}, pixel_size, params);
+  params.resolution = pixel_resolution({lo, hi}, pixel_size, traced, params);
   return params;
 }
 
@@ -145,15 +145,18 @@ Field3dParams pixel_rows(Field3dParams params) {
   params.band_per_gap = params.pixel_band_per_gap;
   params.plane_weight_per_gap = params.pixel_plane_weight_per_gap;
   params.sign_guard = params.pixel_sign_guard;
+  params.band_margin = params.pixel_band_margin;
   return params;
 }
 
-int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params) {
+int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const std::vector<Section>& sections,
+                     const Field3dParams& params) {
   const auto& [lo, hi] = box;
   if (params.pixel_resolution > 0) return params.pixel_resolution;
   if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params.resolution;
   // The box as reconstruct_sections() sizes it: the contours' extent plus the margin on each side.
-  const double longest = ((hi - lo).array() + 2 * params.margin * (hi - lo).norm()).maxCoeff();
+  const std::array<Vec3d, 2> m = box_margins(params, sections, box, pixel_size / kImageCellsPerPixel);
+  const double longest = ((hi - lo) + m[0] + m[1]).maxCoeff();
   const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
   return std::clamp(needed, kMinPixelResolution, kMaxResolution);
 }

@@ -90,12 +90,14 @@ Field3dParams pixel_params(const std::vector<Section>& traced, std::uint32_t lab
 Field3dParams pixel_rows(Field3dParams params);
 
 /// pixel_params()'s resolution for a grid over `box` (world mm, low and high
-/// corners, before the margin): params.pixel_resolution when > 0, else
+/// corners, before the margins: box_margins() over `sections`):
+/// params.pixel_resolution when > 0, else
 /// kImageCellsPerPixel cells per `pixel_size` (at least 16, at most 1024;
 /// params.resolution for an empty box). field3d.resolution does not floor
 /// it: a 32^3 annotated sphere took 10.5 s at the default 96 against 0.2 s
 /// at a cell per voxel, with the same properties.
-int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const Field3dParams& params);
+int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const std::vector<Section>& sections,
+                     const Field3dParams& params);
 
 /// The pixels of a `width` x `height` image on `pose` (pixel (x, y)'s centre
 /// at pose.to_world({x pixel_size, y pixel_size})) whose centres lie inside

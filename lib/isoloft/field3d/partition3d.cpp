@@ -113,7 +113,7 @@ Field3dParams group_params(const std::vector<Section>& sections, const std::vect
   // box when alone), as pixel_params() sizes one label's grid.
   if (pixel > 0) {
     p = pixel_rows(p);
-    p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, p);
+    p.resolution = pixel_resolution(p.box ? *p.box : contour_box(sections, labels[group[0]]), pixel, sections, p);
   }
   return p;
 }

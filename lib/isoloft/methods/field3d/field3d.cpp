@@ -55,9 +55,10 @@ ObjectSections polygon_stack_sections(const SliceStack& st) {
 
 // Pixels [x0, x1) x [y0, y1) of the slices' images that the solver's box for
 // label l can reach: the bounding box of l's loops over all slices, widened
-// by kCropMargin of its diagonal (Field3dParams::margin's default) plus a pixel.
+// by kCropMargin of its diagonal (Field3dParams::margin's default) or `band_pad` pixels (the band margin,
+// band_margin_mm()) if more, plus a pixel.
 std::array<int, 4> object_crop(const std::vector<std::map<std::uint32_t, std::vector<std::vector<Vec2d>>>>& loops,
-                               std::uint32_t l, const std::vector<Grid2u32>& images) {
+                               std::uint32_t l, const std::vector<Grid2u32>& images, double band_pad) {
   constexpr double kCropMargin = 0.2;  // twice field3d.margin's default: the box never reaches beyond
   Vec2d lo = Vec2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   int w = 0, h = 0;
@@ -68,7 +69,7 @@ std::array<int, 4> object_crop(const std::vector<std::map<std::uint32_t, std::ve
       for (const auto& loop : it->second)
         for (const Vec2d& p : loop) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   }
-  const double pad = kCropMargin * (hi - lo).norm() + 1;
+  const double pad = std::max(kCropMargin * (hi - lo).norm(), band_pad) + 1;
   return {std::max(0, int(std::floor(lo.x() - pad))), std::max(0, int(std::floor(lo.y() - pad))),
           std::min(w, int(std::ceil(hi.x() + pad)) + 1), std::min(h, int(std::ceil(hi.y() + pad)) + 1)};
 }
@@ -112,8 +113,11 @@ std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const Re
   for (const auto& per : loops)
     for (const auto& [l, ls] : per)
       if (!ls.empty()) objects.emplace(l, ObjectSections{l, labels ? l : 0, {}, 1.0});
+  std::vector<Section> planes(st.slices.size());  // the slices' heights only: their gap for the band margin
+  for (std::size_t k = 0; k < st.slices.size(); ++k) planes[k].pose.origin = Vec3d(0, 0, st.slices[k].z);
+  const double band_pad = band_margin_mm(pixel_rows(params.field3d), 1 / kImageCellsPerPixel, detail::median_gap(planes));
   for (auto& [l, o] : objects) {
-    const std::array<int, 4> crop = boundary.keep_image ? object_crop(loops, l, images) : std::array<int, 4>{};
+    const std::array<int, 4> crop = boundary.keep_image ? object_crop(loops, l, images, band_pad) : std::array<int, 4>{};
     for (std::size_t k = 0; k < st.slices.size(); ++k) {
       Section sec;
       sec.pose.origin = Vec3d(0, 0, st.slices[k].z);
