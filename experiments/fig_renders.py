@@ -122,7 +122,8 @@ def main():
             for i, r in enumerate(ds["runs"]):
                 ply = os.path.join(scratch, "fig6_%s_%s_%d.ply" % (name, variant, i))
                 inputs = [os.path.join(ddir, p) for p in r["inputs"]]
-                ic.isoloft("reconstruct", *inputs, *r["args"], *extra, "-o", ply, "--quiet")
+                method = extra[extra.index("--method") + 1] if "--method" in extra else None
+                ic.isoloft("reconstruct", *inputs, *ic.method_args(r["args"], method), *extra, "-o", ply, "--quiet")
                 s, ne = crease_share(ply)
                 share_sum += s * ne
                 edges_sum += ne

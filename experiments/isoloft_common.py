@@ -188,3 +188,16 @@ def write_contours_csv(path, curves):
         out += ["%.4f,%.4f,%.4f" % tuple(p) for p in list(c) + [c[0]]]
         out.append("")
     write_text(path, "\n".join(out) + "\n")
+
+
+# Flags that only these methods read (the CLI refuses a flag that has no effect).
+RASTER_METHODS = ("isoloft", "marker2006")
+
+
+def method_args(args, method):
+    """A run's args for `method` (None: the default, isoloft): --raster-resolution dropped where the method
+    does not raster."""
+    if (method or "isoloft") in RASTER_METHODS or "--raster-resolution" not in args:
+        return list(args)
+    i = args.index("--raster-resolution")
+    return list(args[:i]) + list(args[i + 2:])

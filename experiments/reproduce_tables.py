@@ -104,7 +104,7 @@ def run_dataset(ds, data_dir, method, out, keep_meshes, tag, extra=()):
         rep = os.path.join(out, "reports", "%s_%s%s_%s.json" % (ds["name"], method, suffix, tag))
         target = mesh if keep_meshes else os.path.join(out, "scratch", "mesh.ply")
         inputs = [os.path.join(data_dir, p) if not os.path.isabs(p) else p for p in r["inputs"]]
-        ic.isoloft("reconstruct", *inputs, *r["args"], *extra, "--method", method,
+        ic.isoloft("reconstruct", *inputs, *ic.method_args(r["args"], method), *extra, "--method", method,
                    "--decimate-error", DECIMATE_ERROR_PX if keep_meshes else 0, "-o", target, "--report", rep, "--quiet")
         j = ic.read_json(rep)
         for k, v in j["timings_s"].items():
