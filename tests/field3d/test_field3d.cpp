@@ -354,11 +354,11 @@ TEST(Field3d, BandMarginWidensTheBoxExceptAtClosedEnds) {
   Field3dParams p;
   p.band = 16;
   const double m0 = p.margin * (box[1] - box[0]).norm();
-  for (const auto& m : box_margins(p, secs, box, 1.0))
+  for (const auto& m : box_margins(p, secs, box, 1.0, 10.0))
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(m[a], m0, kTol) << "without the band margin, axis " << a;
   p.band_margin = 1.5;
   const double band = 1.5 * 16;  // band x 1 mm cells; band_per_gap (0) adds nothing
-  const auto [below, above] = box_margins(p, secs, box, 1.0);
+  const auto [below, above] = box_margins(p, secs, box, 1.0, 10.0);
   for (int a = 0; a < 2; ++a) {
     EXPECT_NEAR(below[a], band, kTol) << "in-plane axis " << a;
     EXPECT_NEAR(above[a], band, kTol) << "in-plane axis " << a;

@@ -1838,8 +1838,9 @@ SectionGrid section_grid(const std::vector<Section>& sections, std::uint32_t lab
   if (params.band_margin > 0 && params.resolution <= 2 * params.band_margin * params.band)
     throw ParamError("field3d.band_margin: " + std::to_string(params.resolution) + " cells leave none inside a margin of " +
                      std::to_string(params.band_margin * params.band) + " cells on each side (raise resolution or lower band_margin)");
+  const double gap = params.band_margin > 0 ? median_gap(sections) : 0;  // once: the fixed point's steps reuse it
   const auto margined = [&](double cell) {
-    const std::array<Vec3d, 2> m = box_margins(params, sections, {lo, hi}, cell);
+    const std::array<Vec3d, 2> m = box_margins(params, sections, {lo, hi}, cell, gap);
     return std::pair<Vec3d, Vec3d>{(hi - lo) + m[0] + m[1], (m[1] - m[0]) / 2};
   };
   auto [ext, shift] = margined(0);
@@ -2000,12 +2001,12 @@ double band_margin_mm(const Field3dParams& p, double cell, double gap) {
 }
 
 std::array<Vec3d, 2> box_margins(const Field3dParams& p, const std::vector<Section>& sections,
-                                 const std::array<Vec3d, 2>& box, double cell) {
+                                 const std::array<Vec3d, 2>& box, double cell, double gap) {
   const auto& [lo, hi] = box;
   const double m0 = p.margin * (hi - lo).norm();
   std::array<Vec3d, 2> m{Vec3d::Constant(m0), Vec3d::Constant(m0)};
   if (p.band_margin <= 0 || sections.empty()) return m;
-  const double band = std::max(m0, band_margin_mm(p, cell, detail::median_gap(sections)));
+  const double band = std::max(m0, band_margin_mm(p, cell, gap));
   m = {Vec3d::Constant(band), Vec3d::Constant(band)};
   // A parallel stack normal to a world axis: an outermost plane beyond the contours (an empty slice) closes
   // that end, and the box keeps its margin there.

@@ -140,13 +140,13 @@ Field3dParams model_scaled(const Field3dParams& p, const std::vector<Section>& s
 double band_margin_mm(const Field3dParams& p, double cell, double gap);
 
 /// The grid box's margins (mm) below and above the contours' box `box` (low and high corners) along each axis,
-/// on cells of `cell` mm: margin x the box's diagonal and, with band_margin, at least band_margin_mm() (the
-/// gap: detail::median_gap()), except beyond a parallel stack's closed end (an outermost plane beyond the
+/// on cells of `cell` mm: margin x the box's diagonal and, with band_margin, at least band_margin_mm() (`gap`:
+/// detail::median_gap(sections)), except beyond a parallel stack's closed end (an outermost plane beyond the
 /// contours, e.g. an empty slice: its data close the field there). The band margin keeps the faces' pull to
 /// -band no more negative than a distance field there: 4-5 cells beyond a small structure's open end, it bent
 /// f up between the planes.
 std::array<Vec3d, 2> box_margins(const Field3dParams& p, const std::vector<Section>& sections,
-                                 const std::array<Vec3d, 2>& box, double cell);
+                                 const std::array<Vec3d, 2>& box, double cell, double gap);
 
 /// Largest grid (nodes) the direct twin accepts: its LDLT fill grows as n^(5/3).
 inline constexpr std::size_t kMaxDirectNodes = 40000;

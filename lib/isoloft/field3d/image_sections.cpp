@@ -155,7 +155,8 @@ int pixel_resolution(const std::array<Vec3d, 2>& box, double pixel_size, const s
   if (params.pixel_resolution > 0) return params.pixel_resolution;
   if (!(lo.array() <= hi.array()).all() || !(pixel_size > 0)) return params.resolution;
   // The box as reconstruct_sections() sizes it: the contours' extent plus the margin on each side.
-  const std::array<Vec3d, 2> m = box_margins(params, sections, box, pixel_size / kImageCellsPerPixel);
+  const double gap = params.band_margin > 0 ? detail::median_gap(sections) : 0;
+  const std::array<Vec3d, 2> m = box_margins(params, sections, box, pixel_size / kImageCellsPerPixel, gap);
   const double longest = ((hi - lo) + m[0] + m[1]).maxCoeff();
   const int needed = int(std::ceil(longest * kImageCellsPerPixel / pixel_size));
   return std::clamp(needed, kMinPixelResolution, kMaxResolution);

@@ -113,9 +113,13 @@ std::vector<ObjectSections> image_stack_sections(const MethodInput& in, const Re
   for (const auto& per : loops)
     for (const auto& [l, ls] : per)
       if (!ls.empty()) objects.emplace(l, ObjectSections{l, labels ? l : 0, {}, 1.0});
-  std::vector<Section> planes(st.slices.size());  // the slices' heights only: their gap for the band margin
-  for (std::size_t k = 0; k < st.slices.size(); ++k) planes[k].pose.origin = Vec3d(0, 0, st.slices[k].z);
-  const double band_pad = band_margin_mm(pixel_rows(params.field3d), 1 / kImageCellsPerPixel, detail::median_gap(planes));
+  const Field3dParams pixel = pixel_rows(params.field3d);
+  double band_pad = 0;
+  if (pixel.band_margin > 0) {  // the slices' heights only: their gap
+    std::vector<Section> planes(st.slices.size());
+    for (std::size_t k = 0; k < st.slices.size(); ++k) planes[k].pose.origin = Vec3d(0, 0, st.slices[k].z);
+    band_pad = band_margin_mm(pixel, 1 / kImageCellsPerPixel, detail::median_gap(planes));
+  }
   for (auto& [l, o] : objects) {
     const std::array<int, 4> crop = boundary.keep_image ? object_crop(loops, l, images, band_pad) : std::array<int, 4>{};
     for (std::size_t k = 0; k < st.slices.size(); ++k) {
