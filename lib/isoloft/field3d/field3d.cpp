@@ -109,7 +109,7 @@ void for_nodes(const Level& lv, const F& f) {
 }
 
 /// The smoothness and boundary terms' coefficients on one level: the energy
-/// smoothness * sum_interior (Lap f)^2 V + boundary_weight * sum_faces (f + band)^2 a,
+/// smoothness * sum_interior (Lap f)^2 V + boundary_weight * sum_faces (f + b)^2 a (b: face_pull()),
 /// with Lap the 7-point Laplacian at spacings H (finest cells), V = Hx Hy Hz
 /// a node's volume and a the area a face node stands for (the product of the
 /// two spacings in the face). Written lam (L f)^2 with L's axis weights
@@ -256,11 +256,12 @@ std::array<int, 3> sample_cell(const Level& lv, const Sample& s, std::array<doub
 }
 
 /// The normal equations' operator A = lam L^T L + B^T W B + boundary (Energy)
-/// on one level, matrix-free (B and its transpose as gather lists).
+/// on one level, matrix-free (B and its transpose as gather lists); the
+/// faces pull f to -pull (the right-hand side).
 class Operator {
  public:
-  Operator(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p)
-      : lv_(lv), e_(lv, p), outside_(-p.band) {
+  Operator(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p, double pull)
+      : lv_(lv), e_(lv, p), outside_(-pull) {
     const std::size_t S = samples.size(), N = lv.size();
     node_.resize(8 * S);
     bw_.resize(8 * S);
@@ -1562,10 +1563,10 @@ TriMesh march(int fx, int fy, int fz, double outside, const F& value) {
 /// multigrid-preconditioned conjugate gradients warm from x; adds the
 /// iterations to res. power: the multigrid's power-iteration starts, kept
 /// from one solve on these grids to the next (null: a cold start); reuse:
-/// its coarse operators, likewise (Multigrid).
-void solve_level(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p, bool direct,
+/// its coarse operators, likewise (Multigrid); pull: the faces' -f (face_pull()).
+void solve_level(const Level& lv, const std::vector<Sample>& samples, const Field3dParams& p, double pull, bool direct,
                  Eigen::VectorXd& x, Field3dResult& res, PowerStart* power = nullptr, CoarseReuse* reuse = nullptr) {
-  const Operator A(lv, samples, p);
+  const Operator A(lv, samples, p, pull);
   if (direct) {
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A.assemble());
     if (ldlt.info() != Eigen::Success) throw Error("field3d: the direct factorisation failed");
@@ -1954,6 +1955,18 @@ Grid2d slope_corrected(const std::vector<Section>& sections, const std::vector<P
   return d;
 }
 
+/// b of the energy (cells): the band, or boundary_slope x the grid faces' least distance to the contours' box
+/// if less, so f falls beyond the contours no steeper than boundary_slope per cell (docs/decisions.md: field3d
+/// pixel input: the box a band beyond the contours). `p` with band_per_gap applied.
+/// @warning Labels solved on one box (Field3dParams::box, a partition's group) keep the band: at slope 1.5
+/// two touching half-balls' fields were both slightly negative on a ring of their shared face, which the
+/// partition's rule (field3d/partition3d.h) meshes as two faces apart (16 of 57 shared vertices).
+double face_pull(const Field3dParams& p, const SectionGrid& g) {
+  if (p.boundary_slope <= 0 || p.box) return p.band;
+  const Vec3d below = (g.contour_lo - g.origin) / g.h, above = (g.box_hi - g.contour_hi) / g.h;
+  return std::min(p.band, p.boundary_slope * std::min(below.minCoeff(), above.minCoeff()));
+}
+
 }  // namespace detail
 
 Field3dStats solve_stats(const Field3dResult& r, const std::vector<Field3dPlaneResidual>* planes) {
@@ -2046,6 +2059,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   if (params.band_per_gap > 0) params.band = std::max(params.band, params.band_per_gap * gap);
   // The planes' data per unit volume falls as 1 / gap against the bi-Laplacian's: plane_weight_per_gap keeps it.
   params.plane_weight = std::max(params.plane_weight, params.plane_weight_per_gap * gap);
+  const double pull = face_pull(params, grid);
   const std::vector<std::vector<Polyline>>& polys = grid.polys;
   const double diag = grid.diag, h = grid.h;
   const std::array<int, 3>& cells = grid.cells;
@@ -2137,7 +2151,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
       if (!direct && pass == 0)  // later passes start from the previous solution
         x = l == 0 ? Eigen::VectorXd::Constant(Eigen::Index(levels[l].size()), -params.band)
                    : prolong(levels[l - 1], x, levels[l]);
-      solve_level(levels[l], samples, params, direct, x, res, last ? &power : nullptr);
+      solve_level(levels[l], samples, params, pull, direct, x, res, last ? &power : nullptr);
       if (pass == passes) break;
       std::vector<std::size_t> all(samples.size());
       for (std::size_t s = 0; s < all.size(); ++s) all[s] = s;
@@ -2176,7 +2190,7 @@ Field3dResult reconstruct_sections(const std::vector<Section>& sections, std::ui
   CoarseReuse reuse{sign_first, {}, {}};
   const auto sign_solve = [&](bool direct) {
     const int before = res.iterations;
-    solve_level(base, samples, params, direct, x, res, &power, &reuse);
+    solve_level(base, samples, params, pull, direct, x, res, &power, &reuse);
     res.sign_iterations += res.iterations - before;
     ++res.sign_passes;
   };
