@@ -5,8 +5,8 @@
 // regular grid over the contours' bounding box plus a margin; it minimises
 //   smoothness * sum_interior (Lap_h f)^2 h^3
 //   + sum_samples w_s (f(p_s) - d_s)^2 + boundary_weight * sum_faces (f + b)^2 h^2
-// with b = min(band, boundary_slope x the faces' least distance to the contours' box, cells)
-// with f(p) trilinear. The samples cover every section plane inside the box:
+// with f(p) trilinear and b = min(band, boundary_slope x the faces' least
+// distance in cells to the contours' box; the band for a partition's labels). The samples cover every section plane inside the box:
 // d_s is the in-plane signed distance to the plane's contours of the label
 // (positive inside, even-odd nesting) clamped to +-band, so the whole plane's
 // inside and outside is constrained while crossing planes, whose in-plane
@@ -40,7 +40,8 @@
 // Units: world millimetres in and out; band, tolerances and spacings in grid cells.
 // @warning A surface that would leave the padded box is cut by the boundary
 // term (f pulled to -b on the box faces), so margin bounds how far the
-// surface may bulge beyond the outermost contours.
+// surface may bulge beyond the outermost contours; at a margin near 0, b is
+// near 0 too (boundary_slope 0 keeps the band).
 // Pixel input (sections that keep a label image beside their traced
 // contours, field3d/image_sections.h): every pixel centre of the image is a
 // sign constraint, inside (label `label`) f >= sign_margin, outside f <=
