@@ -337,7 +337,6 @@ TEST(Field3d, ModelResolutionKeepsTheEnergyOnAFinerGrid) {
   EXPECT_LT(same, other);
 }
 
-/// Components no inside sample supports are dropped; cavities are kept.
 // The band margin (box_margins): the margin everywhere without it; with it at
 // least band_margin x the band in the planes' directions and beyond an open end
 // of a parallel stack, the margin alone beyond a closed one (an empty outermost
@@ -375,6 +374,7 @@ TEST(Field3d, BandMarginWidensTheBoxExceptAtClosedEnds) {
   EXPECT_THROW(reconstruct_sections(secs, 1, p), ParamError);
 }
 
+/// Components no inside sample supports are dropped; cavities are kept.
 TEST(Field3d, PruneUnsupportedComponents) {
   const auto s = sphere();
   Field3dParams p;
